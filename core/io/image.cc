@@ -1,0 +1,149 @@
+#include "core/io/image.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <mutex>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
+
+namespace shrm {
+namespace {
+
+void ConfigureOiioOnce() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    // Never let an unexpected file reach a reader other than the one its magic bytes select.
+    OIIO::attribute("try_all_readers", 0);
+  });
+}
+
+}  // namespace
+
+absl::StatusOr<std::string> DetectImageFormat(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return absl::NotFoundError(absl::StrCat(path, ": cannot open file"));
+  std::array<unsigned char, 8> b{};
+  in.read(reinterpret_cast<char*>(b.data()), b.size());
+  const std::streamsize n = in.gcount();
+  if (n >= 4 && b[0] == 0x76 && b[1] == 0x2f && b[2] == 0x31 && b[3] == 0x01) return "openexr";
+  if (n >= 8 && b[0] == 0x89 && b[1] == 'P' && b[2] == 'N' && b[3] == 'G') return "png";
+  if (n >= 4 && ((b[0] == 'I' && b[1] == 'I' && b[2] == 42 && b[3] == 0) ||
+                 (b[0] == 'M' && b[1] == 'M' && b[2] == 0 && b[3] == 42)))
+    return "tiff";
+  if (n >= 2 && b[0] == '#' && b[1] == '?') return "hdr";
+  if (n >= 3 && b[0] == 'P' && (b[1] == 'F' || b[1] == 'f') && std::isspace(b[2])) return "pnm";
+  return absl::InvalidArgumentError(
+      absl::StrCat(path,
+                   ": unrecognized file signature (expected OpenEXR, Radiance HDR, PFM, "
+                   "TIFF or PNG)"));
+}
+
+namespace {
+
+absl::StatusOr<std::unique_ptr<OIIO::ImageInput>> OpenChecked(const std::string& path,
+                                                              const ImageLimits& limits,
+                                                              ImageHeader* header) {
+  ConfigureOiioOnce();
+  SHRM_ASSIGN_OR_RETURN(header->format, DetectImageFormat(path));
+  std::error_code ec;
+  header->file_bytes = static_cast<int64_t>(std::filesystem::file_size(path, ec));
+  if (ec) return absl::NotFoundError(absl::StrCat(path, ": ", ec.message()));
+  if (header->file_bytes > limits.max_file_bytes) {
+    return absl::ResourceExhaustedError(absl::StrCat(path, ": file is ", header->file_bytes,
+                                                     " bytes, above the limit of ",
+                                                     limits.max_file_bytes));
+  }
+  auto in = OIIO::ImageInput::create(header->format);
+  if (!in) {
+    return absl::InternalError(
+        absl::StrCat(path, ": no OpenImageIO reader for format ", header->format));
+  }
+  OIIO::ImageSpec spec;
+  if (!in->open(path, spec)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": cannot read ", header->format, " header: ", in->geterror()));
+  }
+  header->width = spec.width;
+  header->height = spec.height;
+  header->channels = spec.nchannels;
+  if (spec.deep) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": deep images are not supported"));
+  }
+  if (in->seek_subimage(1, 0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": multi-part/multi-subimage files are not supported"));
+  }
+  in->seek_subimage(0, 0);
+  if (spec.width <= 0 || spec.height <= 0 || spec.depth != 1) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": invalid dimensions ", spec.width, " x ",
+                                                   spec.height, " x ", spec.depth));
+  }
+  if (spec.width > limits.max_width || spec.height > limits.max_height ||
+      int64_t{spec.width} * spec.height > limits.max_pixels) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        path, ": image is ", spec.width, " x ", spec.height, ", above the limits of ",
+        limits.max_width, " x ", limits.max_height, " and ", limits.max_pixels, " pixels"));
+  }
+  if (spec.nchannels < 1 || spec.nchannels > 64) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": unsupported channel count ", spec.nchannels));
+  }
+  return in;
+}
+
+}  // namespace
+
+absl::StatusOr<ImageHeader> ProbeImage(const std::string& path, const ImageLimits& limits) {
+  ImageHeader header;
+  SHRM_ASSIGN_OR_RETURN(auto in, OpenChecked(path, limits, &header));
+  in->close();
+  return header;
+}
+
+absl::StatusOr<Image> ReadImageRgb(const std::string& path, const ImageLimits& limits,
+                                   NonFinitePolicy policy) {
+  ImageHeader header;
+  SHRM_ASSIGN_OR_RETURN(auto in, OpenChecked(path, limits, &header));
+  const int nc = header.channels;
+  std::vector<float> raw(static_cast<size_t>(header.width) * header.height * nc);
+  if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, raw.data())) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": cannot decode pixels: ", in->geterror()));
+  }
+  in->close();
+  Image img;
+  img.width = header.width;
+  img.height = header.height;
+  img.channels = 3;
+  img.pixels.resize(static_cast<size_t>(img.width) * img.height * 3);
+  int64_t bad = 0;
+  int64_t first_bad = -1;
+  for (size_t p = 0; p < static_cast<size_t>(img.width) * img.height; ++p) {
+    for (int c = 0; c < 3; ++c) {
+      float v = raw[p * nc + std::min(c, nc >= 3 ? c : 0)];
+      if (!std::isfinite(v)) {
+        if (first_bad < 0) first_bad = static_cast<int64_t>(p);
+        ++bad;
+        v = 0.0f;
+      }
+      img.pixels[p * 3 + c] = v;
+    }
+  }
+  if (bad > 0 && policy == NonFinitePolicy::kReject) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        path, ": ", bad,
+        " non-finite (NaN/Inf) channel values; first at pixel (x=", first_bad % img.width,
+        ", y=", first_bad / img.width, "); fix the image or allow replacing them by 0"));
+  }
+  img.replaced_non_finite = bad;
+  return img;
+}
+
+}  // namespace shrm

@@ -1,0 +1,69 @@
+// Image input for shrm: float pixels from EXR, Radiance HDR, PFM, TIFF and PNG files through
+// OpenImageIO, validated before any pixel is decoded.
+//
+// Safety rules (docs/formats.md, "Input validation"): the reader is chosen by the file's magic
+// bytes, never by its extension, and OpenImageIO is not allowed to try other readers; the header
+// (dimensions, channel count, pixel type, file size) is checked against ImageLimits before
+// pixels are read; deep and multi-part EXR files are rejected. Non-finite pixels are reported
+// with their count and first position, or replaced by 0 when the policy allows it.
+// All failures are absl::Status values whose message names the file and the problem.
+#ifndef SHRM_CORE_IO_IMAGE_H_
+#define SHRM_CORE_IO_IMAGE_H_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+
+namespace shrm {
+
+// Upper bounds checked against the header before decoding.
+struct ImageLimits {
+  int max_width = 16384;
+  int max_height = 16384;
+  int64_t max_pixels = int64_t{256} << 20;    // 256 Mpixel
+  int64_t max_file_bytes = int64_t{4} << 30;  // 4 GiB
+};
+
+enum class NonFinitePolicy {
+  kReject,       // fail with the count and the first position of NaN/Inf values
+  kReplaceZero,  // replace them by 0 (the caller is told how many through Image::replaced)
+};
+
+// What the header says, before decoding.
+struct ImageHeader {
+  std::string format;  // OpenImageIO format name chosen from the magic bytes, e.g. "openexr"
+  int width = 0;
+  int height = 0;
+  int channels = 0;
+  int64_t file_bytes = 0;
+};
+
+// A decoded image: interleaved float channels, rows from the top.
+struct Image {
+  int width = 0;
+  int height = 0;
+  int channels = 0;
+  std::vector<float> pixels;  // size width * height * channels
+  int64_t replaced_non_finite = 0;
+
+  float at(int x, int y, int c) const {
+    return pixels[(static_cast<size_t>(y) * width + x) * channels + c];
+  }
+};
+
+// Format name for the file's first bytes ("openexr", "hdr", "pnm" (PFM), "tiff", "png"), or an
+// InvalidArgument error naming the unrecognized signature.
+absl::StatusOr<std::string> DetectImageFormat(const std::string& path);
+
+// Opens the file and validates its header against `limits` without decoding pixels.
+absl::StatusOr<ImageHeader> ProbeImage(const std::string& path, const ImageLimits& limits = {});
+
+// Reads the first 3 channels (RGB; a 1- or 2-channel image is expanded to grey RGB) as float.
+absl::StatusOr<Image> ReadImageRgb(const std::string& path, const ImageLimits& limits = {},
+                                   NonFinitePolicy policy = NonFinitePolicy::kReject);
+
+}  // namespace shrm
+
+#endif  // SHRM_CORE_IO_IMAGE_H_

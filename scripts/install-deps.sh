@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package shrm needs (build, tests, benchmarks, service, viewer).
+# Idempotent: packages already present are skipped by apt-get. Must run as root (or via sudo).
+set -euo pipefail
+
+PACKAGES=(
+  # toolchain
+  build-essential cmake ninja-build pkg-config git clang-format
+  # image I/O and colour
+  libopenimageio-dev openimageio-tools libopenexr-dev libopencolorio-dev
+  # transforms
+  libfftw3-dev
+  # service
+  libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libabsl-dev
+  # tests and benchmarks (libsharp: benchmark-only reference, GPL, never linked into shipped binaries)
+  libgtest-dev libgmock-dev libbenchmark-dev libsharp-dev
+  # CLI and logging
+  libcli11-dev libspdlog-dev nlohmann-json3-dev
+  # viewer and headless rendering
+  libglfw3-dev libepoxy-dev xvfb xauth libgl1-mesa-dri
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -q
+$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
