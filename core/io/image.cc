@@ -1,6 +1,7 @@
 #include "core/io/image.h"
 
 #include <OpenImageIO/imageio.h>
+#include <unistd.h>
 
 #include <array>
 #include <cmath>
@@ -144,6 +145,33 @@ absl::StatusOr<Image> ReadImageRgb(const std::string& path, const ImageLimits& l
   }
   img.replaced_non_finite = bad;
   return img;
+}
+
+absl::Status WriteExr(const std::string& path, const Image& image) {
+  if (image.width <= 0 || image.height <= 0 || image.channels <= 0 ||
+      image.pixels.size() != static_cast<size_t>(image.width) * image.height * image.channels) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": inconsistent image to write (",
+                                                   image.width, " x ", image.height, " x ",
+                                                   image.channels, ")"));
+  }
+  const std::string tmp = absl::StrCat(path, ".tmp-", ::getpid());
+  auto out = OIIO::ImageOutput::create("openexr");
+  if (!out) return absl::InternalError("no OpenImageIO writer for openexr");
+  OIIO::ImageSpec spec(image.width, image.height, image.channels, OIIO::TypeDesc::FLOAT);
+  spec.attribute("compression", "zip");
+  if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::FLOAT, image.pixels.data()) ||
+      !out->close()) {
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    return absl::UnavailableError(absl::StrCat(path, ": cannot write: ", out->geterror()));
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    return absl::UnavailableError(absl::StrCat(path, ": cannot rename into place: ", ec.message()));
+  }
+  return absl::OkStatus();
 }
 
 }  // namespace shrm

@@ -64,6 +64,11 @@ absl::StatusOr<ImageHeader> ProbeImage(const std::string& path, const ImageLimit
 absl::StatusOr<Image> ReadImageRgb(const std::string& path, const ImageLimits& limits = {},
                                    NonFinitePolicy policy = NonFinitePolicy::kReject);
 
+// Writes `image` as a float OpenEXR file. The pixels go to a temporary file in the same folder,
+// which is renamed over `path` only once it is complete: an existing output is never left
+// half-written.
+absl::Status WriteExr(const std::string& path, const Image& image);
+
 }  // namespace shrm
 
 #endif  // SHRM_CORE_IO_IMAGE_H_

@@ -1,0 +1,142 @@
+// Image input: real bundled maps decode with the statistics documented in data/envmaps, and bad
+// input (unknown signature, truncated file, absurd header, limits, NaN/Inf) gets a clear error.
+#include "core/io/image.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <string>
+
+#include "absl/status/status.h"
+#include "gtest/gtest.h"
+
+namespace shrm {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr double kMeanTol = 0.01;  // data/envmaps/README.md quotes means to 2 decimals
+
+std::string MapPath(const std::string& name) {
+  return std::string(SHRM_SOURCE_DIR) + "/data/envmaps/" + name;
+}
+
+std::string TempPath(const std::string& name) {
+  return (fs::temp_directory_path() / ("shrm_image_test_" + name)).string();
+}
+
+void WriteBytes(const std::string& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary) << bytes;
+}
+
+TEST(ImageTest, ReadsBundledMapWithDocumentedStatistics) {
+  auto img = ReadImageRgb(MapPath("courtyard.exr"));
+  ASSERT_TRUE(img.ok()) << img.status();
+  EXPECT_EQ(img->width, 1024);
+  EXPECT_EQ(img->height, 512);
+  double mean[3] = {0, 0, 0};
+  for (size_t p = 0; p < img->pixels.size() / 3; ++p)
+    for (int c = 0; c < 3; ++c) mean[c] += img->pixels[p * 3 + c];
+  const double n = img->pixels.size() / 3.0;
+  EXPECT_NEAR(mean[0] / n, 0.64, kMeanTol);
+  EXPECT_NEAR(mean[1] / n, 0.51, kMeanTol);
+  EXPECT_NEAR(mean[2] / n, 0.53, kMeanTol);
+}
+
+TEST(ImageTest, FormatIsChosenByMagicBytesNotExtension) {
+  const std::string path = TempPath("exr_named.png");
+  fs::copy_file(MapPath("forest.exr"), path, fs::copy_options::overwrite_existing);
+  auto fmt = DetectImageFormat(path);
+  ASSERT_TRUE(fmt.ok());
+  EXPECT_EQ(*fmt, "openexr");
+  EXPECT_TRUE(ReadImageRgb(path).ok());
+  fs::remove(path);
+}
+
+TEST(ImageTest, UnknownSignatureIsRejected) {
+  const std::string path = TempPath("garbage.exr");
+  WriteBytes(path, "hello, this is not an image");
+  auto img = ReadImageRgb(path);
+  EXPECT_EQ(img.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(img.status().message().find("unrecognized file signature"), std::string::npos);
+  fs::remove(path);
+}
+
+TEST(ImageTest, MissingFileIsNotFound) {
+  EXPECT_EQ(ReadImageRgb(TempPath("does_not_exist.exr")).status().code(),
+            absl::StatusCode::kNotFound);
+}
+
+TEST(ImageTest, TruncatedExrFailsCleanly) {
+  std::ifstream in(MapPath("courtyard.exr"), std::ios::binary);
+  std::string bytes(4000, '\0');
+  in.read(bytes.data(), bytes.size());
+  const std::string path = TempPath("truncated.exr");
+  WriteBytes(path, bytes);
+  auto img = ReadImageRgb(path);
+  EXPECT_FALSE(img.ok());
+  EXPECT_NE(img.status().message().find(path), std::string::npos);
+  fs::remove(path);
+}
+
+TEST(ImageTest, AbsurdHeaderIsRejectedBeforeDecoding) {
+  const std::string path = TempPath("huge.hdr");
+  WriteBytes(path, "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 100000 +X 100000\n");
+  auto header = ProbeImage(path);
+  EXPECT_EQ(header.status().code(), absl::StatusCode::kResourceExhausted) << header.status();
+  EXPECT_NE(header.status().message().find("100000 x 100000"), std::string::npos);
+  fs::remove(path);
+}
+
+TEST(ImageTest, LimitsAreConfigurable) {
+  ImageLimits limits;
+  limits.max_width = 512;
+  auto img = ReadImageRgb(MapPath("courtyard.exr"), limits);
+  EXPECT_EQ(img.status().code(), absl::StatusCode::kResourceExhausted);
+}
+
+TEST(ImageTest, NonFinitePixelsAreRejectedOrReplaced) {
+  Image img;
+  img.width = 4;
+  img.height = 3;
+  img.channels = 3;
+  img.pixels.assign(4 * 3 * 3, 1.0f);
+  img.pixels[(1 * 4 + 2) * 3 + 1] = std::numeric_limits<float>::quiet_NaN();
+  img.pixels[(2 * 4 + 3) * 3 + 0] = std::numeric_limits<float>::infinity();
+  const std::string path = TempPath("nan.exr");
+  ASSERT_TRUE(WriteExr(path, img).ok());
+  auto rejected = ReadImageRgb(path);
+  EXPECT_EQ(rejected.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(rejected.status().message().find("2 non-finite"), std::string::npos);
+  EXPECT_NE(rejected.status().message().find("(x=2, y=1)"), std::string::npos);
+  auto replaced = ReadImageRgb(path, {}, NonFinitePolicy::kReplaceZero);
+  ASSERT_TRUE(replaced.ok());
+  EXPECT_EQ(replaced->replaced_non_finite, 2);
+  EXPECT_EQ(replaced->at(2, 1, 1), 0.0f);
+  EXPECT_EQ(replaced->at(0, 0, 0), 1.0f);
+  fs::remove(path);
+}
+
+TEST(ImageTest, WriteLeavesNoTemporaryAndRoundTrips) {
+  Image img;
+  img.width = 3;
+  img.height = 2;
+  img.channels = 3;
+  for (int i = 0; i < 18; ++i) img.pixels.push_back(0.25f * i);
+  const std::string path = TempPath("roundtrip.exr");
+  ASSERT_TRUE(WriteExr(path, img).ok());
+  auto back = ReadImageRgb(path);
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(back->pixels, img.pixels);
+  for (const auto& e : fs::directory_iterator(fs::temp_directory_path()))
+    EXPECT_EQ(e.path().string().find("roundtrip.exr.tmp"), std::string::npos);
+  fs::remove(path);
+  Image bad = img;
+  bad.pixels.pop_back();
+  EXPECT_EQ(WriteExr(path, bad).code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_FALSE(fs::exists(path));
+}
+
+}  // namespace
+}  // namespace shrm
