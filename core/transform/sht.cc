@@ -1,0 +1,688 @@
+#include "core/transform/sht.h"
+
+#include <fftw3.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <complex>
+#include <map>
+#include <numbers>
+#include <thread>
+#include <tuple>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "core/sh/sh.h"
+#include "core/transform/quadrature.h"
+
+namespace shrm {
+namespace {
+
+constexpr double kSqrt2 = std::numbers::sqrt2;
+// Sectoral Legendre values below this are flushed to zero (avoids denormals near the poles).
+constexpr double kSectoralFlush = 1e-280;
+// Ring pairs are padded to a multiple of the vector width.
+constexpr int kLanes = 4;
+// 4 doubles; alignment lowered to 8 so that views into std::vector<double> are valid.
+using V4 = double __attribute__((vector_size(32), aligned(8)));
+
+int PadPairs(int n) { return (n + kLanes - 1) / kLanes * kLanes; }
+
+// Runs fn(task, worker) for task in [0, n) on up to num_threads threads (dynamic scheduling).
+template <typename Fn>
+void ParallelFor(int n, int num_threads, const Fn& fn) {
+  const int t = std::max(1, std::min(num_threads, n));
+  if (t == 1) {
+    for (int i = 0; i < n; ++i) fn(i, 0);
+    return;
+  }
+  std::atomic<int> next{0};
+  auto worker = [&](int w) {
+    for (int i; (i = next.fetch_add(1, std::memory_order_relaxed)) < n;) fn(i, w);
+  };
+  std::vector<std::thread> threads;
+  threads.reserve(t - 1);
+  for (int w = 1; w < t; ++w) threads.emplace_back(worker, w);
+  worker(0);
+  for (auto& th : threads) th.join();
+}
+
+// FFTW-allocated (SIMD-aligned) scratch buffer.
+template <typename T>
+struct FftwBuffer {
+  explicit FftwBuffer(size_t n)
+      : data(static_cast<T*>(fftw_malloc(sizeof(T) * std::max<size_t>(n, 1)))) {}
+  ~FftwBuffer() { fftw_free(data); }
+  FftwBuffer(const FftwBuffer&) = delete;
+  FftwBuffer& operator=(const FftwBuffer&) = delete;
+  T* data;
+};
+
+// Ring pairs of a symmetric quadrature: x, sectoral starts, per-pair weights.
+ShtPlan::RingSet MakeRingSet(const RingQuadrature& q, int lmax) {
+  const int h = static_cast<int>(q.theta.size());
+  ShtPlan::RingSet r;
+  r.num_pairs = (h + 1) / 2;
+  r.has_equator = (h % 2) == 1;
+  const int pp = PadPairs(r.num_pairs);
+  r.x.assign(pp, 0.0);
+  r.sectoral.assign(static_cast<size_t>(lmax + 1) * pp, 0.0);
+  for (int p = 0; p < r.num_pairs; ++p) {
+    r.x[p] = q.cos_theta[p];
+    const double s = q.sin_theta[p];
+    double v = std::sqrt(1.0 / (4.0 * kPi));  // lambda_0^0
+    for (int m = 0; m <= lmax; ++m) {
+      if (m > 0) v *= -std::sqrt((2.0 * m + 1.0) / (2.0 * m)) * s;
+      if (std::abs(v) < kSectoralFlush) v = 0.0;
+      r.sectoral[static_cast<size_t>(m) * pp + p] = v;
+    }
+  }
+  return r;
+}
+
+std::string GridName(const ShtGrid& g) {
+  return absl::StrCat(g.width, "x", g.height,
+                      g.kind == ShtGridKind::kEquiangular ? " equiangular" : " Gauss-Legendre");
+}
+
+}  // namespace
+
+struct ShtPlan::FftwState {
+  fftw_plan r2c = nullptr;  // 2 * channels rings: real [2ch][W] -> complex [2ch][W/2+1]
+  fftw_plan c2r = nullptr;  // the inverse batch
+  ~FftwState() {
+    std::lock_guard<std::mutex> lock(FftwPlannerMutex());
+    if (r2c) fftw_destroy_plan(r2c);
+    if (c2r) fftw_destroy_plan(c2r);
+  }
+};
+
+std::mutex& FftwPlannerMutex() {
+  static std::mutex* mu = new std::mutex;
+  return *mu;
+}
+
+double ShtColumnAzimuth(int width, int i) { return 1.5 * kPi - 2.0 * kPi * (i + 0.5) / width; }
+
+Vec3 ShtGridDirection(const ShtGrid& grid, int i, int j) {
+  double theta;
+  if (grid.kind == ShtGridKind::kEquiangular) {
+    theta = kPi * (j + 0.5) / grid.height;
+  } else {
+    theta = GaussLegendreRule(grid.height).theta[j];
+  }
+  const double p = 2.0 * kPi * ((i + 0.5) / grid.width - 0.5);
+  const double st = std::sin(theta);
+  return {st * std::sin(p), std::cos(theta), -st * std::cos(p)};
+}
+
+int ShtMaxDegree(const ShtGrid& grid) { return std::min(grid.height - 1, (grid.width - 1) / 2); }
+
+size_t ShtPlan::map_size() const {
+  return static_cast<size_t>(grid_.width) * grid_.height * channels_;
+}
+size_t ShtPlan::coeff_size() const { return static_cast<size_t>(ShCount(lmax_)) * channels_; }
+
+ShtPlan::~ShtPlan() = default;
+
+absl::StatusOr<std::shared_ptr<const ShtPlan>> ShtPlan::Create(const ShtGrid& grid, int lmax,
+                                                               int channels) {
+  return CreateImpl(grid, lmax, channels, /*synthesis=*/false);
+}
+
+absl::StatusOr<std::shared_ptr<const ShtPlan>> ShtPlan::CreateForSynthesis(const ShtGrid& grid,
+                                                                           int lmax, int channels) {
+  return CreateImpl(grid, lmax, channels, /*synthesis=*/true);
+}
+
+absl::StatusOr<std::shared_ptr<const ShtPlan>> ShtPlan::CreateImpl(const ShtGrid& grid, int lmax,
+                                                                   int channels, bool synthesis) {
+  if (grid.width < 1 || grid.height < 1) {
+    return absl::InvalidArgumentError(absl::StrCat("SHT: empty grid ", grid.width, "x", grid.height,
+                                                   " (width and height must be >= 1)"));
+  }
+  if (lmax < 0) {
+    return absl::InvalidArgumentError(absl::StrCat("SHT: negative degree lmax = ", lmax));
+  }
+  if (channels < 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("SHT: channels must be >= 1 (got ", channels, ")"));
+  }
+  const int w = grid.width, h = grid.height;
+  const bool resolvable = lmax <= h - 1 && w >= 2 * lmax + 1;
+  if (!synthesis && !resolvable) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "SHT: degree lmax = ", lmax, " exceeds the limit of the ", GridName(grid),
+        " grid (needs lmax <= H - 1 = ", h - 1, " and W >= 2 lmax + 1 = ", 2 * lmax + 1,
+        "; max degree here is ", ShtMaxDegree(grid), ")"));
+  }
+  auto plan = std::shared_ptr<ShtPlan>(new ShtPlan());
+  plan->grid_ = grid;
+  plan->lmax_ = lmax;
+  plan->channels_ = channels;
+  plan->supports_forward_ = resolvable;
+
+  const RingQuadrature q =
+      grid.kind == ShtGridKind::kEquiangular ? FejerFirstRule(h) : GaussLegendreRule(h);
+  plan->rings_ = MakeRingSet(q, lmax);
+  const int np = plan->rings_.num_pairs;
+  const bool resample = resolvable && grid.kind == ShtGridKind::kEquiangular && h < 2 * lmax + 1;
+  plan->ring_scale_.assign(PadPairs(np), 0.0);
+  for (int p = 0; p < np; ++p) {
+    plan->ring_scale_[p] = 2.0 * kPi / w * (resample ? 1.0 : q.weight[p]);
+  }
+
+  // Recurrence lambda_l^m = a (x lambda_{l-1}^m - b lambda_{l-2}^m), l >= m + 1.
+  plan->rec_a_.assign(LegendreCount(lmax), 0.0);
+  plan->rec_b_.assign(LegendreCount(lmax), 0.0);
+  for (int m = 0; m <= lmax; ++m) {
+    for (int l = m + 1; l <= lmax; ++l) {
+      const double ll = static_cast<double>(l) * l, mm = static_cast<double>(m) * m;
+      const double l1 = l - 1.0;
+      plan->rec_a_[LegendreIndex(l, m)] = std::sqrt((4.0 * ll - 1.0) / (ll - mm));
+      plan->rec_b_[LegendreIndex(l, m)] = std::sqrt((l1 * l1 - mm) / (4.0 * l1 * l1 - 1.0));
+    }
+  }
+
+  if (resample) {
+    // Virtual Fejer-1 grid with hv = 2 lmax + 2 rings (exact for degree 2 lmax; even: no equator).
+    const int hv = 2 * lmax + 2;
+    const RingQuadrature qv = FejerFirstRule(hv);
+    plan->virtual_rings_ = MakeRingSet(qv, lmax);
+    const int nv = plan->virtual_rings_.num_pairs;
+    plan->virtual_scale_.assign(PadPairs(nv), 0.0);
+    for (int v = 0; v < nv; ++v) plan->virtual_scale_[v] = qv.weight[v];
+    // Trigonometric tables up to frequency H.
+    std::vector<double> cp(static_cast<size_t>(np) * (h + 1)), sp(cp.size());
+    std::vector<double> cv(static_cast<size_t>(nv) * (h + 1)), sv(cv.size());
+    for (int p = 0; p < np; ++p) {
+      for (int n = 0; n <= h; ++n) {
+        cp[p * (h + 1) + n] = std::cos(n * q.theta[p]);
+        sp[p * (h + 1) + n] = std::sin(n * q.theta[p]);
+      }
+    }
+    for (int v = 0; v < nv; ++v) {
+      for (int n = 0; n <= h; ++n) {
+        cv[v * (h + 1) + n] = std::cos(n * qv.theta[v]);
+        sv[v * (h + 1) + n] = std::sin(n * qv.theta[v]);
+      }
+    }
+    // Even m: cosine series, a_n = (c_n / H) sum_k g_k cos(n theta_k), n < H (DCT-II);
+    // odd m: sine series, b_n = (s_n / H) sum_k g_k sin(n theta_k), 1 <= n <= H (DST-II).
+    // Pair sums/differences select the frequency parity (see the header comment).
+    for (int kind = 0; kind < 4; ++kind) {
+      const bool odd_m = kind >= 2, out_o = kind % 2 == 1;
+      std::vector<double>& mat = plan->resample_[kind];
+      mat.assign(static_cast<size_t>(nv) * np, 0.0);
+      for (int v = 0; v < nv; ++v) {
+        for (int p = 0; p < np; ++p) {
+          double sum = 0;
+          if (!odd_m) {
+            for (int n = out_o ? 1 : 0; n < h; n += 2) {
+              const double c = n == 0 ? 1.0 : 2.0;
+              sum += c * cv[v * (h + 1) + n] * cp[p * (h + 1) + n];
+            }
+          } else {
+            for (int n = out_o ? 2 : 1; n <= h; n += 2) {
+              const double c = n == h ? 1.0 : 2.0;
+              sum += c * sv[v * (h + 1) + n] * sp[p * (h + 1) + n];
+            }
+          }
+          mat[static_cast<size_t>(v) * np + p] = 2.0 * sum / h;
+        }
+      }
+    }
+  }
+
+  // FFTW plans for one ring pair (2 * channels real rings).
+  plan->fftw_ = std::make_unique<FftwState>();
+  {
+    const int howmany = 2 * channels;
+    const int nc = w / 2 + 1;
+    FftwBuffer<double> re(static_cast<size_t>(howmany) * w);
+    FftwBuffer<fftw_complex> co(static_cast<size_t>(howmany) * nc);
+    int n[1] = {w};
+    std::lock_guard<std::mutex> lock(FftwPlannerMutex());
+    plan->fftw_->r2c = fftw_plan_many_dft_r2c(1, n, howmany, re.data, nullptr, 1, w, co.data,
+                                              nullptr, 1, nc, FFTW_ESTIMATE);
+    plan->fftw_->c2r = fftw_plan_many_dft_c2r(1, n, howmany, co.data, nullptr, 1, nc, re.data,
+                                              nullptr, 1, w, FFTW_ESTIMATE);
+    if (plan->fftw_->r2c == nullptr || plan->fftw_->c2r == nullptr) {
+      return absl::InternalError("SHT: FFTW planning failed");
+    }
+  }
+  return std::shared_ptr<const ShtPlan>(std::move(plan));
+}
+
+// Theta stage, eq. (1): coeffs(l, m) = sum_p lambda_l^m(x_p) (E_p or O_p), E/O by parity of l-m.
+// eo layout: [((m * 2 + parity) * channels + c) * 2 + re/im][pair], pairs padded with zeros.
+void ShtPlan::LegendreAnalysis(const RingSet& rings, std::span<const double> eo,
+                               std::span<double> coeffs, int num_threads) const {
+  const int pp = PadPairs(rings.num_pairs);
+  const int nv = pp / kLanes;
+  const int ch = channels_;
+  const size_t m_stride = static_cast<size_t>(2) * ch * 2 * pp;
+  ParallelFor(lmax_ + 1, num_threads, [&](int m, int) {
+    std::vector<double> prev_store(pp), cur_store(pp), acc_store(2 * ch * kLanes);
+    V4* prev = reinterpret_cast<V4*>(prev_store.data());
+    V4* cur = reinterpret_cast<V4*>(cur_store.data());
+    V4* acc = reinterpret_cast<V4*>(acc_store.data());
+    const V4* x = reinterpret_cast<const V4*>(rings.x.data());
+    const V4* sect =
+        reinterpret_cast<const V4*>(rings.sectoral.data() + static_cast<size_t>(m) * pp);
+    for (int v = 0; v < nv; ++v) {
+      prev[v] = V4{0, 0, 0, 0};
+      cur[v] = sect[v];
+    }
+    const double* eo_m = eo.data() + m * m_stride;
+    for (int l = m; l <= lmax_; ++l) {
+      if (l > m) {
+        const double a = rec_a_[LegendreIndex(l, m)], b = rec_b_[LegendreIndex(l, m)];
+        for (int v = 0; v < nv; ++v) {
+          const V4 nx = a * (x[v] * cur[v] - b * prev[v]);
+          prev[v] = cur[v];
+          cur[v] = nx;
+        }
+      }
+      const V4* d =
+          reinterpret_cast<const V4*>(eo_m + static_cast<size_t>((l - m) & 1) * ch * 2 * pp);
+      for (int k = 0; k < 2 * ch; ++k) {
+        V4 s = {0, 0, 0, 0};
+        const V4* dk = d + static_cast<size_t>(k) * nv;
+        for (int v = 0; v < nv; ++v) s += cur[v] * dk[v];
+        acc[k] = s;
+      }
+      for (int c = 0; c < ch; ++c) {
+        const V4 sr = acc[2 * c], si = acc[2 * c + 1];
+        const double re = (sr[0] + sr[1]) + (sr[2] + sr[3]);
+        const double im = (si[0] + si[1]) + (si[2] + si[3]);
+        if (m == 0) {
+          coeffs[static_cast<size_t>(ShIndex(l, 0)) * ch + c] = re;
+        } else {
+          coeffs[static_cast<size_t>(ShIndex(l, m)) * ch + c] = kSqrt2 * re;
+          coeffs[static_cast<size_t>(ShIndex(l, -m)) * ch + c] = -kSqrt2 * im;
+        }
+      }
+    }
+  });
+}
+
+template <typename T>
+absl::Status ShtPlan::ForwardImpl(std::span<const T> map, std::span<double> coeffs,
+                                  int num_threads) const {
+  if (!supports_forward_) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("SHT: this synthesis-only plan cannot analyse degree ", lmax_, " on the ",
+                     GridName(grid_), " grid (max degree ", ShtMaxDegree(grid_), ")"));
+  }
+  if (num_threads < 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("SHT: num_threads must be >= 1 (got ", num_threads, ")"));
+  }
+  if (map.size() != map_size()) {
+    return absl::InvalidArgumentError(absl::StrCat("SHT: map has ", map.size(),
+                                                   " values, expected W*H*channels = ", map_size(),
+                                                   " for ", GridName(grid_)));
+  }
+  if (coeffs.size() != coeff_size()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("SHT: coefficient array has ", coeffs.size(),
+                     " values, expected (lmax+1)^2*channels = ", coeff_size()));
+  }
+  const int w = grid_.width, h = grid_.height, ch = channels_, lmax = lmax_;
+  const int np = rings_.num_pairs, pp = PadPairs(np);
+  const int nc = w / 2 + 1;
+  const size_t m_stride = static_cast<size_t>(2) * ch * 2 * pp;
+  std::vector<double> eo(m_stride * (lmax + 1), 0.0);
+  // Phase of eq. (2) for phi_s(i) = 3 pi / 2 - 2 pi (i + 1/2) / W:
+  // sum_i f_i e^{-i m phi_s(i)} = e^{-i m (3 pi / 2 - pi / W)} conj(DFT(f)_m).
+  std::vector<std::complex<double>> phase(lmax + 1);
+  for (int m = 0; m <= lmax; ++m) phase[m] = std::polar(1.0, -m * (1.5 * kPi - kPi / w));
+
+  // Phi stage: one FFT batch per ring pair; writes E = G_n + G_s and O = G_n - G_s.
+  constexpr int kPairsPerTask = 4;
+  const int num_tasks = (np + kPairsPerTask - 1) / kPairsPerTask;
+  const int workers = std::max(1, std::min(num_threads, num_tasks));
+  std::vector<std::unique_ptr<FftwBuffer<double>>> in_bufs(workers);
+  std::vector<std::unique_ptr<FftwBuffer<fftw_complex>>> out_bufs(workers);
+  ParallelFor(num_tasks, workers, [&](int task, int worker) {
+    if (!in_bufs[worker]) {
+      in_bufs[worker] = std::make_unique<FftwBuffer<double>>(static_cast<size_t>(2) * ch * w);
+      out_bufs[worker] =
+          std::make_unique<FftwBuffer<fftw_complex>>(static_cast<size_t>(2) * ch * nc);
+    }
+    double* in = in_bufs[worker]->data;
+    fftw_complex* out = out_bufs[worker]->data;
+    const int p_end = std::min(np, (task + 1) * kPairsPerTask);
+    for (int p = task * kPairsPerTask; p < p_end; ++p) {
+      const bool equator = rings_.has_equator && p == np - 1;
+      for (int half = 0; half < 2; ++half) {
+        double* dst = in + static_cast<size_t>(half) * ch * w;
+        if (half == 1 && equator) {
+          std::fill(dst, dst + static_cast<size_t>(ch) * w, 0.0);
+          continue;
+        }
+        const int j = half == 0 ? p : h - 1 - p;
+        const T* src = map.data() + static_cast<size_t>(j) * w * ch;
+        if (ch == 1) {
+          for (int i = 0; i < w; ++i) dst[i] = static_cast<double>(src[i]);
+        } else if (ch == 3) {
+          for (int i = 0; i < w; ++i) {
+            dst[i] = static_cast<double>(src[3 * i]);
+            dst[w + i] = static_cast<double>(src[3 * i + 1]);
+            dst[2 * w + i] = static_cast<double>(src[3 * i + 2]);
+          }
+        } else {
+          for (int i = 0; i < w; ++i) {
+            for (int c = 0; c < ch; ++c) dst[c * w + i] = static_cast<double>(src[i * ch + c]);
+          }
+        }
+      }
+      // Prefetch the next pair's rows so that the memory reads overlap with this pair's FFTs.
+      if (p + 1 < np) {
+        const size_t row_bytes = static_cast<size_t>(w) * ch * sizeof(T);
+        const char* r1 =
+            reinterpret_cast<const char*>(map.data() + static_cast<size_t>(p + 1) * w * ch);
+        const char* r2 =
+            reinterpret_cast<const char*>(map.data() + static_cast<size_t>(h - 2 - p) * w * ch);
+        for (size_t b = 0; b < row_bytes; b += 64) {
+          __builtin_prefetch(r1 + b);
+          __builtin_prefetch(r2 + b);
+        }
+      }
+      fftw_execute_dft_r2c(fftw_->r2c, in, out);
+      const double scale = ring_scale_[p];
+      for (int m = 0; m <= lmax; ++m) {
+        const std::complex<double> ph = phase[m] * scale;
+        double* e = eo.data() + m * m_stride;
+        double* o = e + static_cast<size_t>(ch) * 2 * pp;
+        for (int c = 0; c < ch; ++c) {
+          const fftw_complex& dn = out[static_cast<size_t>(c) * nc + m];
+          const fftw_complex& ds = out[static_cast<size_t>(ch + c) * nc + m];
+          const std::complex<double> gn = ph * std::complex<double>(dn[0], -dn[1]);
+          const std::complex<double> gs = ph * std::complex<double>(ds[0], -ds[1]);
+          e[(2 * c) * pp + p] = gn.real() + gs.real();
+          e[(2 * c + 1) * pp + p] = gn.imag() + gs.imag();
+          o[(2 * c) * pp + p] = gn.real() - gs.real();
+          o[(2 * c + 1) * pp + p] = gn.imag() - gs.imag();
+        }
+      }
+    }
+  });
+
+  if (!resamples_theta()) {
+    LegendreAnalysis(rings_, eo, coeffs, num_threads);
+    return absl::OkStatus();
+  }
+  // Exact theta resampling onto the virtual Fejer-1 rings (equiangular grids with H <= 2 lmax).
+  const int nvp = virtual_rings_.num_pairs, vpp = PadPairs(nvp);
+  const size_t vm_stride = static_cast<size_t>(2) * ch * 2 * vpp;
+  std::vector<double> veo(vm_stride * (lmax + 1), 0.0);
+  ParallelFor(lmax + 1, num_threads, [&](int m, int) {
+    for (int par = 0; par < 2; ++par) {
+      const std::vector<double>& mat = resample_[2 * (m % 2) + par];
+      for (int k = 0; k < 2 * ch; ++k) {
+        const double* src = eo.data() + m * m_stride + (static_cast<size_t>(par) * 2 * ch + k) * pp;
+        double* dst = veo.data() + m * vm_stride + (static_cast<size_t>(par) * 2 * ch + k) * vpp;
+        for (int v = 0; v < nvp; ++v) {
+          const double* row = mat.data() + static_cast<size_t>(v) * np;
+          double sum = 0;
+          for (int p = 0; p < np; ++p) sum += row[p] * src[p];
+          dst[v] = virtual_scale_[v] * sum;
+        }
+      }
+    }
+  });
+  LegendreAnalysis(virtual_rings_, veo, coeffs, num_threads);
+  return absl::OkStatus();
+}
+
+template <typename T>
+absl::Status ShtPlan::InverseImpl(std::span<const double> coeffs, std::span<T> map,
+                                  int num_threads) const {
+  if (num_threads < 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("SHT: num_threads must be >= 1 (got ", num_threads, ")"));
+  }
+  if (coeffs.size() != coeff_size()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("SHT: coefficient array has ", coeffs.size(),
+                     " values, expected (lmax+1)^2*channels = ", coeff_size()));
+  }
+  if (map.size() != map_size()) {
+    return absl::InvalidArgumentError(absl::StrCat("SHT: map has ", map.size(),
+                                                   " values, expected W*H*channels = ", map_size(),
+                                                   " for ", GridName(grid_)));
+  }
+  const int w = grid_.width, h = grid_.height, ch = channels_, lmax = lmax_;
+  const int np = rings_.num_pairs, pp = PadPairs(np), nv = pp / kLanes;
+  const int nc = w / 2 + 1;
+  const size_t m_stride = static_cast<size_t>(2) * ch * 2 * pp;
+  std::vector<double> eo(m_stride * (lmax + 1), 0.0);
+
+  // Theta stage: h_m(x_p) = sum_l lambda_l^m(x_p) q_lm split by parity of l - m, with
+  // q_l0 = r_l0 and q_lm = sqrt2 (r_lm - i r_{l,-m}), so that f = Re sum_m h_m e^{i m phi}.
+  ParallelFor(lmax + 1, num_threads, [&](int m, int) {
+    std::vector<double> prev_store(pp), cur_store(pp);
+    V4* prev = reinterpret_cast<V4*>(prev_store.data());
+    V4* cur = reinterpret_cast<V4*>(cur_store.data());
+    const V4* x = reinterpret_cast<const V4*>(rings_.x.data());
+    const V4* sect =
+        reinterpret_cast<const V4*>(rings_.sectoral.data() + static_cast<size_t>(m) * pp);
+    for (int v = 0; v < nv; ++v) {
+      prev[v] = V4{0, 0, 0, 0};
+      cur[v] = sect[v];
+    }
+    V4* eo_m = reinterpret_cast<V4*>(eo.data() + m * m_stride);
+    for (int l = m; l <= lmax; ++l) {
+      if (l > m) {
+        const double a = rec_a_[LegendreIndex(l, m)], b = rec_b_[LegendreIndex(l, m)];
+        for (int v = 0; v < nv; ++v) {
+          const V4 nx = a * (x[v] * cur[v] - b * prev[v]);
+          prev[v] = cur[v];
+          cur[v] = nx;
+        }
+      }
+      V4* d = eo_m + static_cast<size_t>((l - m) & 1) * ch * 2 * nv;
+      for (int c = 0; c < ch; ++c) {
+        double qr, qi;
+        if (m == 0) {
+          qr = coeffs[static_cast<size_t>(ShIndex(l, 0)) * ch + c];
+          qi = 0.0;
+        } else {
+          qr = kSqrt2 * coeffs[static_cast<size_t>(ShIndex(l, m)) * ch + c];
+          qi = -kSqrt2 * coeffs[static_cast<size_t>(ShIndex(l, -m)) * ch + c];
+        }
+        V4* dr = d + static_cast<size_t>(2 * c) * nv;
+        V4* di = d + static_cast<size_t>(2 * c + 1) * nv;
+        for (int v = 0; v < nv; ++v) {
+          dr[v] += qr * cur[v];
+          di[v] += qi * cur[v];
+        }
+      }
+    }
+  });
+
+  // Phi stage: f_i = Re sum_m h_m e^{i m phi_s(i)} = Re sum_m q_m e^{-2 pi i m i / W} with
+  // q_m = h_m e^{i m (3 pi / 2 - pi / W)}; fold into the half-spectrum of a real signal.
+  std::vector<std::complex<double>> phase(lmax + 1);
+  for (int m = 0; m <= lmax; ++m) phase[m] = std::polar(1.0, m * (1.5 * kPi - kPi / w));
+  constexpr int kPairsPerTask = 4;
+  const int num_tasks = (np + kPairsPerTask - 1) / kPairsPerTask;
+  const int workers = std::max(1, std::min(num_threads, num_tasks));
+  std::vector<std::unique_ptr<FftwBuffer<double>>> re_bufs(workers);
+  std::vector<std::unique_ptr<FftwBuffer<fftw_complex>>> co_bufs(workers);
+  ParallelFor(num_tasks, workers, [&](int task, int worker) {
+    if (!re_bufs[worker]) {
+      re_bufs[worker] = std::make_unique<FftwBuffer<double>>(static_cast<size_t>(2) * ch * w);
+      co_bufs[worker] =
+          std::make_unique<FftwBuffer<fftw_complex>>(static_cast<size_t>(2) * ch * nc);
+    }
+    double* re = re_bufs[worker]->data;
+    fftw_complex* co = co_bufs[worker]->data;
+    const int p_end = std::min(np, (task + 1) * kPairsPerTask);
+    for (int p = task * kPairsPerTask; p < p_end; ++p) {
+      const bool equator = rings_.has_equator && p == np - 1;
+      std::fill(&co[0][0], &co[0][0] + static_cast<size_t>(2) * ch * nc * 2, 0.0);
+      for (int m = 0; m <= lmax; ++m) {
+        const double* e = eo.data() + m * m_stride;
+        const double* o = e + static_cast<size_t>(ch) * 2 * pp;
+        const int k1 = m % w;
+        const int k2 = (w - k1) % w;
+        for (int c = 0; c < ch; ++c) {
+          const std::complex<double> he(e[(2 * c) * pp + p], e[(2 * c + 1) * pp + p]);
+          const std::complex<double> ho(o[(2 * c) * pp + p], o[(2 * c + 1) * pp + p]);
+          for (int half = 0; half < 2; ++half) {
+            const std::complex<double> q = (half == 0 ? he + ho : he - ho) * phase[m];
+            fftw_complex* x = co + static_cast<size_t>(half * ch + c) * nc;
+            if (m == 0) {
+              x[0][0] += q.real();
+              continue;
+            }
+            // Re(q z^-m) = (q z^-m + conj(q) z^m) / 2 on the full spectrum, z = e^{2 pi i / W}.
+            if (k1 <= w / 2) {
+              x[k1][0] += 0.5 * q.real();
+              x[k1][1] -= 0.5 * q.imag();
+            }
+            if (k2 <= w / 2) {
+              x[k2][0] += 0.5 * q.real();
+              x[k2][1] += 0.5 * q.imag();
+            }
+          }
+        }
+      }
+      fftw_execute_dft_c2r(fftw_->c2r, co, re);
+      for (int half = 0; half < (equator ? 1 : 2); ++half) {
+        const int j = half == 0 ? p : h - 1 - p;
+        T* dst = map.data() + static_cast<size_t>(j) * w * ch;
+        const double* src = re + static_cast<size_t>(half) * ch * w;
+        for (int i = 0; i < w; ++i) {
+          for (int c = 0; c < ch; ++c) dst[i * ch + c] = static_cast<T>(src[c * w + i]);
+        }
+      }
+    }
+  });
+  return absl::OkStatus();
+}
+
+absl::Status ShtPlan::Forward(std::span<const float> map, std::span<double> coeffs,
+                              int num_threads) const {
+  return ForwardImpl<float>(map, coeffs, num_threads);
+}
+absl::Status ShtPlan::Forward(std::span<const double> map, std::span<double> coeffs,
+                              int num_threads) const {
+  return ForwardImpl<double>(map, coeffs, num_threads);
+}
+absl::Status ShtPlan::Inverse(std::span<const double> coeffs, std::span<float> map,
+                              int num_threads) const {
+  return InverseImpl<float>(coeffs, map, num_threads);
+}
+absl::Status ShtPlan::Inverse(std::span<const double> coeffs, std::span<double> map,
+                              int num_threads) const {
+  return InverseImpl<double>(coeffs, map, num_threads);
+}
+
+absl::StatusOr<std::shared_ptr<const ShtPlan>> GetShtPlan(const ShtGrid& grid, int lmax,
+                                                          int channels) {
+  using Key = std::tuple<int, int, int, int, int>;
+  static std::mutex* mu = new std::mutex;
+  static auto* cache = new std::map<Key, std::shared_ptr<const ShtPlan>>;
+  const Key key{grid.width, grid.height, static_cast<int>(grid.kind), lmax, channels};
+  std::lock_guard<std::mutex> lock(*mu);
+  auto it = cache->find(key);
+  if (it != cache->end()) return it->second;
+  auto plan = ShtPlan::Create(grid, lmax, channels);
+  if (!plan.ok()) return plan.status();
+  cache->emplace(key, *plan);
+  return *plan;
+}
+
+namespace {
+template <typename T>
+absl::StatusOr<std::vector<double>> ForwardShtImpl(const ShtGrid& grid, int lmax, int channels,
+                                                   std::span<const T> map, int num_threads) {
+  auto plan = GetShtPlan(grid, lmax, channels);
+  if (!plan.ok()) return plan.status();
+  std::vector<double> coeffs((*plan)->coeff_size());
+  absl::Status s = (*plan)->Forward(map, std::span<double>(coeffs), num_threads);
+  if (!s.ok()) return s;
+  return coeffs;
+}
+}  // namespace
+
+absl::StatusOr<std::vector<double>> ForwardSht(const ShtGrid& grid, int lmax, int channels,
+                                               std::span<const float> map, int num_threads) {
+  return ForwardShtImpl<float>(grid, lmax, channels, map, num_threads);
+}
+absl::StatusOr<std::vector<double>> ForwardSht(const ShtGrid& grid, int lmax, int channels,
+                                               std::span<const double> map, int num_threads) {
+  return ForwardShtImpl<double>(grid, lmax, channels, map, num_threads);
+}
+
+absl::StatusOr<std::vector<double>> InverseSht(const ShtGrid& grid, int lmax, int channels,
+                                               std::span<const double> coeffs, int num_threads) {
+  auto plan = GetShtPlan(grid, lmax, channels);
+  if (!plan.ok()) return plan.status();
+  std::vector<double> map((*plan)->map_size());
+  absl::Status s = (*plan)->Inverse(coeffs, std::span<double>(map), num_threads);
+  if (!s.ok()) return s;
+  return map;
+}
+
+absl::Status SynthesizeAtDirections(int lmax, int channels, std::span<const double> coeffs,
+                                    std::span<const Vec3> world_dirs, std::span<double> out,
+                                    int num_threads) {
+  if (lmax < 0) {
+    return absl::InvalidArgumentError(absl::StrCat("SHT: negative degree lmax = ", lmax));
+  }
+  if (channels < 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("SHT: channels must be >= 1 (got ", channels, ")"));
+  }
+  if (num_threads < 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("SHT: num_threads must be >= 1 (got ", num_threads, ")"));
+  }
+  const size_t nco = static_cast<size_t>(ShCount(lmax)) * channels;
+  if (coeffs.size() != nco) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("SHT: coefficient array has ", coeffs.size(),
+                     " values, expected (lmax+1)^2*channels = ", nco));
+  }
+  if (out.size() != world_dirs.size() * channels) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("SHT: output has ", out.size(),
+                     " values, expected directions*channels = ", world_dirs.size() * channels));
+  }
+  for (size_t k = 0; k < world_dirs.size(); ++k) {
+    const Vec3& d = world_dirs[k];
+    if (!(d.Dot(d) > 0.0) || !std::isfinite(d.Dot(d))) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("SHT: direction ", k, " is zero or not finite"));
+    }
+  }
+  constexpr int kChunk = 64;
+  const int n = static_cast<int>(world_dirs.size());
+  const int num_chunks = (n + kChunk - 1) / kChunk;
+  const int ncount = ShCount(lmax);
+  ParallelFor(num_chunks, num_threads, [&](int chunk, int) {
+    const int k0 = chunk * kChunk, k1 = std::min(n, k0 + kChunk), nk = k1 - k0;
+    std::vector<Vec3> dirs(nk);
+    for (int k = 0; k < nk; ++k) dirs[k] = ShFrameFromWorld(world_dirs[k0 + k].Normalized());
+    std::vector<double> y(static_cast<size_t>(ncount) * nk);
+    EvalShBatch(lmax, dirs, y);
+    std::vector<double> acc(static_cast<size_t>(nk) * channels, 0.0);
+    for (int i = 0; i < ncount; ++i) {
+      const double* yi = y.data() + static_cast<size_t>(i) * nk;
+      for (int c = 0; c < channels; ++c) {
+        const double ci = coeffs[static_cast<size_t>(i) * channels + c];
+        for (int k = 0; k < nk; ++k) acc[static_cast<size_t>(k) * channels + c] += ci * yi[k];
+      }
+    }
+    std::copy(acc.begin(), acc.end(), out.begin() + static_cast<ptrdiff_t>(k0) * channels);
+  });
+  return absl::OkStatus();
+}
+
+}  // namespace shrm
