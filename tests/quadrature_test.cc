@@ -1,5 +1,5 @@
 // Quadrature rules: exactness on polynomials in cos(theta) against closed-form integrals.
-#include "core/transform/quadrature.h"
+#include "core/sh/quadrature.h"
 
 #include <cmath>
 

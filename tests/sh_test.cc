@@ -8,7 +8,7 @@
 #include <random>
 #include <vector>
 
-#include "core/transform/quadrature.h"
+#include "core/sh/quadrature.h"
 #include "gtest/gtest.h"
 
 namespace shrm {

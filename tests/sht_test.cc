@@ -7,8 +7,8 @@
 #include <random>
 #include <vector>
 
+#include "core/sh/quadrature.h"
 #include "core/sh/sh.h"
-#include "core/transform/quadrature.h"
 #include "gtest/gtest.h"
 
 namespace shrm {

@@ -65,20 +65,26 @@ void EvalSh(int lmax, const Vec3& dir, std::span<double> out) {
   }
   std::vector<double> plm(LegendreCount(lmax));
   NormalizedLegendre(lmax, z, rho, plm);
+  RealShFromLegendre(lmax, plm, c1, s1, 1.0, out);
+}
+
+void RealShFromLegendre(int lmax, std::span<const double> lambda, double cos_phi, double sin_phi,
+                        double scale, std::span<double> out) {
+  const double scale2 = scale * kSqrt2;
   double cm = 1.0, sm = 0.0;
   for (int m = 0; m <= lmax; ++m) {
     if (m > 0) {
-      const double cn = cm * c1 - sm * s1;
-      sm = sm * c1 + cm * s1;
+      const double cn = cm * cos_phi - sm * sin_phi;
+      sm = sm * cos_phi + cm * sin_phi;
       cm = cn;
     }
     for (int l = m; l <= lmax; ++l) {
-      const double p = plm[LegendreIndex(l, m)];
+      const double p = lambda[LegendreIndex(l, m)];
       if (m == 0) {
-        out[ShIndex(l, 0)] = p;
+        out[ShIndex(l, 0)] = scale * p;
       } else {
-        out[ShIndex(l, m)] = kSqrt2 * p * cm;
-        out[ShIndex(l, -m)] = kSqrt2 * p * sm;
+        out[ShIndex(l, m)] = scale2 * p * cm;
+        out[ShIndex(l, -m)] = scale2 * p * sm;
       }
     }
   }

@@ -53,6 +53,11 @@ void EvalSh(int lmax, const Vec3& dir, std::span<double> out);
 void EvalSh(int lmax, double theta, double phi, std::span<double> out);
 std::vector<double> EvalSh(int lmax, const Vec3& dir);
 
+// Real SH values (times `scale`) from a NormalizedLegendre table and the azimuth's unit vector
+// (cos phi, sin phi); cos/sin(m phi) by the multiple-angle recurrence. out[ShIndex(l, m)].
+void RealShFromLegendre(int lmax, std::span<const double> lambda, double cos_phi, double sin_phi,
+                        double scale, std::span<double> out);
+
 // Vectorized evaluator for many unit directions (SH frame). `out` is direction-minor:
 // out[ShIndex(l, m) * dirs.size() + k] = Y_lm(dirs[k]). The recurrences run across directions
 // in the innermost loop so the compiler vectorizes them.

@@ -2,8 +2,8 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "core/sh/quadrature.h"
 #include "core/sh/sh.h"
-#include "core/transform/quadrature.h"
 
 namespace shrm {
 

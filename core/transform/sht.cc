@@ -13,8 +13,8 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "core/sh/quadrature.h"
 #include "core/sh/sh.h"
-#include "core/transform/quadrature.h"
 
 namespace shrm {
 namespace {

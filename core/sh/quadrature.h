@@ -10,8 +10,8 @@
 //  - Fejer's first rule: pixel-centre rings theta_j = pi (j + 1/2) / H, the natural nodes of an
 //    equiangular lat-long image. Weights in closed form (Waldvogel 2006; Fejer 1933).
 //  - Gauss-Legendre: x_j = cos(theta_j) the roots of P_H, weights 2 / ((1 - x^2) P_H'(x)^2).
-#ifndef SHRM_CORE_TRANSFORM_QUADRATURE_H_
-#define SHRM_CORE_TRANSFORM_QUADRATURE_H_
+#ifndef SHRM_CORE_SH_QUADRATURE_H_
+#define SHRM_CORE_SH_QUADRATURE_H_
 
 #include <vector>
 
@@ -31,4 +31,4 @@ RingQuadrature GaussLegendreRule(int num_rings);
 
 }  // namespace shrm
 
-#endif  // SHRM_CORE_TRANSFORM_QUADRATURE_H_
+#endif  // SHRM_CORE_SH_QUADRATURE_H_

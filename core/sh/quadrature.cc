@@ -1,4 +1,4 @@
-#include "core/transform/quadrature.h"
+#include "core/sh/quadrature.h"
 
 #include <cmath>
 
@@ -25,6 +25,22 @@ RingQuadrature FejerFirstRule(int n) {
   return q;
 }
 
+namespace {
+
+// P_n(x) and P_{n-1}(x) by Bonnet's recurrence.
+void LegendrePair(int n, double x, double* pn, double* pn1) {
+  double p0 = 1.0, p1 = x;
+  for (int k = 2; k <= n; ++k) {
+    const double p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
+    p0 = p1;
+    p1 = p2;
+  }
+  *pn = n == 0 ? 1.0 : p1;
+  *pn1 = n <= 1 ? 1.0 : p0;
+}
+
+}  // namespace
+
 RingQuadrature GaussLegendreRule(int n) {
   RingQuadrature q;
   q.theta.resize(n);
@@ -32,39 +48,22 @@ RingQuadrature GaussLegendreRule(int n) {
   q.sin_theta.resize(n);
   q.weight.resize(n);
   for (int i = 0; i < (n + 1) / 2; ++i) {
-    // Newton iteration in theta on P_n(cos theta), starting from Tricomi's estimate.
+    // Newton iteration in theta on P_n(cos theta), from Tricomi's estimate. With
+    // (1 - x^2) P_n'(x) = n (P_{n-1} - x P_n): dP_n/dtheta = -n (P_{n-1} - x P_n) / sin(theta).
     double t = kPi * (i + 0.75) / (n + 0.5);
-    double dp = 0;
     for (int iter = 0; iter < 100; ++iter) {
-      const double x = std::cos(t);
-      double p0 = 1.0, p1 = x;
-      for (int k = 2; k <= n; ++k) {
-        const double p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
-        p0 = p1;
-        p1 = p2;
-      }
-      if (n == 1) p0 = 1.0;
-      // dP_n/dtheta = -sin(t) P_n'(x) = n (x P_n - P_{n-1}) / sin(t) * (-1) ... :
-      // (1 - x^2) P_n'(x) = n (P_{n-1} - x P_n)  =>  dP_n/dt = -n (P_{n-1} - x P_n) / sin t.
-      const double s = std::sin(t);
-      const double dpdt = -n * (p0 - x * p1) / s;
-      dp = n * (p0 - x * p1) / (s * s);  // P_n'(x)
-      const double dt = p1 / dpdt;
+      double pn, pn1;
+      LegendrePair(n, std::cos(t), &pn, &pn1);
+      const double dt = pn / (-n * (pn1 - std::cos(t) * pn) / std::sin(t));
       t -= dt;
       if (std::abs(dt) < 1e-16) break;
     }
     const double x = std::cos(t), s = std::sin(t);
-    // Recompute P_n'(x) at the converged node for the weight 2 / ((1 - x^2) P_n'(x)^2).
-    double p0 = 1.0, p1 = x;
-    for (int k = 2; k <= n; ++k) {
-      const double p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
-      p0 = p1;
-      p1 = p2;
-    }
-    if (n == 1) p0 = 1.0;
-    dp = n * (p0 - x * p1) / (s * s);
-    const double w = 2.0 / (s * s * dp * dp);
-    const int j = n - 1 - i;  // mirror node
+    double pn, pn1;
+    LegendrePair(n, x, &pn, &pn1);
+    const double dp = n * (pn1 - x * pn) / (s * s);  // P_n'(x)
+    const double w = 2.0 / (s * s * dp * dp);        // 2 / ((1 - x^2) P_n'(x)^2)
+    const int j = n - 1 - i;                         // mirror node
     q.theta[i] = t;
     q.cos_theta[i] = x;
     q.sin_theta[i] = s;

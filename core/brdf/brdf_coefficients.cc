@@ -1,0 +1,1 @@
+#include "core/brdf/brdf_coefficients.h"

@@ -1,0 +1,51 @@
+// BRDF coefficients rho-hat_lpq after reparameterization by the reflection vector (SHRM paper
+// sec. 5.3.1, eq. 5.22), in the conventions of docs/conventions.md ("BRDF coefficients"):
+//
+//   rho_lpq = double integral rho-hat(w_i', w_o') Y_lq(w_i') conj(Y_pq(w_o')) dw_i' dw_o'
+//           = (2 pi)^2 double-integral c_q(t_i, t_o) f_lq(t_i) f_pq(t_o) sin t_i sin t_o,
+//   c_q(t_i, t_o) = (1/2pi) integral rho-hat(t_i, t_o, phi) cos(q phi) dphi,
+//
+// with complex SH Y_lq = f_lq e^{i q phi} and phi = phi_i' - phi_o'. For isotropic BRDFs rho-hat
+// is even in phi, so rho_lpq is real and rho_{l,p,-q} = rho_{l,p,q}: only q >= 0 is stored.
+// rho-hat = sum rho_lpq conj(Y_lq(w_i')) Y_pq(w_o'), |q| <= min(l, p).
+#ifndef SHRM_CORE_BRDF_BRDF_COEFFICIENTS_H_
+#define SHRM_CORE_BRDF_BRDF_COEFFICIENTS_H_
+
+#include <cstddef>
+#include <cstdlib>
+#include <vector>
+
+namespace shrm {
+
+// Which direction the BRDF is reparameterized by (the pole of the local frame).
+enum class ReparamKind {
+  kReflection,  // R = 2 (N.V) N - V: every model but Kajiya-Kay
+  kTangent,     // the tangent T (Kajiya-Kay): only q = 0 terms
+};
+
+struct BrdfCoefficients {
+  int lmax = 0;      // F_rho: l <= lmax
+  int pmax = 0;      // P_rho: p <= pmax
+  int channels = 1;  // 1 (grey analytic models) or 3 (RGB tables)
+  ReparamKind reparam = ReparamKind::kReflection;
+  // rho_lpq for 0 <= q <= min(l, p) (zero elsewhere), at Index(l, p, q, c).
+  std::vector<double> values;
+  // Per channel: the full energy double-integral of rho-hat^2 over both spheres (the right side
+  // of eqs. 5.17/5.18 without the (1 - epsilon)), computed in the angular domain so that the
+  // captured fraction sum |rho_lpq|^2 / total_energy measures the truncation error.
+  std::vector<double> total_energy;
+
+  size_t Index(int l, int p, int q, int c) const {
+    return ((static_cast<size_t>(l) * (pmax + 1) + p) * (pmax + 1) + q) * channels + c;
+  }
+  // rho_{l,p,q} for any sign of q (isotropic symmetry).
+  double at(int l, int p, int q, int c = 0) const {
+    const int aq = std::abs(q);
+    if (aq > l || aq > p) return 0.0;
+    return values[Index(l, p, aq, c)];
+  }
+};
+
+}  // namespace shrm
+
+#endif  // SHRM_CORE_BRDF_BRDF_COEFFICIENTS_H_
