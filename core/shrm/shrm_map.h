@@ -1,0 +1,46 @@
+// The Spherical Harmonic Reflection Map (SHRM paper sec. 5.4, eqs. 5.10-5.14) resampled onto
+// cube faces: every texel, addressed by the reflection direction R (or the tangent T for
+// Kajiya-Kay), holds an order-P real-SH expansion of the view dependence.
+//
+//   local  (eq. 5.10): B(R, V) = sum_{p,q} B_pq(R) Y_pq(w_o'), w_o' = Rot(R)^T V in the SH frame,
+//                      Rot(R) = Rz(beta) Ry(alpha), (alpha, beta) the SH angles of R;
+//   global (eq. 5.11): B(R, V) = sum_{p,q} B^_pq(R) Y_pq(V), V in the SH frame.
+//
+// Coefficients are real SH (docs/conventions.md), converted from the paper's complex B_pq with
+// ComplexToReal (the view-dependent function is real). Texels follow core/base/cubemap.h.
+#ifndef SHRM_CORE_SHRM_SHRM_MAP_H_
+#define SHRM_CORE_SHRM_SHRM_MAP_H_
+
+#include <cstddef>
+#include <vector>
+
+#include "core/brdf/brdf_coefficients.h"
+#include "core/sh/sh.h"
+
+namespace shrm {
+
+enum class ShrmKind { kLocal, kGlobal };
+
+struct ShrmCube {
+  ShrmKind kind = ShrmKind::kGlobal;
+  ReparamKind index = ReparamKind::kReflection;  // what addresses the texels: R or T
+  int face_size = 0;                             // S_B
+  int pmax = 0;  // P_B: ShCount(pmax) coefficients per texel and channel
+  int channels = 3;
+  // data[Index(face, x, y, k, c)], k = ShIndex(p, q).
+  std::vector<float> data;
+
+  int coeff_count() const { return ShCount(pmax); }
+  size_t Index(int face, int x, int y, int k, int c) const {
+    return ((((static_cast<size_t>(face) * face_size + y) * face_size + x) * coeff_count() + k) *
+            channels) +
+           c;
+  }
+  size_t size() const {
+    return static_cast<size_t>(6) * face_size * face_size * coeff_count() * channels;
+  }
+};
+
+}  // namespace shrm
+
+#endif  // SHRM_CORE_SHRM_SHRM_MAP_H_
