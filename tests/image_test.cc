@@ -138,5 +138,25 @@ TEST(ImageTest, WriteLeavesNoTemporaryAndRoundTrips) {
   EXPECT_FALSE(fs::exists(path));
 }
 
+TEST(ImageTest, PreviewPngIsToneMappedSrgb) {
+  Image img;
+  img.width = 2;
+  img.height = 1;
+  img.channels = 3;
+  img.pixels = {0.0f, 1.0f, 3.0f, 1e6f, -1.0f, 0.25f};
+  const std::string path = TempPath("preview.png");
+  ASSERT_TRUE(WritePreviewPng(path, img, /*exposure=*/1.0).ok());
+  auto back = ReadImageRgb(path);
+  ASSERT_TRUE(back.ok()) << back.status();
+  // Closed form: x = v 2^1, y = x / (1 + x), sRGB OETF, 8-bit.
+  auto expected = [](double v) {
+    const double x = std::max(0.0, v) * 2, y = x / (1 + x);
+    const double e = y <= 0.0031308 ? 12.92 * y : 1.055 * std::pow(y, 1 / 2.4) - 0.055;
+    return std::round(e * 255) / 255;
+  };
+  for (int i = 0; i < 6; ++i) EXPECT_NEAR(back->pixels[i], expected(img.pixels[i]), 1e-6) << i;
+  fs::remove(path);
+}
+
 }  // namespace
 }  // namespace shrm

@@ -3,6 +3,7 @@
 #include <OpenImageIO/imageio.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <filesystem>
@@ -147,7 +148,11 @@ absl::StatusOr<Image> ReadImageRgb(const std::string& path, const ImageLimits& l
   return img;
 }
 
-absl::Status WriteExr(const std::string& path, const Image& image) {
+namespace {
+
+// Writes pixels with OpenImageIO to a temporary file, then renames it over `path`.
+absl::Status WriteAtomically(const std::string& path, const Image& image, const char* format,
+                             OIIO::TypeDesc type, const void* pixels, OIIO::TypeDesc pixel_type) {
   if (image.width <= 0 || image.height <= 0 || image.channels <= 0 ||
       image.pixels.size() != static_cast<size_t>(image.width) * image.height * image.channels) {
     return absl::InvalidArgumentError(absl::StrCat(path, ": inconsistent image to write (",
@@ -155,12 +160,11 @@ absl::Status WriteExr(const std::string& path, const Image& image) {
                                                    image.channels, ")"));
   }
   const std::string tmp = absl::StrCat(path, ".tmp-", ::getpid());
-  auto out = OIIO::ImageOutput::create("openexr");
-  if (!out) return absl::InternalError("no OpenImageIO writer for openexr");
-  OIIO::ImageSpec spec(image.width, image.height, image.channels, OIIO::TypeDesc::FLOAT);
-  spec.attribute("compression", "zip");
-  if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::FLOAT, image.pixels.data()) ||
-      !out->close()) {
+  auto out = OIIO::ImageOutput::create(format);
+  if (!out) return absl::InternalError(absl::StrCat("no OpenImageIO writer for ", format));
+  OIIO::ImageSpec spec(image.width, image.height, image.channels, type);
+  if (std::string(format) == "openexr") spec.attribute("compression", "zip");
+  if (!out->open(tmp, spec) || !out->write_image(pixel_type, pixels) || !out->close()) {
     std::error_code ec;
     std::filesystem::remove(tmp, ec);
     return absl::UnavailableError(absl::StrCat(path, ": cannot write: ", out->geterror()));
@@ -172,6 +176,35 @@ absl::Status WriteExr(const std::string& path, const Image& image) {
     return absl::UnavailableError(absl::StrCat(path, ": cannot rename into place: ", ec.message()));
   }
   return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::Status WriteExr(const std::string& path, const Image& image) {
+  return WriteAtomically(path, image, "openexr", OIIO::TypeDesc::FLOAT, image.pixels.data(),
+                         OIIO::TypeDesc::FLOAT);
+}
+
+absl::Status WritePng8(const std::string& path, const Image& image) {
+  std::vector<unsigned char> bytes(image.pixels.size());
+  for (size_t i = 0; i < bytes.size(); ++i) {
+    const float v = std::clamp(image.pixels[i], 0.0f, 1.0f);
+    bytes[i] = static_cast<unsigned char>(std::lround(v * 255.0f));
+  }
+  return WriteAtomically(path, image, "png", OIIO::TypeDesc::UINT8, bytes.data(),
+                         OIIO::TypeDesc::UINT8);
+}
+
+absl::Status WritePreviewPng(const std::string& path, const Image& linear, double exposure) {
+  Image encoded = linear;
+  const double scale = std::exp2(exposure);
+  for (float& v : encoded.pixels) {
+    double x = std::max(0.0, static_cast<double>(v)) * scale;
+    if (!std::isfinite(x)) x = 0;
+    x = x / (1.0 + x);
+    v = static_cast<float>(x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1 / 2.4) - 0.055);
+  }
+  return WritePng8(path, encoded);
 }
 
 }  // namespace shrm

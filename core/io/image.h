@@ -69,6 +69,13 @@ absl::StatusOr<Image> ReadImageRgb(const std::string& path, const ImageLimits& l
 // half-written.
 absl::Status WriteExr(const std::string& path, const Image& image);
 
+// Writes a tone-mapped 8-bit sRGB PNG preview of a linear RGB image: scale by 2^exposure,
+// Reinhard x / (1 + x) per channel, sRGB OETF, 8-bit rounding. Atomic like WriteExr.
+absl::Status WritePreviewPng(const std::string& path, const Image& linear, double exposure = 0);
+
+// Writes `image` (values in [0, 1], clamped) as an 8-bit PNG without any transform. Atomic.
+absl::Status WritePng8(const std::string& path, const Image& image);
+
 }  // namespace shrm
 
 #endif  // SHRM_CORE_IO_IMAGE_H_

@@ -1,0 +1,44 @@
+// Multi-part OpenEXR cube files: six parts (one per cube face, GL order +X, -X, +Y, -Y, +Z, -Z),
+// each an S x S image with `groups` RGB channel triples, plus string attributes in the header.
+// This is the container of the SHRM file (docs/formats.md); it knows nothing of SH semantics.
+//
+// Channel names: group g's channels are "<group_names[g]>.R", ".G", ".B" (EXR layer syntax),
+// so any EXR tool lists them; pixel type float32, or half on request. Part names are
+// "px", "nx", "py", "ny", "pz", "nz". Attributes are stored as string attributes of every part
+// (names prefixed "shrm:" by the caller).
+// Writes are atomic: a temporary file in the target folder renamed into place when complete.
+#ifndef SHRM_CORE_IO_CUBE_EXR_H_
+#define SHRM_CORE_IO_CUBE_EXR_H_
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "core/io/image.h"
+
+namespace shrm {
+
+struct CubeExr {
+  int face_size = 0;
+  std::vector<std::string> group_names;  // one RGB triple per name
+  // data[(((face * S + y) * S + x) * groups + g) * 3 + c]
+  std::vector<float> data;
+  std::map<std::string, std::string> attributes;
+  bool half = false;  // store as half float (16 bit) instead of float32
+
+  int groups() const { return static_cast<int>(group_names.size()); }
+  size_t size() const { return size_t{6} * face_size * face_size * group_names.size() * 3; }
+};
+
+absl::Status WriteCubeExr(const std::string& path, const CubeExr& cube);
+
+// Reads a file written by WriteCubeExr (or any six-part EXR with the same part and channel
+// structure). The header is validated against `limits` before any pixel is decoded; deep parts
+// are rejected.
+absl::StatusOr<CubeExr> ReadCubeExr(const std::string& path, const ImageLimits& limits = {});
+
+}  // namespace shrm
+
+#endif  // SHRM_CORE_IO_CUBE_EXR_H_

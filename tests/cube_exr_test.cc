@@ -1,0 +1,96 @@
+// Multi-part cube EXR container: round trip (float and half), attributes, atomic writes, and
+// rejection of files that are not six-part cubes.
+#include "core/io/cube_exr.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "gtest/gtest.h"
+
+namespace shrm {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr double kHalfTol = 1e-3;  // half floats keep 11 significant bits (relative 4.9e-4)
+
+CubeExr MakeCube(int size, int groups) {
+  CubeExr c;
+  c.face_size = size;
+  for (int g = 0; g < groups; ++g) c.group_names.push_back("Y_" + std::to_string(g));
+  c.data.resize(c.size());
+  for (size_t i = 0; i < c.data.size(); ++i) c.data[i] = std::sin(0.37 * i) * (1 + i % 7);
+  c.attributes["shrm:kind"] = "global";
+  c.attributes["shrm:brdf"] = "phong:s=32";
+  return c;
+}
+
+std::string Temp(const std::string& name) {
+  return (fs::temp_directory_path() / ("shrm_cube_exr_test_" + name)).string();
+}
+
+TEST(CubeExrTest, FloatRoundTripIsExact) {
+  const CubeExr c = MakeCube(5, 4);
+  const std::string path = Temp("float.exr");
+  ASSERT_TRUE(WriteCubeExr(path, c).ok());
+  auto back = ReadCubeExr(path);
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->face_size, 5);
+  EXPECT_EQ(back->group_names, c.group_names);
+  EXPECT_EQ(back->data, c.data);
+  EXPECT_EQ(back->attributes.at("shrm:kind"), "global");
+  EXPECT_EQ(back->attributes.at("shrm:brdf"), "phong:s=32");
+  fs::remove(path);
+}
+
+TEST(CubeExrTest, HalfRoundTripIsClose) {
+  CubeExr c = MakeCube(3, 2);
+  c.half = true;
+  const std::string path = Temp("half.exr");
+  ASSERT_TRUE(WriteCubeExr(path, c).ok());
+  auto back = ReadCubeExr(path);
+  ASSERT_TRUE(back.ok()) << back.status();
+  for (size_t i = 0; i < c.data.size(); ++i)
+    EXPECT_NEAR(back->data[i], c.data[i], kHalfTol * std::abs(c.data[i]) + 1e-7);
+  fs::remove(path);
+}
+
+TEST(CubeExrTest, InconsistentCubeIsRejectedAndNothingIsWritten) {
+  CubeExr c = MakeCube(4, 2);
+  c.data.pop_back();
+  const std::string path = Temp("bad.exr");
+  EXPECT_EQ(WriteCubeExr(path, c).code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_FALSE(fs::exists(path));
+}
+
+TEST(CubeExrTest, UnwritableDestinationFailsCleanly) {
+  const CubeExr c = MakeCube(2, 1);
+  const absl::Status s = WriteCubeExr("/nonexistent-dir/out.exr", c);
+  EXPECT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("/nonexistent-dir/out.exr"), std::string::npos);
+}
+
+TEST(CubeExrTest, OrdinaryImageIsNotACube) {
+  Image img;
+  img.width = 8;
+  img.height = 4;
+  img.channels = 3;
+  img.pixels.assign(8 * 4 * 3, 1.0f);
+  const std::string path = Temp("latlong.exr");
+  ASSERT_TRUE(WriteExr(path, img).ok());
+  EXPECT_EQ(ReadCubeExr(path).status().code(), absl::StatusCode::kInvalidArgument);
+  fs::remove(path);
+}
+
+TEST(CubeExrTest, TruncatedFileFailsCleanly) {
+  const CubeExr c = MakeCube(16, 3);
+  const std::string path = Temp("trunc.exr");
+  ASSERT_TRUE(WriteCubeExr(path, c).ok());
+  fs::resize_file(path, fs::file_size(path) / 2);
+  EXPECT_FALSE(ReadCubeExr(path).ok());
+  fs::remove(path);
+}
+
+}  // namespace
+}  // namespace shrm
