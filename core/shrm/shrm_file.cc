@@ -1,0 +1,119 @@
+#include "core/shrm/shrm_file.h"
+
+#include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
+#include "core/io/cube_exr.h"
+
+namespace shrm {
+namespace {
+
+const std::map<std::string, std::string>& ConventionAttributes() {
+  static const auto* attrs = new std::map<std::string, std::string>{
+      {"shrm:format", kShrmFormatTag},
+      {"shrm:basis",
+       "real orthonormal SH with Condon-Shortley phase; channel Y_p_q holds coefficient (p,q); "
+       "Y_p_q = sqrt2 K P_p^q(cos t) cos(q f) (q>0), sqrt2 K P_p^|q|(cos t) sin(|q| f) (q<0)"},
+      {"shrm:frame",
+       "world right-handed, +Y up; SH frame x_s=+X, y_s=-Z, z_s=+Y; (t, f) SH angles"},
+      {"shrm:face_order",
+       "OpenGL cube map: parts px nx py ny pz nz, GL major-axis table, row 0 = t 0"},
+      {"shrm:eval",
+       "R = 2(N.V)N - V (index reflection) or T (index tangent) picks the texel; global: "
+       "B = sum c_pq Y_pq(V_s); local: B = sum c_pq Y_pq(Rot^T V_s), Rot = Rz(beta) Ry(alpha), "
+       "(alpha, beta) the SH angles of R; V_s = V in the SH frame"},
+  };
+  return *attrs;
+}
+
+}  // namespace
+
+std::string ShrmChannelGroup(int p, int q) { return absl::StrCat("Y_", p, "_", q); }
+
+absl::Status WriteShrmFile(const std::string& path, const ShrmCube& cube,
+                           const std::map<std::string, std::string>& extra, bool half) {
+  if (cube.face_size < 1 || cube.pmax < 0 || cube.channels != 3 ||
+      cube.data.size() != cube.size()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": inconsistent SHRM cube (face size ", cube.face_size, ", P ",
+                     cube.pmax, ", channels ", cube.channels, ", ", cube.data.size(), " values)"));
+  }
+  CubeExr exr;
+  exr.face_size = cube.face_size;
+  exr.half = half;
+  for (int p = 0; p <= cube.pmax; ++p)
+    for (int q = -p; q <= p; ++q) exr.group_names.push_back(ShrmChannelGroup(p, q));
+  exr.data = cube.data;  // same layout: texel-major, then coefficient, then channel
+  for (const auto& [k, v] : extra) {
+    if (!absl::StartsWith(k, "shrm:")) {
+      return absl::InvalidArgumentError(absl::StrCat("SHRM attribute ", k, " lacks shrm: prefix"));
+    }
+    exr.attributes[k] = v;
+  }
+  for (const auto& [k, v] : ConventionAttributes()) exr.attributes[k] = v;
+  exr.attributes["shrm:kind"] = cube.kind == ShrmKind::kLocal ? "local" : "global";
+  exr.attributes["shrm:index"] = cube.index == ReparamKind::kTangent ? "tangent" : "reflection";
+  exr.attributes["shrm:pmax"] = absl::StrCat(cube.pmax);
+  return WriteCubeExr(path, exr);
+}
+
+absl::StatusOr<ShrmFile> ReadShrmFile(const std::string& path, const ImageLimits& limits) {
+  SHRM_ASSIGN_OR_RETURN(CubeExr exr, ReadCubeExr(path, limits));
+  auto attr = [&](const std::string& k) -> absl::StatusOr<std::string> {
+    auto it = exr.attributes.find(k);
+    if (it == exr.attributes.end()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(path, ": not an SHRM file (header attribute ", k, " missing)"));
+    }
+    return it->second;
+  };
+  SHRM_ASSIGN_OR_RETURN(const std::string format, attr("shrm:format"));
+  if (format != kShrmFormatTag) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": unsupported SHRM format '", format,
+                                                   "' (expected ", kShrmFormatTag, ")"));
+  }
+  ShrmFile file;
+  SHRM_ASSIGN_OR_RETURN(const std::string kind, attr("shrm:kind"));
+  SHRM_ASSIGN_OR_RETURN(const std::string index, attr("shrm:index"));
+  SHRM_ASSIGN_OR_RETURN(const std::string pmax, attr("shrm:pmax"));
+  if (kind != "local" && kind != "global") {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": bad shrm:kind '", kind, "'"));
+  }
+  if (index != "reflection" && index != "tangent") {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": bad shrm:index '", index, "'"));
+  }
+  ShrmCube& cube = file.cube;
+  cube.kind = kind == "local" ? ShrmKind::kLocal : ShrmKind::kGlobal;
+  cube.index = index == "tangent" ? ReparamKind::kTangent : ReparamKind::kReflection;
+  if (!absl::SimpleAtoi(pmax, &cube.pmax) || cube.pmax < 0 || ShCount(cube.pmax) != exr.groups()) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": shrm:pmax '", pmax, "' does not match ",
+                                                   exr.groups(), " channel triples"));
+  }
+  // OpenEXR stores channels sorted by name, so map each coefficient's triple by its name.
+  std::map<std::string, int> group_of;
+  for (int g = 0; g < exr.groups(); ++g) group_of[exr.group_names[g]] = g;
+  std::vector<int> source(exr.groups());
+  for (int p = 0; p <= cube.pmax; ++p)
+    for (int q = -p; q <= p; ++q) {
+      auto it = group_of.find(ShrmChannelGroup(p, q));
+      if (it == group_of.end()) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(path, ": channel triple ", ShrmChannelGroup(p, q), " missing"));
+      }
+      source[ShIndex(p, q)] = it->second;
+    }
+  cube.face_size = exr.face_size;
+  cube.channels = 3;
+  cube.data.resize(cube.size());
+  const int groups = exr.groups();
+  const size_t texels = size_t{6} * cube.face_size * cube.face_size;
+  for (size_t t = 0; t < texels; ++t)
+    for (int k = 0; k < groups; ++k)
+      for (int c = 0; c < 3; ++c)
+        cube.data[(t * groups + k) * 3 + c] = exr.data[(t * groups + source[k]) * 3 + c];
+  file.attributes = std::move(exr.attributes);
+  return file;
+}
+
+}  // namespace shrm
