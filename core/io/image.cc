@@ -12,6 +12,7 @@
 #include <mutex>
 
 #include "absl/status/status.h"
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
 
@@ -185,13 +186,20 @@ absl::Status WriteExr(const std::string& path, const Image& image) {
                          OIIO::TypeDesc::FLOAT);
 }
 
-absl::Status WritePng8(const std::string& path, const Image& image) {
+absl::Status WriteImage8Bit(const std::string& path, const Image& image) {
+  const std::string ext = absl::AsciiStrToLower(std::filesystem::path(path).extension().string());
+  const char* format = ext == ".png" ? "png" : (ext == ".tif" || ext == ".tiff") ? "tiff" : nullptr;
+  if (format == nullptr) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": 8-bit output needs a .png, .tif or .tiff extension"));
+  }
   std::vector<unsigned char> bytes(image.pixels.size());
   for (size_t i = 0; i < bytes.size(); ++i) {
-    const float v = std::clamp(image.pixels[i], 0.0f, 1.0f);
-    bytes[i] = static_cast<unsigned char>(std::lround(v * 255.0f));
+    const float v = image.pixels[i];
+    const float c = std::isnan(v) ? 0.0f : std::clamp(v, 0.0f, 1.0f);
+    bytes[i] = static_cast<unsigned char>(std::lround(c * 255.0f));
   }
-  return WriteAtomically(path, image, "png", OIIO::TypeDesc::UINT8, bytes.data(),
+  return WriteAtomically(path, image, format, OIIO::TypeDesc::UINT8, bytes.data(),
                          OIIO::TypeDesc::UINT8);
 }
 
@@ -204,7 +212,7 @@ absl::Status WritePreviewPng(const std::string& path, const Image& linear, doubl
     x = x / (1.0 + x);
     v = static_cast<float>(x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1 / 2.4) - 0.055);
   }
-  return WritePng8(path, encoded);
+  return WriteImage8Bit(path, encoded);
 }
 
 }  // namespace shrm

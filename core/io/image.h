@@ -69,12 +69,14 @@ absl::StatusOr<Image> ReadImageRgb(const std::string& path, const ImageLimits& l
 // half-written.
 absl::Status WriteExr(const std::string& path, const Image& image);
 
-// Writes a tone-mapped 8-bit sRGB PNG preview of a linear RGB image: scale by 2^exposure,
-// Reinhard x / (1 + x) per channel, sRGB OETF, 8-bit rounding. Atomic like WriteExr.
+// Writes a tone-mapped 8-bit sRGB preview (PNG or TIFF by extension) of a linear RGB image: scale
+// by 2^exposure, Reinhard x / (1 + x) per channel, sRGB OETF, 8-bit rounding. Atomic like WriteExr.
 absl::Status WritePreviewPng(const std::string& path, const Image& linear, double exposure = 0);
 
-// Writes `image` (values in [0, 1], clamped) as an 8-bit PNG without any transform. Atomic.
-absl::Status WritePng8(const std::string& path, const Image& image);
+// Writes `image` (values in [0, 1], clamped; NaN -> 0) as 8-bit PNG or TIFF, chosen by the
+// extension (.png, .tif, .tiff; anything else is InvalidArgument), without any colour
+// transform. Atomic like WriteExr.
+absl::Status WriteImage8Bit(const std::string& path, const Image& image);
 
 }  // namespace shrm
 
