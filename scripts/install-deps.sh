@@ -11,7 +11,7 @@ PACKAGES=(
   # transforms
   libfftw3-dev
   # service
-  libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libabsl-dev
+  libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libabsl-dev libssl-dev
   # tests and benchmarks (libsharp: benchmark-only reference, GPL, never linked into shipped binaries)
   libgtest-dev libgmock-dev libbenchmark-dev libsharp-dev
   # CLI and logging
