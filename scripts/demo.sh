@@ -1,10 +1,25 @@
 #!/usr/bin/env bash
-# The main job: installs what is missing, builds, and analyzes a bundled real HDR map
-# (SH coefficients and the order needed for a tolerance, SHRM paper eq. 5.16).
-# Extra arguments go to `shrm analyze`, e.g. scripts/demo.sh data/envmaps/city.exr --epsilon 0.001
+# The main job: installs what is missing, builds, and prefilters a bundled real HDR map with a
+# glossy BRDF: writes the SHRM, its JSON report and a PNG preview into out/, then checks the SHRM
+# against brute-force integration at one (N, V).
+# Extra arguments replace the defaults of `shrm prefilter`, e.g.
+#   bash scripts/demo.sh --env data/envmaps/city.exr --brdf ggx:alpha=0.3,f0=0.04 -o out/city.shrm.exr
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
 bash scripts/build.sh >/dev/null
-if [ $# -eq 0 ]; then set -- data/envmaps/courtyard.exr; fi
-"${SHRM_BUILD_DIR:-build}/client/shrm" analyze "$@"
+SHRM="${SHRM_BUILD_DIR:-build}/client/shrm"
+mkdir -p out
+if [ $# -gt 0 ]; then
+  exec "$SHRM" prefilter "$@"
+fi
+ENV=data/envmaps/courtyard.exr
+BRDF=microfacet:sigma=0.2
+"$SHRM" prefilter --env "$ENV" --brdf "$BRDF" --epsilon 0.03 \
+  -o out/courtyard.shrm.exr --report out/courtyard.report.json --preview out/courtyard.png
+echo
+echo "SHRM at N = (0.3, 0.8, 0.52), V = (0.1, 0.2, 0.97) vs brute force over the map's pixels:"
+echo "  eval      $("$SHRM" eval --shrm out/courtyard.shrm.exr --normal 0.3,0.8,0.52 --view 0.1,0.2,0.97)"
+echo "  reference $("$SHRM" reference --env "$ENV" --brdf "$BRDF" --normal 0.3,0.8,0.52 --view 0.1,0.2,0.97)"
+echo
+echo "outputs: out/courtyard.shrm.exr (SHRM), out/courtyard.report.json, out/courtyard.png (preview)"

@@ -12,6 +12,7 @@
 #include "core/sh/sh.h"
 #include "core/transform/sht.h"
 #include "gtest/gtest.h"
+#include "tests/test_maps.h"
 
 namespace shrm {
 namespace {
@@ -27,21 +28,7 @@ constexpr double kIrradianceTol = 1e-3;
 constexpr int kFactor = 4;  // 1024 x 512 -> 256 x 128: keeps the tests fast
 
 Image LoadDownsampled(const std::string& name) {
-  auto full = ReadImageRgb(std::string(SHRM_SOURCE_DIR) + "/data/envmaps/" + name);
-  EXPECT_TRUE(full.ok()) << full.status();
-  Image out;
-  out.width = full->width / kFactor;
-  out.height = full->height / kFactor;
-  out.channels = 3;
-  out.pixels.assign(static_cast<size_t>(out.width) * out.height * 3, 0.0f);
-  // Box filter: each output pixel averages a kFactor x kFactor block (solid-angle weighting is
-  // irrelevant here: the tests only need *some* real map on the coarse grid).
-  for (int y = 0; y < full->height; ++y)
-    for (int x = 0; x < full->width; ++x)
-      for (int c = 0; c < 3; ++c)
-        out.pixels[((y / kFactor) * out.width + x / kFactor) * 3 + c] +=
-            full->at(x, y, c) / (kFactor * kFactor);
-  return out;
+  return testing::LoadBundledMap(name, 1024 / kFactor);
 }
 
 class RealMapShtTest : public ::testing::TestWithParam<std::string> {};

@@ -46,6 +46,15 @@ struct BrdfCoefficients {
   }
 };
 
+// Captured fraction of eqs. 5.17/5.18 for orders (F, P):
+//   sum_{l <= F, p <= P, |q| <= min(l, p)} rho_lpq^2 / total_energy
+// (q != 0 counted twice, rho_{l,p,-q} = rho_{l,p,q}), clamped to F <= lmax, P <= pmax. For
+// channel < 0 the minimum over channels (the worst channel) is returned.
+double CapturedFraction(const BrdfCoefficients& coeffs, int F, int P, int channel = -1);
+
+// The same coefficients restricted to l <= F, p <= P (total_energy unchanged).
+BrdfCoefficients TruncateBrdfCoefficients(const BrdfCoefficients& coeffs, int F, int P);
+
 }  // namespace shrm
 
 #endif  // SHRM_CORE_BRDF_BRDF_COEFFICIENTS_H_

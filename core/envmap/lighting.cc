@@ -152,4 +152,11 @@ absl::StatusOr<std::vector<double>> LightingCoefficientsDirect(const EnvMap& map
   return coeffs;
 }
 
+std::array<double, 3> LightingEnergy(const EnvMap& map) {
+  std::array<double, 3> e{0, 0, 0};
+  for (const EnvSample& smp : map.samples())
+    for (int c = 0; c < 3; ++c) e[c] += smp.solid_angle * double{smp.rgb[c]} * smp.rgb[c];
+  return e;
+}
+
 }  // namespace shrm

@@ -22,6 +22,7 @@
 #ifndef SHRM_CORE_ENVMAP_LIGHTING_H_
 #define SHRM_CORE_ENVMAP_LIGHTING_H_
 
+#include <array>
 #include <span>
 #include <vector>
 
@@ -66,6 +67,10 @@ absl::StatusOr<std::vector<double>> LightingCoefficients(
 absl::StatusOr<std::vector<double>> LightingCoefficientsDirect(
     const EnvMap& map, int lmax, const Mat3& world_rotation = Mat3::Identity(),
     int num_threads = 1);
+
+// Eq. 5.15's integral of L_c^2 over the sphere, per channel, by the map's own sample quadrature
+// (its pixels' solid angles): the total the captured fraction of eq. 5.16 is measured against.
+std::array<double, 3> LightingEnergy(const EnvMap& map);
 
 }  // namespace shrm
 

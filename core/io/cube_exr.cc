@@ -1,7 +1,6 @@
 #include "core/io/cube_exr.h"
 
 #include <OpenImageIO/imageio.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <memory>
@@ -10,6 +9,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/cubemap.h"
 #include "core/base/status_macros.h"
+#include "core/io/atomic_file.h"
 
 namespace shrm {
 namespace {
@@ -26,7 +26,7 @@ absl::Status WriteCubeExr(const std::string& path, const CubeExr& cube) {
         path, ": inconsistent cube to write (face size ", cube.face_size, ", ", cube.groups(),
         " channel groups, ", cube.data.size(), " values, expected ", cube.size(), ")"));
   }
-  const std::string tmp = absl::StrCat(path, ".tmp-", ::getpid());
+  const std::string tmp = TempPathFor(path);
   auto out = OIIO::ImageOutput::create("openexr");
   if (!out) return absl::InternalError("no OpenImageIO writer for openexr");
   if (!out->supports("multiimage")) {
@@ -46,8 +46,7 @@ absl::Status WriteCubeExr(const std::string& path, const CubeExr& cube) {
     specs.push_back(spec);
   }
   auto fail = [&](const std::string& what) {
-    std::error_code ec;
-    std::filesystem::remove(tmp, ec);
+    DiscardTempFile(tmp);
     return absl::UnavailableError(
         absl::StrCat(path, ": cannot write ", what, ": ", out->geterror()));
   };
@@ -60,13 +59,7 @@ absl::Status WriteCubeExr(const std::string& path, const CubeExr& cube) {
       return fail(absl::StrCat("face ", kCubeFaceNames[f]));
   }
   if (!out->close()) return fail("file");
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    return absl::UnavailableError(absl::StrCat(path, ": cannot rename into place: ", ec.message()));
-  }
-  return absl::OkStatus();
+  return CommitTempFile(tmp, path);
 }
 
 absl::StatusOr<CubeExr> ReadCubeExr(const std::string& path, const ImageLimits& limits) {

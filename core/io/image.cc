@@ -1,7 +1,6 @@
 #include "core/io/image.h"
 
 #include <OpenImageIO/imageio.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -15,6 +14,7 @@
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
+#include "core/io/atomic_file.h"
 
 namespace shrm {
 namespace {
@@ -160,23 +160,16 @@ absl::Status WriteAtomically(const std::string& path, const Image& image, const 
                                                    image.width, " x ", image.height, " x ",
                                                    image.channels, ")"));
   }
-  const std::string tmp = absl::StrCat(path, ".tmp-", ::getpid());
+  const std::string tmp = TempPathFor(path);
   auto out = OIIO::ImageOutput::create(format);
   if (!out) return absl::InternalError(absl::StrCat("no OpenImageIO writer for ", format));
   OIIO::ImageSpec spec(image.width, image.height, image.channels, type);
   if (std::string(format) == "openexr") spec.attribute("compression", "zip");
   if (!out->open(tmp, spec) || !out->write_image(pixel_type, pixels) || !out->close()) {
-    std::error_code ec;
-    std::filesystem::remove(tmp, ec);
+    DiscardTempFile(tmp);
     return absl::UnavailableError(absl::StrCat(path, ": cannot write: ", out->geterror()));
   }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    return absl::UnavailableError(absl::StrCat(path, ": cannot rename into place: ", ec.message()));
-  }
-  return absl::OkStatus();
+  return CommitTempFile(tmp, path);
 }
 
 }  // namespace

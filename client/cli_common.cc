@@ -1,0 +1,140 @@
+#include "client/cli_common.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <thread>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
+#include "core/base/cubemap.h"
+#include "core/base/status_macros.h"
+#include "core/envmap/lighting.h"
+#include "core/io/image.h"
+#include "core/io/sha256.h"
+
+namespace shrm::cli {
+
+void AddEnvOptions(CLI::App* app, EnvArgs* args, bool required) {
+  auto* env = app->add_option("--env", args->files,
+                              "environment map file; give six files (+X -X +Y -Y +Z -Z) for a "
+                              "cube stored as faces")
+                  ->expected(1, 6)
+                  ->take_all();
+  if (required) env->required();
+  app->add_option("--layout", args->layout,
+                  "auto, latlong, cube, hcross, vcross, hstrip, vstrip, angular")
+      ->capture_default_str();
+  app->add_option("--colour-space", args->colour_space,
+                  "input colour space (default: lin_rec709 for float files, srgb_texture for "
+                  "8/16-bit)");
+  app->add_option("--working-space", args->working_space, "linear working colour space")
+      ->capture_default_str();
+  app->add_option("--ocio-config", args->ocio_config,
+                  "OpenColorIO config (default: $OCIO, then the built-in config)");
+  app->add_option("--rotate", args->rotate,
+                  "rotate the lighting by yaw,pitch,roll degrees (exactly, in SH space)")
+      ->delimiter(',')
+      ->expected(3);
+  app->add_flag("--replace-non-finite", args->replace_non_finite,
+                "replace NaN/Inf pixels by 0 with a warning (default: reject the map)");
+}
+
+absl::StatusOr<EnvMap> LoadEnv(const EnvArgs& args) {
+  EnvMapOptions opt;
+  opt.paths = args.files;
+  SHRM_ASSIGN_OR_RETURN(opt.layout, ParseEnvLayout(args.layout));
+  opt.input_colour_space = args.colour_space;
+  opt.working_colour_space = args.working_space;
+  opt.colour_config = args.ocio_config;
+  opt.non_finite =
+      args.replace_non_finite ? NonFinitePolicy::kReplaceZero : NonFinitePolicy::kReject;
+  SHRM_ASSIGN_OR_RETURN(EnvMap env, EnvMap::Load(opt));
+  if (env.replaced_non_finite() > 0) {
+    std::fprintf(stderr, "shrm: warning: %lld non-finite values replaced by 0\n",
+                 static_cast<long long>(env.replaced_non_finite()));
+  }
+  return env;
+}
+
+absl::StatusOr<Mat3> EnvRotation(const EnvArgs& args) {
+  if (args.rotate.empty()) return Mat3::Identity();
+  if (args.rotate.size() != 3) {
+    return absl::InvalidArgumentError("--rotate takes yaw,pitch,roll (three numbers, degrees)");
+  }
+  for (double a : args.rotate) {
+    if (!std::isfinite(a)) return absl::InvalidArgumentError("--rotate angles must be finite");
+  }
+  return RotationFromYawPitchRoll(args.rotate[0], args.rotate[1], args.rotate[2]);
+}
+
+absl::StatusOr<std::string> EnvSourceHash(const EnvArgs& args) {
+  std::vector<std::string> hashes;
+  for (const std::string& f : args.files) {
+    SHRM_ASSIGN_OR_RETURN(std::string h, Sha256OfFile(f));
+    hashes.push_back(std::move(h));
+  }
+  if (hashes.size() == 1) return hashes[0];
+  return Sha256Hex(absl::StrJoin(hashes, ","));
+}
+
+absl::StatusOr<Vec3> ParseDirection(const std::string& text, const char* what) {
+  std::vector<std::string> parts = absl::StrSplit(text, ',');
+  double v[3];
+  if (parts.size() != 3 || !absl::SimpleAtod(parts[0], &v[0]) ||
+      !absl::SimpleAtod(parts[1], &v[1]) || !absl::SimpleAtod(parts[2], &v[2])) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(what, " must be three numbers x,y,z, got '", text, "'"));
+  }
+  const Vec3 d{v[0], v[1], v[2]};
+  const double n = d.Norm();
+  if (!std::isfinite(n) || n < 1e-12) {
+    return absl::InvalidArgumentError(absl::StrCat(what, " must be a nonzero finite vector"));
+  }
+  return d * (1.0 / n);
+}
+
+int ResolveThreads(int requested) {
+  return requested > 0 ? requested
+                       : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+Progress::Progress(bool verbose) : enabled_(verbose || ::isatty(2)) {}
+
+void Progress::Begin(const std::string& stage) {
+  stage_ = stage;
+  start_ = std::chrono::steady_clock::now();
+  if (enabled_) std::fprintf(stderr, "[shrm] %-28s ...", stage.c_str());
+}
+
+double Progress::End() {
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count();
+  if (enabled_) std::fprintf(stderr, " %9.1f ms\n", ms);
+  return ms;
+}
+
+absl::Status WriteRadianceCross(const std::string& path, const RadianceCube& cube) {
+  const int s = cube.face_size;
+  Image img;
+  img.width = 4 * s;
+  img.height = 3 * s;
+  img.channels = 3;
+  img.pixels.assign(static_cast<size_t>(img.width) * img.height * 3, 0.0f);
+  // (column, row) cell of each GL face in the horizontal cross.
+  constexpr int kCell[6][2] = {{2, 1}, {0, 1}, {1, 0}, {1, 2}, {1, 1}, {3, 1}};
+  for (int f = 0; f < kCubeFaceCount; ++f)
+    for (int y = 0; y < s; ++y)
+      for (int x = 0; x < s; ++x)
+        for (int c = 0; c < 3; ++c)
+          img.pixels[((static_cast<size_t>(kCell[f][1]) * s + y) * img.width + kCell[f][0] * s +
+                      x) *
+                         3 +
+                     c] = cube.data[cube.Index(f, x, y, std::min(c, cube.channels - 1))];
+  return WriteExr(path, img);
+}
+
+}  // namespace shrm::cli

@@ -1,0 +1,69 @@
+// Shared pieces of the `shrm` subcommands: environment-map options, vector parsing, progress
+// lines, and writing radiance cubes. docs/cli.md documents every option.
+#ifndef SHRM_CLIENT_CLI_COMMON_H_
+#define SHRM_CLIENT_CLI_COMMON_H_
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "core/base/geometry.h"
+#include "core/envmap/envmap.h"
+#include "core/shrm/radiance_cube.h"
+
+namespace shrm::cli {
+
+// Exit codes (docs/cli.md).
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitError = 1;  // bad input, failed computation or output
+inline constexpr int kExitUsage = 2;  // unknown option, missing or malformed argument
+
+struct EnvArgs {
+  std::vector<std::string> files;  // one map, or six cube faces (+X -X +Y -Y +Z -Z)
+  std::string layout = "auto";
+  std::string colour_space;  // "" = from the file's pixel type
+  std::string working_space = "lin_rec709";
+  std::string ocio_config;
+  std::vector<double> rotate;  // yaw, pitch, roll in degrees
+  bool replace_non_finite = false;
+};
+
+// Adds --env (repeatable for six faces), --layout, --colour-space, --working-space,
+// --ocio-config, --rotate, --replace-non-finite.
+void AddEnvOptions(CLI::App* app, EnvArgs* args, bool required);
+absl::StatusOr<EnvMap> LoadEnv(const EnvArgs& args);
+// The --rotate lighting rotation (identity when absent); errors for a wrong count or non-finite.
+absl::StatusOr<Mat3> EnvRotation(const EnvArgs& args);
+// SHA-256 of the input files (one hash, or the hash of the six hashes joined by ',').
+absl::StatusOr<std::string> EnvSourceHash(const EnvArgs& args);
+
+// Parses "x,y,z" into a unit vector; errors name `what` (e.g. "--normal").
+absl::StatusOr<Vec3> ParseDirection(const std::string& text, const char* what);
+
+// Worker threads: `requested` if > 0, else the hardware concurrency.
+int ResolveThreads(int requested);
+
+// Stage lines on stderr ("[shrm] decode ... 12.3 ms") when stderr is a terminal or `verbose`.
+class Progress {
+ public:
+  explicit Progress(bool verbose);
+  void Begin(const std::string& stage);
+  // Ends the current stage; returns its duration in milliseconds.
+  double End();
+
+ private:
+  bool enabled_;
+  std::string stage_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+// Writes a radiance cube as a horizontal-cross EXR (4S x 3S: [. +Y . .] [-X +Z +X -Z]
+// [. -Y . .], GL face orientation, as core/envmap reads it back), atomically.
+absl::Status WriteRadianceCross(const std::string& path, const RadianceCube& cube);
+
+}  // namespace shrm::cli
+
+#endif  // SHRM_CLIENT_CLI_COMMON_H_

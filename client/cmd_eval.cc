@@ -1,0 +1,146 @@
+// `shrm eval` (an SHRM file at one (N, V)), `shrm reference` (brute force over the map's pixels)
+// and `shrm info` (an SHRM file's header).
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "absl/strings/str_cat.h"
+#include "client/cli_common.h"
+#include "client/commands.h"
+#include "client/report.h"
+#include "core/base/status_macros.h"
+#include "core/brdf/brdf.h"
+#include "core/envmap/lighting.h"
+#include "core/shrm/shrm_file.h"
+#include "core/shrm/shrm_reference.h"
+#include "core/shrm/shrm_synthesis.h"
+
+namespace shrm::cli {
+namespace {
+
+struct PointArgs {
+  std::string shrm;
+  EnvArgs env;
+  std::string brdf;
+  std::string normal, view, tangent;
+  int threads = 0;
+  bool json = false;
+};
+
+void PrintRgb(const std::array<double, 3>& rgb, bool json) {
+  if (json) {
+    std::printf("{\"rgb\": [%.9g, %.9g, %.9g]}\n", rgb[0], rgb[1], rgb[2]);
+  } else {
+    std::printf("%.9g %.9g %.9g\n", rgb[0], rgb[1], rgb[2]);
+  }
+}
+
+// The texel-addressing direction and the view: (N or T, V) from the options.
+absl::Status ParseGeometry(const PointArgs& a, bool tangent_index, Vec3* index, Vec3* v) {
+  SHRM_ASSIGN_OR_RETURN(*v, ParseDirection(a.view, "--view"));
+  if (tangent_index) {
+    if (a.tangent.empty()) {
+      return absl::InvalidArgumentError(
+          "this BRDF is indexed by the tangent: give --tangent x,y,z");
+    }
+    SHRM_ASSIGN_OR_RETURN(*index, ParseDirection(a.tangent, "--tangent"));
+    return absl::OkStatus();
+  }
+  if (a.normal.empty()) return absl::InvalidArgumentError("give --normal x,y,z");
+  SHRM_ASSIGN_OR_RETURN(*index, ParseDirection(a.normal, "--normal"));
+  return absl::OkStatus();
+}
+
+absl::Status RunEval(const PointArgs& a) {
+  SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrmFile(a.shrm));
+  Vec3 index, v;
+  SHRM_RETURN_IF_ERROR(ParseGeometry(a, file.cube.index == ReparamKind::kTangent, &index, &v));
+  PrintRgb(ShrmEval(file.cube, index, v), a.json);
+  return absl::OkStatus();
+}
+
+absl::Status RunReference(const PointArgs& a) {
+  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<Brdf> brdf, ParseBrdfSpec(a.brdf));
+  Vec3 index, v;
+  SHRM_RETURN_IF_ERROR(ParseGeometry(a, brdf->reparam() == ReparamKind::kTangent, &index, &v));
+  SHRM_ASSIGN_OR_RETURN(Mat3 rot, EnvRotation(a.env));
+  SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(a.env));
+  // A rotated environment L'(w) = L(R^-1 w): rotate the geometry instead of the samples.
+  const Mat3 inv = rot.Transposed();
+  const Vec3 index_l = inv * index, v_l = inv * v;
+  const Brdf& b = *brdf;
+  const int bc = b.channels();
+  TransferFunction transfer = [&b, bc](const Vec3& n, const Vec3& vv, const Vec3& w, int c) {
+    return b.Transfer(n, vv, w, bc == 1 ? 0 : c);
+  };
+  PrintRgb(ReferenceRadiance(env.samples(), transfer, index_l, v_l), a.json);
+  return absl::OkStatus();
+}
+
+absl::Status RunInfo(const std::string& path, bool json) {
+  SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrmFile(path));
+  const ShrmCube& c = file.cube;
+  double lo = INFINITY, hi = -INFINITY;
+  for (size_t t = 0; t < c.size() / (c.coeff_count() * 3); ++t)
+    for (int ch = 0; ch < 3; ++ch) {
+      const double v = c.data[t * c.coeff_count() * 3 + ch];
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+  if (json) {
+    nlohmann::json j = file.attributes;
+    j["face_size"] = c.face_size;
+    j["coefficients"] = c.coeff_count();
+    j["c00_min"] = lo;
+    j["c00_max"] = hi;
+    std::printf("%s\n", j.dump(2).c_str());
+    return absl::OkStatus();
+  }
+  std::printf("%s: %s SHRM indexed by %s, 6 x %d x %d texels, P = %d (%d coefficients x RGB)\n",
+              path.c_str(), c.kind == ShrmKind::kLocal ? "local" : "global",
+              c.index == ReparamKind::kTangent ? "the tangent" : "the reflection vector",
+              c.face_size, c.face_size, c.pmax, c.coeff_count());
+  std::printf("  c_00 range [%.6g, %.6g]\n", lo, hi);
+  for (const auto& [k, v] : file.attributes) std::printf("  %-20s %s\n", k.c_str(), v.c_str());
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+void RegisterEval(CLI::App& app, absl::Status* status) {
+  auto args = std::make_shared<PointArgs>();
+  CLI::App* sub = app.add_subcommand("eval", "reflected radiance from an SHRM file at one (N, V)");
+  sub->add_option("--shrm", args->shrm, "SHRM file")->required();
+  sub->add_option("--normal", args->normal, "unit normal N as x,y,z (world, +Y up)");
+  sub->add_option("--tangent", args->tangent, "tangent T (Kajiya-Kay SHRMs) as x,y,z");
+  sub->add_option("--view", args->view, "view direction V (towards the viewer) as x,y,z")
+      ->required();
+  sub->add_flag("--json", args->json, "print {\"rgb\": [r, g, b]}");
+  sub->callback([args, status] { *status = RunEval(*args); });
+}
+
+void RegisterReference(CLI::App& app, absl::Status* status) {
+  auto args = std::make_shared<PointArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "reference", "brute-force reflected radiance over the map's pixels at one (N, V)");
+  AddEnvOptions(sub, &args->env, /*required=*/true);
+  sub->add_option("--brdf", args->brdf, "BRDF spec (docs/brdf.md)")->required();
+  sub->add_option("--normal", args->normal, "unit normal N as x,y,z (world, +Y up)");
+  sub->add_option("--tangent", args->tangent, "tangent T (Kajiya-Kay) as x,y,z");
+  sub->add_option("--view", args->view, "view direction V (towards the viewer) as x,y,z")
+      ->required();
+  sub->add_flag("--json", args->json, "print {\"rgb\": [r, g, b]}");
+  sub->callback([args, status] { *status = RunReference(*args); });
+}
+
+void RegisterInfo(CLI::App& app, absl::Status* status) {
+  auto path = std::make_shared<std::string>();
+  auto json = std::make_shared<bool>(false);
+  CLI::App* sub = app.add_subcommand("info", "print an SHRM file's header and sizes");
+  sub->add_option("file", *path, "SHRM file")->required();
+  sub->add_flag("--json", *json, "machine-readable output");
+  sub->callback([path, json, status] { *status = RunInfo(*path, *json); });
+}
+
+}  // namespace shrm::cli

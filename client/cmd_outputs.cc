@@ -1,0 +1,149 @@
+// `shrm render` (the reflection map for one view, eq. 5.35), `shrm explicit` (Cabral's 12 views,
+// Kautz-McCool slices (eq. 5.25), a T_B x T_B view grid) and `shrm irradiance` (Lambertian).
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "client/cli_common.h"
+#include "client/commands.h"
+#include "client/report.h"
+#include "core/base/status_macros.h"
+#include "core/envmap/lighting.h"
+#include "core/sh/sh.h"
+#include "core/shrm/shrm_explicit.h"
+#include "core/shrm/shrm_file.h"
+
+namespace shrm::cli {
+namespace {
+
+struct OutputArgs {
+  std::string shrm;
+  EnvArgs env;
+  std::string view;
+  std::string form = "cabral";
+  int tb = 10;
+  int size = 64;
+  std::string output;
+  int threads = 0;
+  bool json = false;
+};
+
+absl::Status RunRender(const OutputArgs& a) {
+  SHRM_ASSIGN_OR_RETURN(Vec3 v, ParseDirection(a.view, "--view"));
+  SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrmFile(a.shrm));
+  SHRM_ASSIGN_OR_RETURN(RadianceCube map,
+                        ReflectionMapForView(file.cube, v, ResolveThreads(a.threads)));
+  SHRM_RETURN_IF_ERROR(WriteRadianceCross(a.output, map));
+  std::printf("wrote %s: reflection map for view (%.4g, %.4g, %.4g), horizontal cross %d x %d\n",
+              a.output.c_str(), v.x, v.y, v.z, 4 * map.face_size, 3 * map.face_size);
+  return absl::OkStatus();
+}
+
+absl::Status RunExplicit(const OutputArgs& a) {
+  if (a.tb < 1) return absl::InvalidArgumentError("--tb must be >= 1");
+  SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrmFile(a.shrm));
+  const int threads = ResolveThreads(a.threads);
+  std::vector<RadianceCube> maps;
+  if (a.form == "cabral") {
+    SHRM_ASSIGN_OR_RETURN(maps, CabralMaps(file.cube, threads));
+  } else if (a.form == "grid") {
+    SHRM_ASSIGN_OR_RETURN(maps, ViewGridMaps(file.cube, a.tb, threads));
+  } else if (a.form == "kautz-mccool") {
+    if (file.cube.kind != ShrmKind::kLocal) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(a.shrm, ": Kautz-McCool slices need a local SHRM (prefilter --kind local)"));
+    }
+    SHRM_ASSIGN_OR_RETURN(maps, KautzMcCoolSlices(file.cube, a.tb));
+  } else {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--form must be cabral, grid or kautz-mccool, got '", a.form, "'"));
+  }
+  for (size_t i = 0; i < maps.size(); ++i) {
+    SHRM_RETURN_IF_ERROR(WriteRadianceCross(absl::StrCat(a.output, "_", i, ".exr"), maps[i]));
+  }
+  std::printf("wrote %zu maps %s_0.exr .. %s_%zu.exr (%s)\n", maps.size(), a.output.c_str(),
+              a.output.c_str(), maps.size() - 1, a.form.c_str());
+  return absl::OkStatus();
+}
+
+absl::Status RunIrradiance(const OutputArgs& a) {
+  if (a.size < 1) return absl::InvalidArgumentError("--size must be >= 1");
+  SHRM_ASSIGN_OR_RETURN(Mat3 rot, EnvRotation(a.env));
+  SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(a.env));
+  SHRM_ASSIGN_OR_RETURN(std::vector<double> light,
+                        LightingCoefficients(env, 2, rot, ResolveThreads(a.threads)));
+  SHRM_ASSIGN_OR_RETURN(std::vector<double> e9, IrradianceCoefficients(2, 3, light));
+  if (!a.output.empty()) {
+    SHRM_ASSIGN_OR_RETURN(RadianceCube cube, IrradianceCube(e9, 3, a.size));
+    SHRM_RETURN_IF_ERROR(WriteRadianceCross(a.output, cube));
+  }
+  if (a.json) {
+    nlohmann::json j;
+    nlohmann::json co = nlohmann::json::array();
+    for (int l = 0; l <= 2; ++l)
+      for (int m = -l; m <= l; ++m) {
+        const double* c = &e9[static_cast<size_t>(ShIndex(l, m)) * 3];
+        co.push_back({{"l", l}, {"m", m}, {"rgb", {c[0], c[1], c[2]}}});
+      }
+    j["irradiance_coefficients"] = co;
+    if (!a.output.empty()) j["output"] = a.output;
+    std::printf("%s\n", j.dump(2).c_str());
+    return absl::OkStatus();
+  }
+  std::printf("Irradiance E_lm = A_l L_lm (l <= 2; E, not E/pi; real SH, SH frame)\n");
+  std::printf("  %3s %4s %14s %14s %14s\n", "l", "m", "R", "G", "B");
+  for (int l = 0; l <= 2; ++l)
+    for (int m = -l; m <= l; ++m) {
+      const double* c = &e9[static_cast<size_t>(ShIndex(l, m)) * 3];
+      std::printf("  %3d %4d %14.6g %14.6g %14.6g\n", l, m, c[0], c[1], c[2]);
+    }
+  if (!a.output.empty())
+    std::printf("wrote %s (irradiance by normal, horizontal cross)\n", a.output.c_str());
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+void RegisterRender(CLI::App& app, absl::Status* status) {
+  auto args = std::make_shared<OutputArgs>();
+  CLI::App* sub =
+      app.add_subcommand("render", "the reflection map of an SHRM for one view (eq. 5.35)");
+  sub->add_option("--shrm", args->shrm, "SHRM file")->required();
+  sub->add_option("--view", args->view, "view direction V (towards the viewer) as x,y,z")
+      ->required();
+  sub->add_option("-o,--output", args->output, "output EXR (horizontal cross)")->required();
+  sub->add_option("--threads", args->threads, "worker threads (0: all cores)");
+  sub->callback([args, status] { *status = RunRender(*args); });
+}
+
+void RegisterExplicit(CLI::App& app, absl::Status* status) {
+  auto args = std::make_shared<OutputArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "explicit", "explicit reflection maps from an SHRM: Cabral, Kautz-McCool or a view grid");
+  sub->add_option("--shrm", args->shrm, "SHRM file")->required();
+  sub->add_option("--form", args->form,
+                  "cabral (12 icosahedral views), kautz-mccool (T_B "
+                  "slices, local SHRMs) or grid (T_B x T_B views)")
+      ->capture_default_str();
+  sub->add_option("--tb", args->tb, "T_B")->capture_default_str();
+  sub->add_option("-o,--output", args->output, "output prefix: PREFIX_<k>.exr")->required();
+  sub->add_option("--threads", args->threads, "worker threads (0: all cores)");
+  sub->callback([args, status] { *status = RunExplicit(*args); });
+}
+
+void RegisterIrradiance(CLI::App& app, absl::Status* status) {
+  auto args = std::make_shared<OutputArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "irradiance", "Lambertian irradiance: 9 SH coefficients and an irradiance cube map");
+  AddEnvOptions(sub, &args->env, /*required=*/true);
+  sub->add_option("--size", args->size, "cube face size of the irradiance map")
+      ->capture_default_str();
+  sub->add_option("-o,--output", args->output, "output EXR (horizontal cross), optional");
+  sub->add_option("--threads", args->threads, "worker threads (0: all cores)");
+  sub->add_flag("--json", args->json, "machine-readable output");
+  sub->callback([args, status] { *status = RunIrradiance(*args); });
+}
+
+}  // namespace shrm::cli

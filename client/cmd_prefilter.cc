@@ -1,0 +1,214 @@
+// `shrm prefilter`: the SHRM of a map and a BRDF, written as an SHRM file with an optional JSON
+// report and PNG preview (SHRM paper sec. 5.6.2).
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
+#include "client/cli_common.h"
+#include "client/commands.h"
+#include "client/report.h"
+#include "core/base/status_macros.h"
+#include "core/brdf/brdf.h"
+#include "core/io/image.h"
+#include "core/shrm/prefilter.h"
+#include "core/shrm/shrm_file.h"
+#include "core/shrm/shrm_synthesis.h"
+
+namespace shrm::cli {
+namespace {
+
+// Preview: three spheres seen from these directions (front, side, above).
+constexpr int kPreviewSize = 256;
+
+struct PrefilterArgs {
+  EnvArgs env;
+  std::string brdf;
+  double epsilon = 0.03;
+  std::string orders;  // "F,P"
+  std::string kind = "global";
+  int size = 0;
+  std::string output;
+  std::string report;
+  std::string preview;
+  bool half = false;
+  int threads = 0;
+  bool json = false;
+  bool verbose = false;
+};
+
+// Orthographic renders of a unit sphere carrying the SHRM, seen from three views, side by side;
+// exposure chosen so that the mean is mid-grey.
+Image RenderSpheres(const ShrmCube& cube) {
+  const Vec3 views[3] = {{0, 0, 1}, {1, 0, 0}, Vec3{0, 0.7, 0.7}.Normalized()};
+  Image img;
+  img.width = 3 * kPreviewSize;
+  img.height = kPreviewSize;
+  img.channels = 3;
+  img.pixels.assign(static_cast<size_t>(img.width) * img.height * 3, 0.0f);
+  for (int s = 0; s < 3; ++s) {
+    const Vec3 v = views[s];
+    const Vec3 up0 = std::abs(v.y) > 0.99 ? Vec3{0, 0, -1} : Vec3{0, 1, 0};
+    const Vec3 right = up0.Cross(v).Normalized();
+    const Vec3 up = v.Cross(right);
+    for (int y = 0; y < kPreviewSize; ++y)
+      for (int x = 0; x < kPreviewSize; ++x) {
+        const double px = 2 * (x + 0.5) / kPreviewSize - 1, py = 1 - 2 * (y + 0.5) / kPreviewSize;
+        const double r2 = px * px + py * py;
+        if (r2 >= 1) continue;
+        const Vec3 n = right * px + up * py + v * std::sqrt(1 - r2);
+        Vec3 index = n;
+        if (cube.index == ReparamKind::kTangent) {  // hair-like tangents along latitudes
+          const Vec3 t = Vec3{0, 1, 0}.Cross(n);
+          index = t.Norm() > 1e-6 ? t.Normalized() : Vec3{1, 0, 0};
+        }
+        const std::array<double, 3> b = ShrmEval(cube, index, v);
+        for (int c = 0; c < 3; ++c)
+          img.pixels[(static_cast<size_t>(y) * img.width + s * kPreviewSize + x) * 3 + c] =
+              static_cast<float>(b[c]);
+      }
+  }
+  return img;
+}
+
+double AutoExposure(const Image& img) {
+  double sum = 0;
+  size_t n = 0;
+  for (size_t i = 0; i < img.pixels.size(); i += 3) {
+    const double lum =
+        0.2126 * img.pixels[i] + 0.7152 * img.pixels[i + 1] + 0.0722 * img.pixels[i + 2];
+    if (lum > 0) {
+      sum += lum;
+      ++n;
+    }
+  }
+  return n > 0 && sum > 0 ? std::log2(0.18 * n / sum) : 0.0;
+}
+
+absl::Status RunPrefilter(const PrefilterArgs& a) {
+  PrefilterOptions opt;
+  opt.epsilon = a.epsilon;
+  if (a.kind == "global") {
+    opt.kind = ShrmKind::kGlobal;
+  } else if (a.kind == "local") {
+    opt.kind = ShrmKind::kLocal;
+  } else {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--kind must be local or global, got '", a.kind, "'"));
+  }
+  if (!a.orders.empty()) {
+    std::vector<std::string> parts = absl::StrSplit(a.orders, ',');
+    if (parts.size() != 2 || !absl::SimpleAtoi(parts[0], &opt.f) ||
+        !absl::SimpleAtoi(parts[1], &opt.p) || opt.f < 0 || opt.p < 0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--orders must be F,P with F, P >= 0, got '", a.orders, "'"));
+    }
+  }
+  if (a.size < 0) return absl::InvalidArgumentError("--size must be >= 0");
+  if (a.threads < 0) return absl::InvalidArgumentError("--threads must be >= 0");
+  opt.face_size = a.size;
+  opt.threads = ResolveThreads(a.threads);
+
+  Progress progress(a.verbose);
+  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<Brdf> brdf, ParseBrdfSpec(a.brdf));
+  SHRM_ASSIGN_OR_RETURN(opt.rotation, EnvRotation(a.env));
+  progress.Begin("decode");
+  SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(a.env));
+  SHRM_ASSIGN_OR_RETURN(const std::string source_hash, EnvSourceHash(a.env));
+  const double decode_ms = progress.End();
+
+  bool first = true;
+  auto on_stage = [&](std::string_view stage) {
+    if (!first) progress.End();
+    first = false;
+    progress.Begin(std::string(stage));
+  };
+  SHRM_ASSIGN_OR_RETURN(PrefilterResult r, Prefilter(env, *brdf, opt, on_stage));
+  if (!first) progress.End();
+  const ShrmAnalysis& an = r.analysis;
+
+  std::map<std::string, std::string> attrs = {
+      {"shrm:brdf", brdf->spec()},
+      {"shrm:epsilon", a.orders.empty() ? absl::StrCat(a.epsilon) : "explicit orders"},
+      {"shrm:orders", absl::StrCat(an.f_b, ",", an.p_b)},
+      {"shrm:brdf_orders", absl::StrCat(an.f_brdf, ",", an.p_brdf)},
+      {"shrm:eps_light", absl::StrCat(an.eps_light)},
+      {"shrm:eps_brdf", absl::StrCat(an.eps_brdf)},
+      {"shrm:eps_bound", absl::StrCat(an.eps_bound)},
+      {"shrm:source", absl::StrJoin(a.env.files, ",")},
+      {"shrm:source_sha256", source_hash},
+      {"shrm:working_space", a.env.working_space},
+      {"shrm:layout", EnvLayoutName(env.layout())},
+  };
+  if (!a.env.rotate.empty()) attrs["shrm:rotate_ypr_deg"] = absl::StrJoin(a.env.rotate, ",");
+  progress.Begin("write");
+  SHRM_RETURN_IF_ERROR(WriteShrmFile(a.output, r.cube, attrs, a.half));
+  const double write_ms = progress.End();
+
+  nlohmann::json report = AnalysisJson(an);
+  report["output"] = a.output;
+  report["brdf"] = brdf->spec();
+  report["kind"] = a.kind;
+  report["face_size"] = r.cube.face_size;
+  report["source"] = a.env.files;
+  report["source_sha256"] = source_hash;
+  report["layout"] = EnvLayoutName(env.layout());
+  nlohmann::json timings = TimingsJson(r.timings);
+  timings["decode_ms"] = decode_ms;
+  timings["write_ms"] = write_ms;
+  if (!a.preview.empty()) {
+    progress.Begin("preview");
+    const Image spheres = RenderSpheres(r.cube);
+    SHRM_RETURN_IF_ERROR(WritePreviewPng(a.preview, spheres, AutoExposure(spheres)));
+    timings["preview_ms"] = progress.End();
+  }
+  report["timings"] = timings;
+  if (!a.report.empty()) SHRM_RETURN_IF_ERROR(WriteJsonFile(a.report, report));
+  if (a.json) {
+    std::printf("%s\n", report.dump(2).c_str());
+  } else {
+    std::printf("wrote %s: %s SHRM, %d x %d x 6 texels, (F_B, P_B) = (%d, %d)\n", a.output.c_str(),
+                a.kind.c_str(), r.cube.face_size, r.cube.face_size, an.f_b, an.p_b);
+    std::printf("  BRDF %s: (F_rho, P_rho) = (%d, %d), eps_brdf %.4g\n", brdf->spec().c_str(),
+                an.f_brdf, an.p_brdf, an.eps_brdf);
+    std::printf("  lighting: F_L %s, eps_light %.4g; eq. 5.19 bound %.4g\n",
+                an.f_light >= 0 ? std::to_string(an.f_light).c_str() : "not reached", an.eps_light,
+                an.eps_bound);
+    std::printf("  time:");
+    for (const auto& [k, v] : timings.items()) std::printf(" %s %.1f", k.c_str(), v.get<double>());
+    std::printf("\n");
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+void RegisterPrefilter(CLI::App& app, absl::Status* status) {
+  auto args = std::make_shared<PrefilterArgs>();
+  CLI::App* sub = app.add_subcommand("prefilter", "compute the SHRM of a map and a BRDF");
+  AddEnvOptions(sub, &args->env, /*required=*/true);
+  sub->add_option("--brdf", args->brdf, "BRDF spec, e.g. microfacet:sigma=0.2 (docs/brdf.md)")
+      ->required();
+  sub->add_option("--epsilon", args->epsilon, "tolerance for the orders, in (0, 1)")
+      ->capture_default_str();
+  sub->add_option("--orders", args->orders, "explicit orders F,P instead of --epsilon");
+  sub->add_option("--kind", args->kind, "global or local SHRM")->capture_default_str();
+  sub->add_option("--size", args->size, "cube face size S_B (0: about 10 F_B)")
+      ->capture_default_str();
+  sub->add_option("-o,--output", args->output, "output SHRM file (.shrm.exr)")->required();
+  sub->add_option("--report", args->report, "write a JSON report here");
+  sub->add_option("--preview", args->preview, "write a PNG preview (three spheres) here");
+  sub->add_flag("--half", args->half, "store half floats instead of float32");
+  sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
+      ->capture_default_str();
+  sub->add_flag("--json", args->json, "print the report as JSON on stdout");
+  sub->add_flag("--verbose", args->verbose, "stage timings on stderr");
+  sub->callback([args, status] { *status = RunPrefilter(*args); });
+}
+
+}  // namespace shrm::cli

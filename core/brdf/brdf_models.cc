@@ -1,0 +1,249 @@
+#include "core/brdf/brdf_models.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+
+namespace shrm {
+namespace {
+
+// Angle between two unit vectors, accurate near 0: 2 asin(|a - b| / 2).
+double AngleBetween(const Vec3& a, const Vec3& b) {
+  return 2.0 * std::asin(std::min(1.0, (a - b).Norm() * 0.5));
+}
+
+int CeilInt(double x) { return static_cast<int>(std::ceil(x)); }
+
+}  // namespace
+
+// ----- Lambert -----
+
+std::string LambertBrdf::spec() const {
+  return absl::StrCat("lambert:albedo=", FormatSpecNumber(albedo_));
+}
+
+double LambertBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int) const {
+  const double nw = n.Dot(w);
+  if (nw <= 0 || n.Dot(v) <= 0) return 0.0;
+  return albedo_ / kPi * nw;
+}
+
+// ----- Phong (eq. 5.26) -----
+
+std::string PhongBrdf::spec() const { return absl::StrCat("phong:s=", FormatSpecNumber(s_)); }
+
+BrdfBandwidthHint PhongBrdf::bandwidth_hint() const {
+  // Eq. 5.28 at epsilon = 1e-4 plus a margin.
+  return {CeilInt(std::sqrt(9.3 * s_)) + 8, 0};
+}
+
+double PhongBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int) const {
+  const Vec3 r = n * (2.0 * n.Dot(v)) - v;
+  const double rw = r.Dot(w);
+  if (rw <= 0) return 0.0;
+  return (s_ + 1.0) / (2.0 * kPi) * std::pow(rw, s_);
+}
+
+double PhongBrdf::ReparamTransfer(double theta_i, double, double, int) const {
+  const double c = std::cos(theta_i);
+  if (c <= 0) return 0.0;
+  return (s_ + 1.0) / (2.0 * kPi) * std::pow(c, s_);
+}
+
+std::vector<double> PhongRhoExact(double s, int lmax) {
+  std::vector<double> integral(lmax + 1);  // I_l = integral_0^1 x^s P_l(x) dx
+  for (int l = 0; l <= lmax; ++l) {
+    if (l == 0) {
+      integral[l] = 1.0 / (s + 1.0);
+    } else if (l == 1) {
+      integral[l] = 1.0 / (s + 2.0);
+    } else {
+      integral[l] = (s - l + 2.0) / (s + l + 1.0) * integral[l - 2];
+    }
+  }
+  std::vector<double> rho(lmax + 1);
+  for (int l = 0; l <= lmax; ++l) {
+    rho[l] = (s + 1.0) * std::sqrt((2.0 * l + 1.0) / (4.0 * kPi)) * integral[l];
+  }
+  return rho;
+}
+
+std::vector<double> PhongRhoEq527(double s, int lmax) {
+  std::vector<double> rho(lmax + 1);
+  for (int l = 0; l <= lmax; ++l) {
+    rho[l] = std::sqrt((2.0 * l + 1.0) / (4.0 * kPi)) * std::exp(-l * l / (2.0 * s));
+  }
+  return rho;
+}
+
+double PhongOrderEq528(double s, double epsilon) { return std::sqrt(-s * std::log(epsilon)); }
+
+int PhongOrderExact(double s, double epsilon) {
+  const double total = (s + 1.0) * (s + 1.0) / (2.0 * kPi * (2.0 * s + 1.0));
+  int lmax = 16;
+  while (true) {
+    const std::vector<double> rho = PhongRhoExact(s, lmax);
+    double sum = 0;
+    for (int l = 0; l <= lmax; ++l) {
+      sum += rho[l] * rho[l];
+      if (sum >= (1.0 - epsilon) * total) return l;
+    }
+    lmax *= 2;
+  }
+}
+
+// ----- Simplified microfacet (eq. 5.34) -----
+
+std::string MicrofacetBrdf::spec() const {
+  return absl::StrCat("microfacet:sigma=", FormatSpecNumber(sigma_));
+}
+
+BrdfBandwidthHint MicrofacetBrdf::bandwidth_hint() const { return {CeilInt(3.5 / sigma_) + 8, 6}; }
+
+double MicrofacetBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int) const {
+  if (n.Dot(w) <= 0 || n.Dot(v) <= 0) return 0.0;
+  const Vec3 h_sum = v + w;
+  const double len = h_sum.Norm();
+  if (len <= 0) return 0.0;
+  const double theta_h = AngleBetween(n, h_sum * (1.0 / len)) / sigma_;
+  return std::exp(-theta_h * theta_h) / (4.0 * kPi * sigma_ * sigma_);
+}
+
+double MicrofacetBrdf::ReparamTransfer(double theta_i, double theta_o, double phi, int) const {
+  // N = (sin(t_o/2), 0, cos(t_o/2)), V = (sin t_o, 0, cos t_o), w from (t_i, phi).
+  const double ci = std::cos(theta_i), si = std::sin(theta_i);
+  const double ch = std::cos(0.5 * theta_o), sh = std::sin(0.5 * theta_o);
+  const double cp = std::cos(phi), sp = std::sin(phi);
+  const Vec3 n{sh, 0.0, ch};
+  const Vec3 w{si * cp, si * sp, ci};
+  if (n.Dot(w) <= 0) return 0.0;
+  const Vec3 v{2.0 * sh * ch, 0.0, ch * ch - sh * sh};
+  const Vec3 h_sum = v + w;
+  const double len = h_sum.Norm();
+  if (len <= 0) return 0.0;
+  const double theta_h = AngleBetween(n, h_sum * (1.0 / len)) / sigma_;
+  return std::exp(-theta_h * theta_h) / (4.0 * kPi * sigma_ * sigma_);
+}
+
+// ----- Lafortune -----
+
+std::string LafortuneBrdf::spec() const {
+  std::string out = "lafortune:";
+  bool first = true;
+  if (rho_d_ != 0 || lobes_.empty()) {
+    absl::StrAppend(&out, "rho_d=", FormatSpecNumber(rho_d_));
+    first = false;
+  }
+  for (const LafortuneLobe& lobe : lobes_) {
+    if (!first) out += ";";
+    first = false;
+    absl::StrAppend(&out, "cx=", FormatSpecNumber(lobe.cxy), ",cy=", FormatSpecNumber(lobe.cxy),
+                    ",cz=", FormatSpecNumber(lobe.cz), ",n=", FormatSpecNumber(lobe.n),
+                    ",rho=", FormatSpecNumber(lobe.rho));
+  }
+  return out;
+}
+
+BrdfBandwidthHint LafortuneBrdf::bandwidth_hint() const {
+  double nmax = 1;
+  for (const LafortuneLobe& lobe : lobes_) nmax = std::max(nmax, lobe.n);
+  return {CeilInt(std::sqrt(9.3 * nmax)) + 8, 8};
+}
+
+double LafortuneBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int) const {
+  const double nw = n.Dot(w), nv = n.Dot(v);
+  if (nw <= 0 || nv <= 0) return 0.0;
+  double f = rho_d_ / kPi;
+  const double tangential = w.Dot(v) - nw * nv;  // u_x v_x + u_y v_y
+  for (const LafortuneLobe& lobe : lobes_) {
+    const double d = lobe.cxy * tangential + lobe.cz * nw * nv;
+    if (d > 0) f += lobe.rho * std::pow(d, lobe.n);
+  }
+  return f * nw;
+}
+
+// ----- Ward -----
+
+std::string WardBrdf::spec() const {
+  return absl::StrCat("ward:alpha=", FormatSpecNumber(alpha_), ",rho_s=", FormatSpecNumber(rho_s_),
+                      ",rho_d=", FormatSpecNumber(rho_d_));
+}
+
+BrdfBandwidthHint WardBrdf::bandwidth_hint() const { return {CeilInt(3.5 / alpha_) + 8, 6}; }
+
+double WardBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int) const {
+  const double nw = n.Dot(w), nv = n.Dot(v);
+  if (nw <= 0 || nv <= 0) return 0.0;
+  const Vec3 h_sum = v + w;
+  const double nh2 = n.Dot(h_sum) * n.Dot(h_sum) / h_sum.Dot(h_sum);
+  const double tan2 = (1.0 - nh2) / nh2;
+  const double a2 = alpha_ * alpha_;
+  const double f =
+      rho_d_ / kPi + rho_s_ * std::exp(-tan2 / a2) / (4.0 * kPi * a2 * std::sqrt(nw * nv));
+  return f * nw;
+}
+
+// ----- GGX -----
+
+std::string GgxBrdf::spec() const {
+  return absl::StrCat("ggx:alpha=", FormatSpecNumber(alpha_), ",f0=", FormatSpecNumber(f0_));
+}
+
+BrdfBandwidthHint GgxBrdf::bandwidth_hint() const { return {CeilInt(5.0 / alpha_) + 8, 6}; }
+
+double GgxBrdf::Evaluate(const Vec3& n, const Vec3& v, const Vec3& w) const {
+  const double nw = n.Dot(w), nv = n.Dot(v);
+  if (nw <= 0 || nv <= 0) return 0.0;
+  const Vec3 h = (v + w).Normalized();
+  const double nh = n.Dot(h), vh = std::max(0.0, v.Dot(h));
+  const double a2 = alpha_ * alpha_;
+  const double den = nh * nh * (a2 - 1.0) + 1.0;
+  const double d = a2 / (kPi * den * den);
+  const auto lambda = [a2](double c) {
+    return 0.5 * (std::sqrt(1.0 + a2 * (1.0 - c * c) / (c * c)) - 1.0);
+  };
+  const double g = 1.0 / (1.0 + lambda(nv) + lambda(nw));
+  const double f = f0_ + (1.0 - f0_) * std::pow(1.0 - vh, 5);
+  return f * d * g / (4.0 * nw * nv);
+}
+
+double GgxBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int) const {
+  const double nw = n.Dot(w);
+  if (nw <= 0) return 0.0;
+  return Evaluate(n, v, w) * nw;
+}
+
+// ----- Kajiya-Kay -----
+
+KajiyaKayBrdf::KajiyaKayBrdf(double s) : s_(s) {
+  // 1 / (2 pi integral_0^pi sin^{s+1} t dt), integral = sqrt(pi) Gamma(s/2 + 1) / Gamma(s/2 + 3/2).
+  norm_ = std::exp(std::lgamma(0.5 * s + 1.5) - std::lgamma(0.5 * s + 1.0)) /
+          (2.0 * kPi * std::sqrt(kPi));
+}
+
+std::string KajiyaKayBrdf::spec() const {
+  return absl::StrCat("kajiya-kay:s=", FormatSpecNumber(s_));
+}
+
+BrdfBandwidthHint KajiyaKayBrdf::bandwidth_hint() const {
+  const int l = CeilInt(std::sqrt(9.3 * s_)) + 8;
+  return {l, l};
+}
+
+double KajiyaKayBrdf::Transfer(const Vec3& t, const Vec3& v, const Vec3& w, int) const {
+  const double ci = t.Dot(w), co = t.Dot(v);
+  const double si = std::sqrt(std::max(0.0, 1.0 - ci * ci));
+  const double so = std::sqrt(std::max(0.0, 1.0 - co * co));
+  const double c = ci * co + si * so;  // cos(theta_i' - theta_o')
+  if (c <= 0) return 0.0;
+  return norm_ * std::pow(c, s_);
+}
+
+double KajiyaKayBrdf::ReparamTransfer(double theta_i, double theta_o, double, int) const {
+  const double c = std::cos(theta_i - theta_o);
+  if (c <= 0) return 0.0;
+  return norm_ * std::pow(c, s_);
+}
+
+}  // namespace shrm

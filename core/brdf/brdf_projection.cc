@@ -1,0 +1,379 @@
+#include "core/brdf/brdf_projection.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "core/sh/quadrature.h"
+#include "core/sh/sh.h"
+
+namespace shrm {
+namespace {
+
+constexpr int kRadialPanelOrder = 10;
+constexpr int kDefaultEnergyPanelOrder = 8;
+
+struct Rule1D {
+  std::vector<double> x, w;
+};
+
+// Gauss-Legendre on [a, b] (nodes increasing).
+Rule1D GaussOn(const RingQuadrature& gl, double a, double b) {
+  Rule1D r;
+  const int n = static_cast<int>(gl.cos_theta.size());
+  r.x.resize(n);
+  r.w.resize(n);
+  for (int j = 0; j < n; ++j) {
+    // gl.cos_theta decreases with j; flip so x increases.
+    const double t = gl.cos_theta[n - 1 - j];
+    r.x[j] = a + (b - a) * 0.5 * (1.0 + t);
+    r.w[j] = (b - a) * 0.5 * gl.weight[n - 1 - j];
+  }
+  return r;
+}
+
+// Composite Gauss-Legendre in theta over [0, pi] with the sin(theta) weight folded in:
+// sum w_j g(theta_j) ~ integral_0^pi g(theta) sin(theta) dtheta.
+Rule1D SinPanels(int panels, int order) {
+  const RingQuadrature gl = GaussLegendreRule(order);
+  Rule1D r;
+  for (int p = 0; p < panels; ++p) {
+    const Rule1D panel = GaussOn(gl, kPi * p / panels, kPi * (p + 1) / panels);
+    for (size_t j = 0; j < panel.x.size(); ++j) {
+      r.x.push_back(panel.x[j]);
+      r.w.push_back(panel.w[j] * std::sin(panel.x[j]));
+    }
+  }
+  return r;
+}
+
+// End of the visible azimuth arc [0, phi*] where N.w > 0, N = (sin(t_o/2), 0, cos(t_o/2)):
+// cos t_i cos(t_o/2) + sin t_i sin(t_o/2) cos phi > 0.
+double VisibleArc(double cos_i, double sin_i, double theta_o) {
+  const double a = cos_i * std::cos(0.5 * theta_o);
+  const double b = sin_i * std::sin(0.5 * theta_o);
+  if (b <= 1e-300) return a > 0 ? kPi : 0.0;
+  const double c0 = -a / b;
+  if (c0 <= -1.0) return kPi;
+  if (c0 >= 1.0) return 0.0;
+  return std::acos(c0);
+}
+
+// Azimuthal integrals of rho-hat (or rho-hat^2) at one (theta_i, theta_o).
+class AzimuthRule {
+ public:
+  AzimuthRule(const Brdf& brdf, int n_phi, int qmax)
+      : brdf_(brdf),
+        channels_(brdf.channels()),
+        qmax_(qmax),
+        n_phi_(n_phi),
+        clipped_(brdf.clipped_at_normal_horizon() && brdf.reparam() == ReparamKind::kReflection),
+        flat_(brdf.azimuth_independent()),
+        gl_(GaussLegendreRule(n_phi)),
+        values_(channels_),
+        cosq_(qmax + 1) {
+    if (!clipped_ && !flat_) {
+      // Trapezoid on 2 n_phi nodes of the circle, folded onto k = 0..n_phi (even function).
+      for (int k = 0; k <= n_phi; ++k) {
+        uniform_phi_.push_back(kPi * k / n_phi);
+        uniform_w_.push_back((k == 0 || k == n_phi ? 1.0 : 2.0) / (2.0 * n_phi));
+      }
+    }
+  }
+
+  // cq[q * channels + c] = (1/2pi) integral rho-hat cos(q phi) dphi, q = 0..qmax.
+  void Cosines(double theta_i, double cos_i, double sin_i, double theta_o, double* cq) {
+    std::fill(cq, cq + (qmax_ + 1) * channels_, 0.0);
+    if (flat_) {
+      brdf_.ReparamTransferAll(theta_i, theta_o, 0.0, values_.data());
+      for (int c = 0; c < channels_; ++c) cq[c] = values_[c];
+      return;
+    }
+    if (clipped_) {
+      const double arc = VisibleArc(cos_i, sin_i, theta_o);
+      if (arc <= 0) return;
+      for (int m = 0; m < n_phi_; ++m) {
+        const double t = gl_.cos_theta[m];
+        const double phi = arc * 0.5 * (1.0 + t);
+        // (1/2pi) * 2 (even) * arc/2 * w_m
+        Accumulate(theta_i, theta_o, phi, arc * 0.5 * gl_.weight[m] / kPi, cq);
+      }
+      return;
+    }
+    for (size_t k = 0; k < uniform_phi_.size(); ++k) {
+      Accumulate(theta_i, theta_o, uniform_phi_[k], uniform_w_[k], cq);
+    }
+  }
+
+  // out[c] = integral_0^pi rho-hat^2 dphi.
+  void Squares(double theta_i, double cos_i, double sin_i, double theta_o, double* out) {
+    std::fill(out, out + channels_, 0.0);
+    if (flat_) {
+      brdf_.ReparamTransferAll(theta_i, theta_o, 0.0, values_.data());
+      for (int c = 0; c < channels_; ++c) out[c] = kPi * values_[c] * values_[c];
+      return;
+    }
+    if (clipped_) {
+      const double arc = VisibleArc(cos_i, sin_i, theta_o);
+      if (arc <= 0) return;
+      for (int m = 0; m < n_phi_; ++m) {
+        const double phi = arc * 0.5 * (1.0 + gl_.cos_theta[m]);
+        brdf_.ReparamTransferAll(theta_i, theta_o, phi, values_.data());
+        const double w = arc * 0.5 * gl_.weight[m];
+        for (int c = 0; c < channels_; ++c) out[c] += w * values_[c] * values_[c];
+      }
+      return;
+    }
+    for (size_t k = 0; k < uniform_phi_.size(); ++k) {
+      brdf_.ReparamTransferAll(theta_i, theta_o, uniform_phi_[k], values_.data());
+      const double w = uniform_w_[k] * 2.0 * kPi / 2.0;  // (2 pi)-normalized weights -> [0, pi]
+      for (int c = 0; c < channels_; ++c) out[c] += w * values_[c] * values_[c];
+    }
+  }
+
+ private:
+  void Accumulate(double theta_i, double theta_o, double phi, double weight, double* cq) {
+    brdf_.ReparamTransferAll(theta_i, theta_o, phi, values_.data());
+    const double c1 = std::cos(phi);
+    cosq_[0] = 1.0;
+    if (qmax_ >= 1) cosq_[1] = c1;
+    for (int q = 2; q <= qmax_; ++q) cosq_[q] = 2.0 * c1 * cosq_[q - 1] - cosq_[q - 2];
+    for (int q = 0; q <= qmax_; ++q) {
+      const double wq = weight * cosq_[q];
+      for (int c = 0; c < channels_; ++c) cq[q * channels_ + c] += wq * values_[c];
+    }
+  }
+
+  const Brdf& brdf_;
+  const int channels_, qmax_, n_phi_;
+  const bool clipped_, flat_;
+  const RingQuadrature gl_;
+  std::vector<double> uniform_phi_, uniform_w_;
+  std::vector<double> values_, cosq_;
+};
+
+int Or(int value, int fallback) { return value > 0 ? value : fallback; }
+
+absl::Status CheckSampling(const BrdfSampling& s) {
+  const int values[] = {s.theta_i,
+                        s.theta_o,
+                        s.phi,
+                        s.radial_panels,
+                        s.energy_panels_i,
+                        s.energy_panels_o,
+                        s.energy_panel_order,
+                        s.energy_phi};
+  for (int v : values) {
+    if (v < 0 || v > 1 << 14) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("BrdfSampling: sizes must be in [0, 16384] (0 = default), got ", v));
+    }
+  }
+  return absl::OkStatus();
+}
+
+void RadialCoefficients(const Brdf& brdf, int lmax, const BrdfSampling& s, BrdfCoefficients* out) {
+  const int channels = brdf.channels();
+  const int sharp = brdf.bandwidth_hint().lmax;  // the lobe's own bandwidth
+  int panels = Or(s.radial_panels, std::max({128, 2 * lmax, 2 * sharp}));
+  panels += panels % 2;  // pi/2 (the horizon of a hemispherical lobe) on a panel edge
+  const Rule1D rule = SinPanels(panels, kRadialPanelOrder);
+  std::vector<double> rho((lmax + 1) * channels, 0.0);
+  std::vector<double> values(channels);
+  for (size_t j = 0; j < rule.x.size(); ++j) {
+    brdf.ReparamTransferAll(rule.x[j], 0.0, 0.0, values.data());
+    // lambda_l^0 = sqrt((2l + 1)/(4 pi)) P_l(x), P_l by Bonnet's recurrence (m = 0 only).
+    const double x = std::cos(rule.x[j]);
+    double p_prev = 1.0, p = x;
+    for (int l = 0; l <= lmax; ++l) {
+      double pl = 1.0;
+      if (l == 1) {
+        pl = x;
+      } else if (l >= 2) {
+        pl = ((2.0 * l - 1.0) * x * p - (l - 1.0) * p_prev) / l;
+        p_prev = p;
+        p = pl;
+      }
+      const double a = 2.0 * kPi * rule.w[j] * std::sqrt((2.0 * l + 1.0) / (4.0 * kPi)) * pl;
+      for (int c = 0; c < channels; ++c) rho[l * channels + c] += a * values[c];
+    }
+  }
+  for (int l = 0; l <= lmax; ++l) {
+    for (int c = 0; c < channels; ++c) {
+      out->values[out->Index(l, 0, 0, c)] = std::sqrt(4.0 * kPi) * rho[l * channels + c];
+    }
+  }
+}
+
+void SeparableCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling& s,
+                           BrdfCoefficients* out) {
+  const int channels = brdf.channels();
+  const int qmax = pmax;
+  const int sharp = brdf.bandwidth_hint().lmax;  // the lobe's own bandwidth
+  const int n_i = Or(s.theta_i, std::max({4 * lmax, 64, 3 * sharp}));
+  const int n_o = Or(s.theta_o, std::max(4 * pmax + 16, 48));
+  const int n_phi = Or(s.phi, std::max(2 * pmax + 24, 32));
+  const RingQuadrature ri = GaussLegendreRule(n_i);
+  const RingQuadrature ro = GaussLegendreRule(n_o);
+  const int nl = lmax + 1, np = pmax + 1, nq = qmax + 1;
+
+  // lambda_l^q(cos theta) for q <= qmax only: lam_i[(j * nq + q) * nl + l].
+  std::vector<double> table(LegendreCount(std::max(lmax, pmax)));
+  std::vector<double> lam_i(static_cast<size_t>(n_i) * nq * nl, 0.0);
+  for (int j = 0; j < n_i; ++j) {
+    NormalizedLegendre(lmax, ri.cos_theta[j], ri.sin_theta[j], table);
+    for (int q = 0; q <= qmax; ++q) {
+      for (int l = q; l <= lmax; ++l) lam_i[(j * nq + q) * nl + l] = table[LegendreIndex(l, q)];
+    }
+  }
+  std::vector<double> lam_o(static_cast<size_t>(n_o) * nq * np, 0.0);
+  for (int k = 0; k < n_o; ++k) {
+    NormalizedLegendre(pmax, ro.cos_theta[k], ro.sin_theta[k], table);
+    for (int q = 0; q <= qmax; ++q) {
+      for (int p = q; p <= pmax; ++p) lam_o[(k * nq + q) * np + p] = table[LegendreIndex(p, q)];
+    }
+  }
+
+  AzimuthRule azimuth(brdf, n_phi, qmax);
+  std::vector<double> cq(nq * channels);
+  std::vector<double> acc(static_cast<size_t>(channels) * nq * nl);  // [(c * nq + q) * nl + l]
+  const double scale = 4.0 * kPi * kPi;
+  for (int k = 0; k < n_o; ++k) {
+    std::fill(acc.begin(), acc.end(), 0.0);
+    for (int j = 0; j < n_i; ++j) {
+      azimuth.Cosines(ri.theta[j], ri.cos_theta[j], ri.sin_theta[j], ro.theta[k], cq.data());
+      for (int q = 0; q <= qmax; ++q) {
+        const double* lam = &lam_i[(j * nq + q) * nl];
+        for (int c = 0; c < channels; ++c) {
+          const double a = ri.weight[j] * cq[q * channels + c];
+          if (a == 0) continue;
+          double* dst = &acc[(c * nq + q) * nl];
+          for (int l = q; l <= lmax; ++l) dst[l] += a * lam[l];
+        }
+      }
+    }
+    for (int q = 0; q <= qmax; ++q) {
+      for (int p = q; p <= pmax; ++p) {
+        const double b = scale * ro.weight[k] * lam_o[(k * nq + q) * np + p];
+        for (int c = 0; c < channels; ++c) {
+          const double* src = &acc[(c * nq + q) * nl];
+          for (int l = q; l <= lmax; ++l) out->values[out->Index(l, p, q, c)] += b * src[l];
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<double> BrdfEnergy(const Brdf& brdf, int lmax_hint, const BrdfSampling& s) {
+  const int channels = brdf.channels();
+  std::vector<double> energy(channels, 0.0);
+  std::vector<double> values(channels);
+  const int order = Or(s.energy_panel_order, kDefaultEnergyPanelOrder);
+  if (brdf.radially_symmetric()) {
+    int panels =
+        Or(s.energy_panels_i, std::max({256, 4 * lmax_hint, 4 * brdf.bandwidth_hint().lmax}));
+    panels += panels % 2;
+    const Rule1D rule = SinPanels(panels, order);
+    for (size_t j = 0; j < rule.x.size(); ++j) {
+      brdf.ReparamTransferAll(rule.x[j], 0.0, 0.0, values.data());
+      for (int c = 0; c < channels; ++c) energy[c] += rule.w[j] * values[c] * values[c];
+    }
+    // integral over w_o' (4 pi) times 2 pi integral rho-hat^2 sin t dt (eq. 5.17).
+    for (double& e : energy) e *= 8.0 * kPi * kPi;
+    return energy;
+  }
+  int panels_i = Or(s.energy_panels_i, std::max({48, lmax_hint, brdf.bandwidth_hint().lmax}));
+  panels_i += panels_i % 2;
+  const Rule1D ri = SinPanels(panels_i, order);
+  const Rule1D ro = SinPanels(Or(s.energy_panels_o, 12), order);
+  AzimuthRule azimuth(brdf, Or(s.energy_phi, 32), 0);
+  std::vector<double> sq(channels);
+  for (size_t k = 0; k < ro.x.size(); ++k) {
+    for (size_t j = 0; j < ri.x.size(); ++j) {
+      azimuth.Squares(ri.x[j], std::cos(ri.x[j]), std::sin(ri.x[j]), ro.x[k], sq.data());
+      const double w = ro.w[k] * ri.w[j];
+      for (int c = 0; c < channels; ++c) energy[c] += w * sq[c];
+    }
+  }
+  // 2 pi (phi_o') * 2 (phi over [0, pi] only, rho-hat even) = 4 pi (eq. 5.18).
+  for (double& e : energy) e *= 4.0 * kPi;
+  return energy;
+}
+
+absl::StatusOr<BrdfCoefficients> ComputeBrdfCoefficients(const Brdf& brdf, int lmax, int pmax,
+                                                         const BrdfSampling& sampling) {
+  if (lmax < 0 || lmax > kMaxBrdfLmax) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("brdf coefficients: lmax = ", lmax, " out of range [0, ", kMaxBrdfLmax, "]"));
+  }
+  if (pmax < 0 || pmax > kMaxBrdfPmax) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("brdf coefficients: pmax = ", pmax, " out of range [0, ", kMaxBrdfPmax, "]"));
+  }
+  if (absl::Status st = CheckSampling(sampling); !st.ok()) return st;
+  BrdfCoefficients out;
+  out.lmax = lmax;
+  out.pmax = pmax;
+  out.channels = brdf.channels();
+  out.reparam = brdf.reparam();
+  out.values.assign(static_cast<size_t>(lmax + 1) * (pmax + 1) * (pmax + 1) * out.channels, 0.0);
+  if (brdf.radially_symmetric()) {
+    RadialCoefficients(brdf, lmax, sampling, &out);
+  } else {
+    SeparableCoefficients(brdf, lmax, pmax, sampling, &out);
+  }
+  out.total_energy = BrdfEnergy(brdf, lmax, sampling);
+  return out;
+}
+
+absl::StatusOr<BrdfOrders> SelectBrdfOrders(const Brdf& brdf, double epsilon,
+                                            const BrdfOrderOptions& options) {
+  if (!(epsilon > 0 && epsilon < 1)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("SelectBrdfOrders: epsilon = ", epsilon, " must be in (0, 1)"));
+  }
+  const int max_f = std::min(options.max_fmax, kMaxBrdfLmax);
+  const int max_p = brdf.radially_symmetric() ? 0 : std::min(options.max_pmax, kMaxBrdfPmax);
+  if (max_f < 1 || max_p < 0) {
+    return absl::InvalidArgumentError("SelectBrdfOrders: max_fmax must be >= 1, max_pmax >= 0");
+  }
+  const BrdfBandwidthHint hint = brdf.bandwidth_hint();
+  int fmax = std::clamp(options.initial_fmax > 0 ? options.initial_fmax : hint.lmax, 1, max_f);
+  int pmax = std::clamp(options.initial_pmax >= 0 ? options.initial_pmax : hint.pmax, 0, max_p);
+  const double target = 1.0 - epsilon;
+  BrdfOrders result;
+  result.epsilon = epsilon;
+  while (true) {
+    absl::StatusOr<BrdfCoefficients> coeffs =
+        ComputeBrdfCoefficients(brdf, fmax, pmax, options.sampling);
+    if (!coeffs.ok()) return coeffs.status();
+    const double captured = CapturedFraction(*coeffs, fmax, pmax);
+    if (captured >= target) {
+      result.coefficients = *std::move(coeffs);
+      break;
+    }
+    if (fmax >= max_f && pmax >= max_p) {
+      return absl::OutOfRangeError(absl::StrCat(
+          "SelectBrdfOrders: ", brdf.spec(), " captures only ", captured,
+          " < 1 - epsilon = ", target, " at F = ", fmax, ", P = ", pmax, " (the limits)"));
+    }
+    fmax = std::min(2 * fmax, max_f);
+    pmax = std::min(pmax + std::max(4, pmax / 2), max_p);
+  }
+  result.fmax = fmax;
+  result.pmax = pmax;
+  const BrdfCoefficients& c = result.coefficients;
+  int P = 0;
+  while (P < pmax && CapturedFraction(c, fmax, P) < target) ++P;
+  int F = 0;
+  while (F < fmax && CapturedFraction(c, F, P) < target) ++F;
+  result.F = F;
+  result.P = P;
+  result.captured = CapturedFraction(c, F, P);
+  return result;
+}
+
+}  // namespace shrm

@@ -1,0 +1,25 @@
+// Atomic output: every file shrm writes goes to a temporary name in the destination's folder and
+// is renamed over the destination only when complete, so a failed run never leaves a partial or
+// corrupted output (and never destroys an existing one).
+#ifndef SHRM_CORE_IO_ATOMIC_FILE_H_
+#define SHRM_CORE_IO_ATOMIC_FILE_H_
+
+#include <string>
+#include <string_view>
+
+#include "absl/status/status.h"
+
+namespace shrm {
+
+// "<path>.tmp-<pid>": same folder (so the rename is atomic), unique per process.
+std::string TempPathFor(const std::string& path);
+// Renames `tmp` over `path`; on failure removes `tmp` and returns Unavailable naming `path`.
+absl::Status CommitTempFile(const std::string& tmp, const std::string& path);
+// Removes `tmp` if it exists (after a failed write).
+void DiscardTempFile(const std::string& tmp);
+// Writes `bytes` to `path` atomically.
+absl::Status WriteFileAtomically(const std::string& path, std::string_view bytes);
+
+}  // namespace shrm
+
+#endif  // SHRM_CORE_IO_ATOMIC_FILE_H_

@@ -1,0 +1,161 @@
+// SHRM synthesis (Ramamoorthi & Hanrahan, "Frequency Space Environment Map Rendering"):
+//   eq. 5.7 / step 2 of sec. 5.6.2: B_lmpq = L_lm rho_lpq (no Lambda_l with the conventions of
+//            docs/conventions.md and docs/shrm.md; fused into the synthesis);
+//   eqs. 5.23-5.24: the local SHRM, separable: a Wigner-d sum over l on an equiangular alpha grid,
+//            then an FFT over m for beta,
+//              B_mpq(alpha) = sum_l L_lm rho_lpq d^l_mq(alpha),
+//              B_pq(alpha, beta) = sum_m e^{i m beta} B_mpq(alpha);
+//   eq. 5.14: the global SHRM, B^_ps = sum_q B_pq D^p_sq(Rot), Rot = Rz(beta) Ry(alpha); on the
+//            grid it is the same FFT with shifted frequencies:
+//              B^_ps(alpha, beta) = sum_m e^{i (m - s) beta} sum_q d^p_sq(alpha) B_mpq(alpha);
+//   eqs. 5.10-5.11: evaluation, B(R, V) = sum B_pq Y_pq(Rot^T V) (local) = sum B^_pq Y_pq(V)
+//            (global), V in the SH frame.
+// (alpha, beta) are the SH angles (docs/conventions.md) of the texel direction R (the reflection
+// vector; the tangent T for ReparamKind::kTangent, where only q = 0 terms exist).
+// Outputs are real SH per texel (ComplexToReal of the complex per-texel expansion), float
+// storage, double accumulation. Design notes (grid size, interpolation, poles): docs/shrm.md.
+#ifndef SHRM_CORE_SHRM_SHRM_SYNTHESIS_H_
+#define SHRM_CORE_SHRM_SHRM_SYNTHESIS_H_
+
+#include <array>
+#include <complex>
+#include <span>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "core/base/geometry.h"
+#include "core/brdf/brdf_coefficients.h"
+#include "core/shrm/shrm_map.h"
+
+namespace shrm {
+
+// Wigner small-d columns d^l_{mq}(alpha) for |q| <= qmax only (the SHRM needs |q| <= P << F),
+// all 0 <= l <= lmax, |m| <= l, by the three-term recurrence in l (core/sh/wigner.h) started from
+// the closed form at l = max(|m|, |q|). Cost O(lmax^2 qmax). alpha may be any real number.
+// Layout: out[WignerColumnIndex(lmax, qmax, l, m, q)], zero where l < max(|m|, |q|);
+// out.size() >= WignerColumnCount(lmax, qmax). Preconditions (assert): 0 <= qmax <= lmax.
+constexpr size_t WignerColumnIndex(int lmax, int qmax, int l, int m, int q) {
+  return (static_cast<size_t>(q + qmax) * (2 * lmax + 1) + (m + lmax)) * (lmax + 1) + l;
+}
+constexpr size_t WignerColumnCount(int lmax, int qmax) {
+  return static_cast<size_t>(2 * qmax + 1) * (2 * lmax + 1) * (lmax + 1);
+}
+void WignerColumns(int lmax, int qmax, double alpha, std::span<double> out);
+// The same with the recurrence coefficients and start normalizations precomputed (independent of
+// alpha); Compute() is const and thread-safe.
+class WignerColumnTables {
+ public:
+  WignerColumnTables(int lmax, int qmax);
+  void Compute(double alpha, std::span<double> out) const;
+
+ private:
+  int lmax_, qmax_;
+  std::vector<double> a_, c_, shift_;  // per (q, m, l), WignerColumnIndex layout
+  std::vector<double> start_;          // sqrt of the binomial of the closed-form start, per (q, m)
+};
+
+// SH angles (alpha, beta) of a world direction (SH frame pole +Y): alpha in [0, pi],
+// beta in (-pi, pi]. The local frame is Rot = Rz(beta) Ry(alpha) (SH frame).
+void ShrmAnglesFromWorld(const Vec3& world_dir, double* alpha, double* beta);
+// Rot = Rz(beta) Ry(alpha) as a matrix acting on SH-frame vectors.
+Mat3 ShrmLocalFrame(double alpha, double beta);
+
+struct ShrmGridOptions {
+  // Equiangular grid rows in alpha over [0, pi] (pixel centres alpha_j = pi (j + 1/2) / N);
+  // 0 = automatic: max(32, 4 (F + P + 1)) rounded up to a multiple of 8. The beta grid
+  // has 2 N columns (N >= F + P + 1 is required so the FFT over m does not alias).
+  int alpha_samples = 0;
+  int threads = 1;
+};
+
+// The SHRM of one lighting and one BRDF: L_lm (complex, converted from the real input) and
+// rho_lpq, i.e. B_lmpq = L_lm rho_lpq, truncated to l <= F (lmax) and p <= P (pmax).
+class ShrmSynthesizer {
+ public:
+  // light: real SH L_lm, light[ShIndex(l, m) * channels + c], degree light_lmax, in the SH frame
+  // (e.g. ForwardSht or LightingCoefficients). brdf.channels must be 1 or `channels`.
+  // lmax = F_B (-1: min(light_lmax, brdf.lmax)), pmax = P_B (-1: brdf.pmax); they are clamped to
+  // neither: lmax > min(light_lmax, brdf.lmax) or pmax > brdf.pmax is an error.
+  // Errors (InvalidArgument): negative orders, channels < 1, size mismatches, mismatched channels.
+  static absl::StatusOr<ShrmSynthesizer> Create(int light_lmax, int channels,
+                                                std::span<const double> light,
+                                                const BrdfCoefficients& brdf, int lmax = -1,
+                                                int pmax = -1);
+
+  int lmax() const { return lmax_; }
+  int pmax() const { return pmax_; }
+  int channels() const { return channels_; }
+  ReparamKind reparam() const { return reparam_; }
+
+  // Eq. 5.7 (no Lambda): B_lmpq = L_lm rho_lpq (complex), any signs of m and q.
+  std::complex<double> Blmpq(int l, int m, int p, int q, int c) const;
+  // Energy of the order-(F, P) truncation in the L2 norm over (R, view) (docs/shrm.md):
+  // sum_{l<=F, p<=P} (4 pi / (2l + 1)) |B_lmpq|^2 per channel, for F <= lmax(), P <= pmax().
+  std::vector<double> TruncatedEnergy(int f, int p) const;
+
+  // Direct (exact) evaluation at one (alpha, beta), eq. 5.23 with the library's Wigner tables:
+  // complex B_pq (local) at out[ShIndex(p, q) * channels + c].
+  void LocalComplexAt(double alpha, double beta, std::span<std::complex<double>> out) const;
+  // Real SH coefficients (ShCount(pmax) * channels) of the local or global SHRM at (alpha, beta);
+  // global = RotateSh(Rot) of the local ones.
+  void CoefficientsAt(ShrmKind kind, double alpha, double beta, std::span<double> out) const;
+  // B(R, V) with R (or T) and V world directions, by CoefficientsAt (no resampling).
+  std::array<double, 3> RadianceAt(ShrmKind kind, const Vec3& index_dir, const Vec3& view) const;
+
+  // Fast path (sec. 5.6.2 step 3): the SHRM on the equiangular (alpha, beta) grid, then resampled
+  // onto the texel centres of a cube map of face_size S_B by 4 x 4 Lagrange (cubic) interpolation
+  // in (alpha, beta). Errors: face_size < 1, bad grid options.
+  absl::StatusOr<ShrmCube> BuildCube(ShrmKind kind, int face_size,
+                                     const ShrmGridOptions& options = {}) const;
+
+  // The grid itself: real coefficients grid[((j + 2) * nb + k) * stride + ShIndex(p,q) * ch + c],
+  // stride = ShCount(pmax) * channels, rows j = -2 .. na + 1 (two padding rows beyond each pole,
+  // the trigonometric-polynomial continuation to alpha < 0 and alpha > pi), alpha_j = pi (j + 1/2)
+  // / na, beta_k = 2 pi k / nb.
+  struct Grid {
+    int na = 0, nb = 0;
+    int stride = 0;
+    std::vector<float> values;
+  };
+  absl::StatusOr<Grid> BuildGrid(ShrmKind kind, int na, int threads = 1) const;
+
+ private:
+  ShrmSynthesizer() = default;
+  // Coefficients of one grid row (alpha) for all nb columns into row_out (nb * stride floats).
+  void SynthesizeRow(ShrmKind kind, double alpha, int nb, void* fft_plan,
+                     const WignerColumnTables& tables, const WignerColumnTables& ptables,
+                     std::span<double> cols, std::span<double> dp, std::complex<double>* work,
+                     float* row_out) const;
+
+  int lmax_ = 0, pmax_ = 0, channels_ = 3;
+  ReparamKind reparam_ = ReparamKind::kReflection;
+  // Complex lighting: light_[((m + F) * (F + 1) + l) * channels + c] (zero for l < |m|).
+  std::vector<std::complex<double>> light_;
+  // rho_lpq per channel (grey BRDFs expanded): rho_[((p * (P + 1) + q) * (F + 1) + l) * ch + c],
+  // q >= 0 (rho_{l,p,-q} = rho_lpq); zero for q > min(l, p) and for q != 0 with kTangent.
+  std::vector<double> rho_;
+  double Rho(int l, int p, int q, int c) const {
+    return rho_[((static_cast<size_t>(p) * (pmax_ + 1) + (q < 0 ? -q : q)) * (lmax_ + 1) + l) *
+                    channels_ +
+                c];
+  }
+};
+
+// Evaluation of a cube (eq. 5.10 / 5.11) at the texel-addressing direction (R, or T for
+// kTangent) and the view V (world). Bilinear interpolation between the four nearest texel
+// centres of the face; beyond a face's outer texel centres the missing neighbours are taken from
+// the adjacent face (the texel containing the extrapolated centre direction). Global cubes
+// interpolate coefficients and evaluate Y_pq(V) once; local cubes evaluate each of the four
+// texels in its own frame (Rot of that texel's centre) and interpolate the values, so the pole
+// singularity of the local frame never mixes coefficients of different frames.
+std::array<double, 3> ShrmEvalAt(const ShrmCube& cube, const Vec3& index_dir, const Vec3& view);
+// The same from the normal: R = 2 (N.V) N - V for kReflection cubes; for kTangent cubes `n` is
+// the tangent T. N and V world, unit.
+std::array<double, 3> ShrmEval(const ShrmCube& cube, const Vec3& n, const Vec3& v);
+// Exact texel value at the texel centre (no interpolation): B(R_texel, V).
+std::array<double, 3> ShrmTexelRadiance(const ShrmCube& cube, int face, int x, int y,
+                                        const Vec3& view);
+
+}  // namespace shrm
+
+#endif  // SHRM_CORE_SHRM_SHRM_SYNTHESIS_H_

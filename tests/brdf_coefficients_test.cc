@@ -1,0 +1,461 @@
+// BRDF coefficients rho_lpq (SHRM paper eq. 5.22, conventions of brdf_coefficients.h) and the
+// order selection of eqs. 5.17/5.18 and sec. 5.6.2 (core/brdf/brdf_projection.h): brute-force 4D
+// quadrature of the definition, Parseval on band-limited BRDFs, Phong's closed form and
+// eqs. 5.27/5.28, and the paper's Table 5.5.
+#include "core/brdf/brdf_coefficients.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <complex>
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <random>
+#include <tuple>
+#include <vector>
+
+#include "core/brdf/brdf.h"
+#include "core/brdf/brdf_models.h"
+#include "core/brdf/brdf_projection.h"
+#include "core/sh/quadrature.h"
+#include "core/sh/sh.h"
+
+namespace shrm {
+namespace {
+
+// Smooth (entire) integrands: both quadratures converge geometrically; rounding only.
+constexpr double kSmoothBruteForceTol = 1e-9;
+// Microfacet sigma = 0.3: rho-hat jumps at the horizon N.w = 0 (to ~the peak for grazing views),
+// so the brute-force product rule converges only like O(h); measured 2e-4 of the largest
+// coefficient on the grid below, so 1e-3 leaves a margin.
+constexpr double kMicrofacetBruteForceTol = 1e-3;
+// Band-limited rho-hat: every rule is exact; rounding only (the brief's 1e-10).
+constexpr double kParsevalTol = 1e-10;
+// Phong closed form vs the 1D quadrature (composite Gauss-Legendre panels): the brief's 1e-8.
+constexpr double kPhongClosedFormTol = 1e-8;
+
+Mat3 RandomRotation(std::mt19937_64& rng) {
+  std::normal_distribution<double> g;
+  return Quaternion{g(rng), g(rng), g(rng), g(rng)}.ToMatrix();
+}
+
+// A smooth, view-dependent, isotropic test BRDF without horizon (world-frame definition only):
+// rho-hat = exp(0.8 R.w + 0.5 (R.V)(R.w) + 0.3 V.w).
+class SmoothTestBrdf final : public Brdf {
+ public:
+  std::string spec() const override { return "smooth-test"; }
+  BrdfBandwidthHint bandwidth_hint() const override { return {16, 8}; }
+  double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int) const override {
+    const Vec3 r = n * (2 * n.Dot(v)) - v;
+    return std::exp(0.8 * r.Dot(w) + 0.5 * r.Dot(v) * r.Dot(w) + 0.3 * v.Dot(w));
+  }
+};
+
+// rho-hat = sum rho_lpq conj(Y_lq(w_i')) Y_pq(w_o') for given coefficients (q >= 0 stored).
+class SeriesBrdf final : public Brdf {
+ public:
+  explicit SeriesBrdf(std::map<std::tuple<int, int, int>, double> coeffs)
+      : coeffs_(std::move(coeffs)) {
+    for (const auto& [key, value] : coeffs_) {
+      lmax_ = std::max(lmax_, std::get<0>(key));
+      lmax_ = std::max(lmax_, std::get<1>(key));
+    }
+    EXPECT_LE(lmax_, kMaxDegree);
+  }
+  std::string spec() const override { return "series-test"; }
+  BrdfBandwidthHint bandwidth_hint() const override { return {lmax_ + 2, lmax_ + 2}; }
+  double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override {
+    double ti, to, phi;
+    ReparamAngles(ReparamKind::kReflection, n, v, w, &ti, &to, &phi);
+    return ReparamTransfer(ti, to, phi, c);
+  }
+  double ReparamTransfer(double ti, double to, double phi, int) const override {
+    double li[kMaxTable], lo[kMaxTable], cq[kMaxDegree + 1];
+    NormalizedLegendre(lmax_, std::cos(ti), std::sin(ti), li);
+    NormalizedLegendre(lmax_, std::cos(to), std::sin(to), lo);
+    for (int q = 0; q <= lmax_; ++q) cq[q] = std::cos(q * phi);
+    double sum = 0;
+    for (const auto& [key, value] : coeffs_) {
+      const auto [l, p, q] = key;
+      // conj(Y_lq(w_i)) Y_pq(w_o) + (q -> -q) = 2 f_lq f_pq cos(q phi) for q > 0.
+      sum +=
+          (q == 0 ? 1.0 : 2.0) * value * li[LegendreIndex(l, q)] * lo[LegendreIndex(p, q)] * cq[q];
+    }
+    return sum;
+  }
+
+ private:
+  static constexpr int kMaxDegree = 12;
+  static constexpr int kMaxTable = LegendreCount(kMaxDegree);
+  std::map<std::tuple<int, int, int>, double> coeffs_;
+  int lmax_ = 0;
+};
+
+// Phong through the general (3D) path.
+class PhongAs3D final : public Brdf {
+ public:
+  explicit PhongAs3D(double s) : phong_(s) {}
+  std::string spec() const override { return "phong-3d"; }
+  double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override {
+    return phong_.Transfer(n, v, w, c);
+  }
+
+ private:
+  PhongBrdf phong_;
+};
+
+struct Lpq {
+  int l, p, q;
+};
+
+// Direct 4D quadrature of the definition
+//   rho_lpq = integral integral rho-hat(w_i', w_o') Y_lq(w_i') conj(Y_pq(w_o')) dw_i' dw_o'
+// on product grids (Gauss-Legendre in cos theta x uniform phi) over both spheres, complex SH
+// from sh.h, rho-hat from the world-frame Transfer of (N, V, w) built in a random frame Q:
+// R = Q e_z, V = Q w_o', w = Q w_i', N = normalize(R + V). Returns the real parts and checks
+// that the imaginary parts vanish.
+std::vector<double> BruteForceRho(const Brdf& brdf, const std::vector<Lpq>& which, int n_i, int m_i,
+                                  int n_o, int m_o, uint64_t seed, double imag_tol) {
+  std::mt19937_64 rng(seed);
+  const Mat3 q = RandomRotation(rng);
+  const RingQuadrature gi = GaussLegendreRule(n_i), go = GaussLegendreRule(n_o);
+  const auto dir = [](double t, double p) {
+    return Vec3{std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)};
+  };
+  std::vector<Vec3> wi_dirs;
+  std::vector<double> wi_weights;
+  std::vector<std::vector<std::complex<double>>> yi(which.size());
+  for (int j = 0; j < n_i; ++j) {
+    for (int k = 0; k < m_i; ++k) {
+      const double phi = 2 * kPi * (k + 0.3) / m_i;
+      wi_dirs.push_back(q * dir(gi.theta[j], phi));
+      wi_weights.push_back(gi.weight[j] * 2 * kPi / m_i);
+      for (size_t t = 0; t < which.size(); ++t) {
+        yi[t].push_back(EvalComplexSh(which[t].l, which[t].q, gi.theta[j], phi));
+      }
+    }
+  }
+  const Vec3 pole = q * Vec3{0, 0, 1};
+  std::vector<std::complex<double>> sums(which.size());
+  std::vector<std::complex<double>> inner(which.size());
+  for (int j = 0; j < n_o; ++j) {
+    for (int k = 0; k < m_o; ++k) {
+      const double phi_o = 2 * kPi * (k + 0.6) / m_o;
+      const Vec3 v = q * dir(go.theta[j], phi_o);
+      const Vec3 n = (pole + v).Normalized();
+      std::fill(inner.begin(), inner.end(), 0.0);
+      for (size_t d = 0; d < wi_dirs.size(); ++d) {
+        const double rho = brdf.Transfer(n, v, wi_dirs[d], 0) * wi_weights[d];
+        if (rho == 0) continue;
+        for (size_t t = 0; t < which.size(); ++t) inner[t] += rho * yi[t][d];
+      }
+      const double w_o = go.weight[j] * 2 * kPi / m_o;
+      for (size_t t = 0; t < which.size(); ++t) {
+        sums[t] +=
+            w_o * inner[t] * std::conj(EvalComplexSh(which[t].p, which[t].q, go.theta[j], phi_o));
+      }
+    }
+  }
+  std::vector<double> out;
+  double largest = 0;
+  for (const auto& s : sums) largest = std::max(largest, std::abs(s));
+  for (const auto& s : sums) {
+    EXPECT_LT(std::abs(s.imag()), imag_tol * largest);
+    out.push_back(s.real());
+  }
+  return out;
+}
+
+const std::vector<Lpq> kTriples = {{0, 0, 0}, {1, 0, 0}, {3, 1, 0}, {2, 1, 1},  {4, 2, 1},
+                                   {5, 2, 2}, {6, 3, 2}, {3, 3, 3}, {10, 2, 1}, {1, 2, -1}};
+
+TEST(BrdfCoefficientsTest, SmoothBrdfMatchesBruteForce) {
+  const SmoothTestBrdf brdf;
+  auto coeffs = ComputeBrdfCoefficients(brdf, 12, 4);
+  ASSERT_TRUE(coeffs.ok()) << coeffs.status();
+  const std::vector<double> brute =
+      BruteForceRho(brdf, kTriples, 40, 64, 32, 48, 1, kSmoothBruteForceTol);
+  double scale = 0;
+  for (double b : brute) scale = std::max(scale, std::abs(b));
+  for (size_t t = 0; t < kTriples.size(); ++t) {
+    const auto [l, p, q] = kTriples[t];
+    EXPECT_NEAR(coeffs->at(l, p, q), brute[t], kSmoothBruteForceTol * scale)
+        << "l=" << l << " p=" << p << " q=" << q;
+  }
+}
+
+TEST(BrdfCoefficientsTest, MicrofacetMatchesBruteForce) {
+  const MicrofacetBrdf brdf(0.3);
+  auto coeffs = ComputeBrdfCoefficients(brdf, 12, 4);
+  ASSERT_TRUE(coeffs.ok()) << coeffs.status();
+  const std::vector<double> brute =
+      BruteForceRho(brdf, kTriples, 96, 192, 32, 48, 2, kMicrofacetBruteForceTol);
+  double scale = 0, worst = 0;
+  for (double b : brute) scale = std::max(scale, std::abs(b));
+  for (size_t t = 0; t < kTriples.size(); ++t) {
+    const auto [l, p, q] = kTriples[t];
+    worst = std::max(worst, std::abs(coeffs->at(l, p, q) - brute[t]) / scale);
+    EXPECT_NEAR(coeffs->at(l, p, q), brute[t], kMicrofacetBruteForceTol * scale)
+        << "l=" << l << " p=" << p << " q=" << q;
+  }
+  std::printf("microfacet sigma=0.3: max |separable - brute force| / max|rho| = %.3g\n", worst);
+}
+
+TEST(BrdfCoefficientsTest, ParsevalOnBandLimitedBrdf) {
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::map<std::tuple<int, int, int>, double> chosen;
+  for (int l = 0; l <= 6; ++l) {
+    for (int p = 0; p <= 3; ++p) {
+      for (int q = 0; q <= std::min(l, p); ++q) chosen[{l, p, q}] = u(rng);
+    }
+  }
+  const SeriesBrdf brdf(chosen);
+  auto coeffs = ComputeBrdfCoefficients(brdf, 8, 4);
+  ASSERT_TRUE(coeffs.ok()) << coeffs.status();
+  double sum_sq = 0;
+  for (int l = 0; l <= 8; ++l) {
+    for (int p = 0; p <= 4; ++p) {
+      for (int q = 0; q <= std::min(l, p); ++q) {
+        const auto it = chosen.find({l, p, q});
+        const double want = it == chosen.end() ? 0.0 : it->second;
+        EXPECT_NEAR(coeffs->at(l, p, q), want, kParsevalTol) << l << " " << p << " " << q;
+        EXPECT_EQ(coeffs->at(l, p, -q), coeffs->at(l, p, q));
+        sum_sq += (q == 0 ? 1 : 2) * want * want;
+      }
+    }
+  }
+  ASSERT_EQ(coeffs->total_energy.size(), 1u);
+  EXPECT_NEAR(coeffs->total_energy[0], sum_sq, kParsevalTol * sum_sq);
+  EXPECT_NEAR(CapturedFraction(*coeffs, 8, 4), 1.0, kParsevalTol);
+  EXPECT_NEAR(CapturedFraction(*coeffs, 6, 3), 1.0, kParsevalTol);
+  EXPECT_LT(CapturedFraction(*coeffs, 5, 3), 1.0 - 1e-3);
+}
+
+TEST(BrdfCoefficientsTest, PhongMatchesClosedForm) {
+  for (double s : {1.0, 8.0, 32.0, 100.5, 512.0}) {
+    const PhongBrdf brdf(s);
+    const int lmax = static_cast<int>(3 * std::sqrt(s)) + 10;
+    auto coeffs = ComputeBrdfCoefficients(brdf, lmax, 2);
+    ASSERT_TRUE(coeffs.ok()) << coeffs.status();
+    const std::vector<double> exact = PhongRhoExact(s, lmax);
+    for (int l = 0; l <= lmax; ++l) {
+      // rho_{l00} = sqrt(4 pi) rho_l; p, q > 0 vanish.
+      EXPECT_NEAR(coeffs->at(l, 0, 0) / std::sqrt(4 * kPi), exact[l],
+                  kPhongClosedFormTol * exact[0])
+          << "s=" << s << " l=" << l;
+      for (int p = 1; p <= 2; ++p) EXPECT_EQ(coeffs->at(l, p, 0), 0.0);
+    }
+    // Energy (eq. 5.17 x 4 pi): (s + 1)^2 / (2 pi (2 s + 1)) * 4 pi.
+    const double energy = 4 * kPi * (s + 1) * (s + 1) / (2 * kPi * (2 * s + 1));
+    EXPECT_NEAR(coeffs->total_energy[0], energy, 1e-10 * energy) << s;
+    // rho_0 = 1/sqrt(4 pi) (normalized lobe) = Lambda_0^-1.
+    EXPECT_NEAR(exact[0], 1 / std::sqrt(4 * kPi), 1e-15);
+  }
+}
+
+TEST(BrdfCoefficientsTest, RadialRelationThroughTheGeneralPath) {
+  // The 3D path knows nothing of radial symmetry: rho_{l00} = sqrt(4 pi) rho_l and all p > 0
+  // terms vanish.
+  const double s = 20;
+  const PhongAs3D brdf(s);
+  auto coeffs = ComputeBrdfCoefficients(brdf, 16, 3);
+  ASSERT_TRUE(coeffs.ok()) << coeffs.status();
+  const std::vector<double> exact = PhongRhoExact(s, 16);
+  for (int l = 0; l <= 16; ++l) {
+    EXPECT_NEAR(coeffs->at(l, 0, 0), std::sqrt(4 * kPi) * exact[l], 1e-8) << l;
+    for (int p = 1; p <= 3; ++p) {
+      for (int q = 0; q <= std::min(l, p); ++q) EXPECT_NEAR(coeffs->at(l, p, q), 0, 1e-10);
+    }
+  }
+}
+
+TEST(BrdfCoefficientsTest, PhongEq527And528Accuracy) {
+  // Eq. 5.27: rho_l ~ Lambda_l^-1 exp(-l^2 / 2s). Measured (printed below) for s = 8..512 and
+  // l <= 3 sqrt(s): the error relative to rho_0 stays below 0.14 (0.135 at s = 16, 32); relative
+  // to rho_l itself it is <= 8.1 % for l <= sqrt(s) and grows in the tail (27 % at l = 3 sqrt(s),
+  // s = 32; 74 % at s = 8). Eq. 5.28's F is within 1 of the exact order at epsilon = 0.03, 0.01.
+  constexpr double kEq527PeakRelTol = 0.14;
+  constexpr double kEq527CoreRelTol = 0.09;
+  for (double s = 8; s <= 512; s *= 2) {
+    const int lmax = static_cast<int>(3 * std::sqrt(s));
+    const std::vector<double> exact = PhongRhoExact(s, lmax), approx = PhongRhoEq527(s, lmax);
+    double peak_err = 0, core_err = 0, tail_err = 0;
+    for (int l = 0; l <= lmax; ++l) {
+      peak_err = std::max(peak_err, std::abs(approx[l] - exact[l]) / exact[0]);
+      const double rel = std::abs(approx[l] / exact[l] - 1);
+      if (l <= std::sqrt(s)) core_err = std::max(core_err, rel);
+      tail_err = std::max(tail_err, rel);
+    }
+    EXPECT_LT(peak_err, kEq527PeakRelTol) << s;
+    EXPECT_LT(core_err, kEq527CoreRelTol) << s;
+    for (double eps : {0.03, 0.01}) {
+      EXPECT_LT(std::abs(PhongOrderEq528(s, eps) - PhongOrderExact(s, eps)), 1.0)
+          << s << " " << eps;
+    }
+    std::printf(
+        "phong s=%4.0f: eq.5.27 max err/rho_0 %.3f, rel l<=sqrt(s) %.3f, rel l<=3sqrt(s) %.3f; "
+        "F(0.03) exact %d eq.5.28 %.2f\n",
+        s, peak_err, core_err, tail_err, PhongOrderExact(s, 0.03), PhongOrderEq528(s, 0.03));
+  }
+}
+
+TEST(BrdfCoefficientsTest, DefaultSamplingHasConverged) {
+  const MicrofacetBrdf brdf(0.2);
+  auto base = ComputeBrdfCoefficients(brdf, 30, 4);
+  BrdfSampling fine;
+  fine.theta_i = 240;
+  fine.theta_o = 96;
+  fine.phi = 64;
+  fine.energy_panels_i = 128;
+  fine.energy_panels_o = 32;
+  fine.energy_phi = 96;
+  auto ref = ComputeBrdfCoefficients(brdf, 30, 4, fine);
+  ASSERT_TRUE(base.ok() && ref.ok());
+  double scale = 0, diff = 0;
+  for (size_t i = 0; i < ref->values.size(); ++i) {
+    scale = std::max(scale, std::abs(ref->values[i]));
+    diff = std::max(diff, std::abs(ref->values[i] - base->values[i]));
+  }
+  EXPECT_LT(diff, 1e-4 * scale);
+  EXPECT_NEAR(base->total_energy[0], ref->total_energy[0], 1e-4 * ref->total_energy[0]);
+  for (int P = 0; P <= 4; ++P) {
+    EXPECT_NEAR(CapturedFraction(*base, 30, P), CapturedFraction(*ref, 30, P), 1e-4);
+  }
+}
+
+// ---------------------------------------------------------------- order selection
+
+TEST(BrdfOrdersTest, Table55Microfacet) {
+  // SHRM paper Table 5.5: (F_B, P_B) for epsilon < 0.03. Ours (printed): (23,2) (11,2) (7,2)
+  // (5,2) (4,2), all within +-1 of the paper's; captured fractions at P = 2 for sigma = 0.1 are
+  // 0.977 (the paper chose P = 3 there).
+  const double sigmas[] = {0.1, 0.2, 0.3, 0.4, 0.5};
+  const int paper_f[] = {24, 12, 7, 5, 5}, paper_p[] = {3, 2, 2, 2, 2};
+  const int ours_f[] = {23, 11, 7, 5, 4}, ours_p[] = {2, 2, 2, 2, 2};
+  for (int i = 0; i < 5; ++i) {
+    const MicrofacetBrdf brdf(sigmas[i]);
+    auto orders = SelectBrdfOrders(brdf, 0.03);
+    ASSERT_TRUE(orders.ok()) << orders.status();
+    std::printf("Table 5.5 sigma=%.1f: F=%d P=%d captured=%.5f (paper %d,%d)\n", sigmas[i],
+                orders->F, orders->P, orders->captured, paper_f[i], paper_p[i]);
+    EXPECT_LE(std::abs(orders->F - paper_f[i]), 1) << sigmas[i];
+    EXPECT_LE(std::abs(orders->P - paper_p[i]), 1) << sigmas[i];
+    EXPECT_EQ(orders->F, ours_f[i]) << sigmas[i];
+    EXPECT_EQ(orders->P, ours_p[i]) << sigmas[i];
+    // Minimality: (F - 1, P) and (F_max, P - 1) miss the tolerance.
+    EXPECT_GE(orders->captured, 0.97);
+    EXPECT_LT(CapturedFraction(orders->coefficients, orders->F - 1, orders->P), 0.97);
+    if (orders->P > 0) {
+      EXPECT_LT(CapturedFraction(orders->coefficients, orders->fmax, orders->P - 1), 0.97);
+    }
+  }
+}
+
+TEST(BrdfOrdersTest, SelectionProcedureOnKnownSpectrum) {
+  // Energies: rho_000^2 = 0.5, rho_{8,0,0}^2 = 0.1, rho_{3,2,1}^2 (x2 for +-q) = 0.2,
+  // rho_{2,3,0}^2 = 0.15, rho_{9,1,1}^2 (x2) = 0.05. Total 1.
+  std::map<std::tuple<int, int, int>, double> chosen = {{{0, 0, 0}, std::sqrt(0.5)},
+                                                        {{8, 0, 0}, std::sqrt(0.1)},
+                                                        {{3, 2, 1}, std::sqrt(0.1)},
+                                                        {{2, 3, 0}, std::sqrt(0.15)},
+                                                        {{9, 1, 1}, std::sqrt(0.025)}};
+  const SeriesBrdf brdf(chosen);
+  BrdfOrderOptions options;
+  options.initial_fmax = 12;
+  options.initial_pmax = 4;
+  // Band-limited: small energy rules are exact.
+  options.sampling.energy_panels_i = 8;
+  options.sampling.energy_panels_o = 4;
+  options.sampling.energy_phi = 16;
+  // epsilon = 0.19: P = 0, 1 reach at most 0.6, 0.65; P = 2 reaches 0.85 at F = 9 but only 0.8
+  // at F = 8.
+  auto orders = SelectBrdfOrders(brdf, 0.19, options);
+  ASSERT_TRUE(orders.ok()) << orders.status();
+  EXPECT_EQ(orders->P, 2);
+  EXPECT_EQ(orders->F, 9);
+  EXPECT_NEAR(orders->captured, 0.85, 1e-9);
+  // epsilon = 0.1: needs p = 3 (0.95 at P = 3, F = 8); P = 1, 2 reach at most 0.85.
+  orders = SelectBrdfOrders(brdf, 0.1, options);
+  ASSERT_TRUE(orders.ok());
+  EXPECT_EQ(orders->P, 3);
+  EXPECT_EQ(orders->F, 8);
+  // epsilon = 0.45: P = 0 with F = 8 gives 0.6 >= 0.55.
+  orders = SelectBrdfOrders(brdf, 0.45, options);
+  ASSERT_TRUE(orders.ok());
+  EXPECT_EQ(orders->P, 0);
+  EXPECT_EQ(orders->F, 8);
+}
+
+TEST(BrdfOrdersTest, KajiyaKayNeedsOnlyQZeroAndPaperP) {
+  // Sec. 5.7.1: "we found P = 8 for s = 32 and epsilon < .03"; no azimuthal dependence.
+  const KajiyaKayBrdf brdf(32);
+  auto orders = SelectBrdfOrders(brdf, 0.03);
+  ASSERT_TRUE(orders.ok()) << orders.status();
+  std::printf("Kajiya-Kay s=32: F=%d P=%d captured=%.4f\n", orders->F, orders->P, orders->captured);
+  EXPECT_LE(std::abs(orders->P - 8), 1);
+  const BrdfCoefficients& c = orders->coefficients;
+  EXPECT_EQ(c.reparam, ReparamKind::kTangent);
+  for (int l = 0; l <= c.lmax; ++l) {
+    for (int p = 0; p <= c.pmax; ++p) {
+      for (int q = 1; q <= std::min(l, p); ++q) EXPECT_EQ(c.at(l, p, q), 0.0);
+    }
+  }
+}
+
+TEST(BrdfOrdersTest, PhongOrdersEqualExactOrder) {
+  for (double s : {8.0, 64.0, 512.0}) {
+    const PhongBrdf brdf(s);
+    auto orders = SelectBrdfOrders(brdf, 0.03);
+    ASSERT_TRUE(orders.ok()) << orders.status();
+    EXPECT_EQ(orders->P, 0);
+    EXPECT_EQ(orders->F, PhongOrderExact(s, 0.03)) << s;
+  }
+}
+
+TEST(BrdfOrdersTest, Errors) {
+  const PhongBrdf phong(512);
+  EXPECT_EQ(SelectBrdfOrders(phong, 0).status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(SelectBrdfOrders(phong, 1).status().code(), absl::StatusCode::kInvalidArgument);
+  BrdfOrderOptions small;
+  small.initial_fmax = 4;
+  small.max_fmax = 10;
+  const auto limited = SelectBrdfOrders(phong, 0.03, small);
+  EXPECT_EQ(limited.status().code(), absl::StatusCode::kOutOfRange);
+  EXPECT_NE(limited.status().message().find("phong:s=512"), std::string::npos);
+  EXPECT_EQ(ComputeBrdfCoefficients(phong, -1, 0).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(ComputeBrdfCoefficients(phong, 8, kMaxBrdfPmax + 1).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  BrdfSampling bad;
+  bad.theta_i = -3;
+  EXPECT_EQ(ComputeBrdfCoefficients(phong, 8, 0, bad).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
+TEST(BrdfOrdersTest, CapturedFractionCountsNegativeQTwiceAndTruncates) {
+  BrdfCoefficients c;
+  c.lmax = 2;
+  c.pmax = 1;
+  c.channels = 2;
+  c.values.assign(3 * 2 * 2 * 2, 0.0);
+  c.values[c.Index(0, 0, 0, 0)] = 1;  // energy 1
+  c.values[c.Index(1, 1, 1, 0)] = 1;  // energy 2 (q = +-1)
+  c.values[c.Index(2, 0, 0, 1)] = 2;  // channel 1: energy 4
+  c.total_energy = {4, 8};
+  EXPECT_DOUBLE_EQ(CapturedFraction(c, 2, 1, 0), 0.75);
+  EXPECT_DOUBLE_EQ(CapturedFraction(c, 0, 0, 0), 0.25);
+  EXPECT_DOUBLE_EQ(CapturedFraction(c, 1, 0, 0), 0.25);
+  EXPECT_DOUBLE_EQ(CapturedFraction(c, 2, 1, 1), 0.5);
+  EXPECT_DOUBLE_EQ(CapturedFraction(c, 2, 1), 0.5);      // worst channel
+  EXPECT_DOUBLE_EQ(CapturedFraction(c, 9, 9, 0), 0.75);  // clamped to (lmax, pmax)
+  const BrdfCoefficients t = TruncateBrdfCoefficients(c, 1, 1);
+  EXPECT_EQ(t.lmax, 1);
+  EXPECT_EQ(t.at(1, 1, -1, 0), 1.0);
+  EXPECT_DOUBLE_EQ(CapturedFraction(t, 1, 1, 0), 0.75);
+  EXPECT_DOUBLE_EQ(CapturedFraction(t, 1, 1, 1), 0.0);
+}
+
+}  // namespace
+}  // namespace shrm
