@@ -17,11 +17,14 @@
 #include "core/brdf/brdf.h"
 #include "core/brdf/brdf_models.h"
 #include "core/brdf/brdf_projection.h"
+#include "tests/test_paths.h"
 
 namespace shrm {
 namespace {
 
-std::string TempPath(const std::string& name) { return testing::TempDir() + "/shrm_" + name; }
+std::string TempPath(const std::string& name) {
+  return testing::UniqueTempPath("brdf_table_" + name);
+}
 
 // A smooth isotropic rho-hat without horizon, defined in reparameterized angles.
 class SmoothReparamBrdf final : public Brdf {

@@ -16,6 +16,7 @@
 #include "absl/status/status.h"
 #include "core/io/image.h"
 #include "gtest/gtest.h"
+#include "tests/test_paths.h"
 
 namespace shrm {
 namespace {
@@ -41,9 +42,7 @@ constexpr double k8BitTol = 1e-6;
 
 std::string ShippedConfigPath() { return std::string(SHRM_SOURCE_DIR) + "/data/ocio/config.ocio"; }
 
-std::string TempPath(const std::string& name) {
-  return (fs::temp_directory_path() / ("shrm_colour_test_" + name)).string();
-}
+std::string TempPath(const std::string& name) { return testing::UniqueTempPath("colour_" + name); }
 
 double SrgbEotf(double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); }
 

@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "gtest/gtest.h"
+#include "tests/test_paths.h"
 
 namespace shrm {
 namespace {
@@ -26,9 +27,7 @@ CubeExr MakeCube(int size, int groups) {
   return c;
 }
 
-std::string Temp(const std::string& name) {
-  return (fs::temp_directory_path() / ("shrm_cube_exr_test_" + name)).string();
-}
+std::string Temp(const std::string& name) { return testing::UniqueTempPath("cube_exr_" + name); }
 
 TEST(CubeExrTest, FloatRoundTripIsExact) {
   const CubeExr c = MakeCube(5, 4);

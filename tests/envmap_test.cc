@@ -21,6 +21,7 @@
 #include "core/sh/sh.h"
 #include "core/transform/sht.h"
 #include "gtest/gtest.h"
+#include "tests/test_paths.h"
 
 namespace shrm {
 namespace {
@@ -74,9 +75,7 @@ std::string MapPath(const std::string& name) {
   return std::string(SHRM_SOURCE_DIR) + "/data/envmaps/" + name;
 }
 
-std::string TempPath(const std::string& name) {
-  return (fs::temp_directory_path() / ("shrm_envmap_test_" + name)).string();
-}
+std::string TempPath(const std::string& name) { return testing::UniqueTempPath("envmap_" + name); }
 
 Image MakeImage(int w, int h) {
   Image img;

@@ -11,6 +11,7 @@
 #include "absl/status/status.h"
 #include "core/io/sha256.h"
 #include "gtest/gtest.h"
+#include "tests/test_paths.h"
 
 namespace shrm {
 namespace {
@@ -23,9 +24,7 @@ std::string MapPath(const std::string& name) {
   return std::string(SHRM_SOURCE_DIR) + "/data/envmaps/" + name;
 }
 
-std::string TempPath(const std::string& name) {
-  return (fs::temp_directory_path() / ("shrm_image_test_" + name)).string();
-}
+std::string TempPath(const std::string& name) { return testing::UniqueTempPath("image_" + name); }
 
 void WriteBytes(const std::string& path, const std::string& bytes) {
   std::ofstream(path, std::ios::binary) << bytes;

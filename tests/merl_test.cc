@@ -17,6 +17,7 @@
 #include "core/brdf/brdf.h"
 #include "core/brdf/brdf_models.h"
 #include "core/brdf/brdf_projection.h"
+#include "tests/test_paths.h"
 
 namespace shrm {
 namespace {
@@ -37,10 +38,10 @@ std::array<double, 3> ModelRgb(const Vec3& in, const Vec3& out) {
   return f;
 }
 
-class MerlFileTest : public testing::Test {
+class MerlFileTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    path_ = new std::string(testing::TempDir() + "/shrm_merl_ggx.binary");
+    path_ = new std::string(testing::UniqueTempPath("merl_ggx.binary"));
     ASSERT_TRUE(WriteMerlFile(*path_, {90, 90, 180}, GenerateMerlData(ModelRgb)).ok());
   }
   static void TearDownTestSuite() {
@@ -293,7 +294,6 @@ TEST_F(MerlFileTest, CoefficientsFollowTheModel) {
 }
 
 TEST(MerlErrorsTest, BadFilesAreInvalidArgument) {
-  const std::string dir = testing::TempDir();
   const std::vector<double> data(3 * static_cast<size_t>(kMerlSize), 1.0);
   struct Case {
     std::string name;
@@ -308,7 +308,7 @@ TEST(MerlErrorsTest, BadFilesAreInvalidArgument) {
       {"long.binary", {90, 90, 180}, data.size() + 1, "bytes"},
   };
   for (const Case& c : cases) {
-    const std::string path = dir + "/shrm_merl_" + c.name;
+    const std::string path = testing::UniqueTempPath("merl_" + c.name);
     ASSERT_TRUE(WriteMerlFile(path, c.dims,
                               std::vector<double>(data.begin(),
                                                   data.begin() + std::min(c.values, data.size())))
@@ -322,7 +322,7 @@ TEST(MerlErrorsTest, BadFilesAreInvalidArgument) {
     EXPECT_NE(brdf.status().message().find(c.needle), std::string::npos) << brdf.status();
     std::remove(path.c_str());
   }
-  const auto missing = ParseBrdfSpec("merl:" + dir + "/shrm_no_such_file.binary");
+  const auto missing = ParseBrdfSpec("merl:" + testing::UniqueTempPath("no_such_file.binary"));
   EXPECT_EQ(missing.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(missing.status().message().find("cannot open"), std::string::npos);
 }

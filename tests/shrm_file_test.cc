@@ -7,15 +7,14 @@
 
 #include "core/io/cube_exr.h"
 #include "gtest/gtest.h"
+#include "tests/test_paths.h"
 
 namespace shrm {
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string Temp(const std::string& name) {
-  return (fs::temp_directory_path() / ("shrm_file_test_" + name)).string();
-}
+std::string Temp(const std::string& name) { return testing::UniqueTempPath("shrm_file_" + name); }
 
 ShrmCube MakeCube(int pmax) {
   ShrmCube c;
