@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <thread>
 
 #include "absl/strings/numbers.h"
@@ -13,6 +14,7 @@
 #include "core/base/cubemap.h"
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
+#include "core/io/atomic_file.h"
 #include "core/io/image.h"
 #include "core/io/sha256.h"
 
@@ -81,6 +83,50 @@ absl::StatusOr<std::string> EnvSourceHash(const EnvArgs& args) {
   return Sha256Hex(absl::StrJoin(hashes, ","));
 }
 
+void AddServerOption(CLI::App* app, std::string* server) {
+  app->add_option("--server", *server,
+                  "run on an shrmd service at host:port (or dns:///host:port) instead of "
+                  "in-process; the map files are uploaded when the server lacks them");
+}
+
+absl::Status RemoteEnvironment(const EnvArgs& args, client::ShrmClient* client,
+                               shrm::v1::Environment* env) {
+  if (!args.ocio_config.empty()) {
+    return absl::InvalidArgumentError("--ocio-config is not available with --server");
+  }
+  SHRM_ASSIGN_OR_RETURN(EnvLayout layout, ParseEnvLayout(args.layout));
+  static constexpr std::pair<EnvLayout, shrm::v1::Layout> kLayouts[] = {
+      {EnvLayout::kAuto, shrm::v1::LAYOUT_UNSPECIFIED},
+      {EnvLayout::kLatLong, shrm::v1::LAYOUT_LATLONG},
+      {EnvLayout::kCubeFaces, shrm::v1::LAYOUT_CUBE_FACES},
+      {EnvLayout::kHorizontalCross, shrm::v1::LAYOUT_HCROSS},
+      {EnvLayout::kVerticalCross, shrm::v1::LAYOUT_VCROSS},
+      {EnvLayout::kHorizontalStrip, shrm::v1::LAYOUT_HSTRIP},
+      {EnvLayout::kVerticalStrip, shrm::v1::LAYOUT_VSTRIP},
+      {EnvLayout::kAngular, shrm::v1::LAYOUT_ANGULAR}};
+  for (const auto& [core, proto] : kLayouts)
+    if (core == layout) env->set_layout(proto);
+  if (!args.rotate.empty()) {
+    SHRM_RETURN_IF_ERROR(EnvRotation(args).status());
+    env->mutable_rotation()->set_yaw_deg(args.rotate[0]);
+    env->mutable_rotation()->set_pitch_deg(args.rotate[1]);
+    env->mutable_rotation()->set_roll_deg(args.rotate[2]);
+  }
+  env->set_input_colour_space(args.colour_space);
+  env->set_working_colour_space(args.working_space);
+  env->set_non_finite(args.replace_non_finite ? shrm::v1::NON_FINITE_POLICY_REPLACE_ZERO
+                                              : shrm::v1::NON_FINITE_POLICY_REJECT);
+  for (const std::string& f : args.files) {
+    absl::StatusOr<std::string> sha = client->UploadIfMissing(f);
+    if (!sha.ok()) {
+      return absl::Status(sha.status().code(), absl::StrCat(f, ": ", sha.status().message()));
+    }
+    env->add_sha256(*sha);
+    env->add_source_names(f);
+  }
+  return absl::OkStatus();
+}
+
 absl::StatusOr<Vec3> ParseDirection(const std::string& text, const char* what) {
   std::vector<std::string> parts = absl::StrSplit(text, ',');
   double v[3];
@@ -115,6 +161,53 @@ double Progress::End() {
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count();
   if (enabled_) std::fprintf(stderr, " %9.1f ms\n", ms);
   return ms;
+}
+
+absl::Status CheckOutputPath(const std::string& path, const char* option) {
+  if (path.empty()) return absl::OkStatus();
+  namespace fs = std::filesystem;
+  const fs::path p(path);
+  const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
+  std::error_code ec;
+  if (!fs::exists(dir, ec)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(option, " ", path, ": folder ", dir.string(), " does not exist"));
+  }
+  if (!fs::is_directory(dir, ec)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(option, " ", path, ": ", dir.string(), " is not a folder"));
+  }
+  if (fs::is_directory(p, ec)) {
+    return absl::InvalidArgumentError(absl::StrCat(option, " ", path, " is a folder"));
+  }
+  const std::string probe = TempPathFor(path);
+  std::FILE* f = std::fopen(probe.c_str(), "wb");
+  if (f == nullptr) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(option, " ", path, ": cannot create files in ", dir.string()));
+  }
+  std::fclose(f);
+  DiscardTempFile(probe);
+  return absl::OkStatus();
+}
+
+OutputTransaction::~OutputTransaction() {
+  if (committed_) return;
+  for (const auto& [tmp, final_path] : files_) DiscardTempFile(tmp);
+}
+
+std::string OutputTransaction::Temp(const std::string& final_path) {
+  files_.emplace_back(TempPathFor(final_path), final_path);
+  return files_.back().first;
+}
+
+absl::Status OutputTransaction::Commit() {
+  for (const auto& [tmp, final_path] : files_) {
+    absl::Status s = CommitTempFile(tmp, final_path);
+    if (!s.ok()) return s;  // the destructor removes the temporaries not yet renamed
+  }
+  committed_ = true;
+  return absl::OkStatus();
 }
 
 absl::Status WriteRadianceCross(const std::string& path, const RadianceCube& cube) {

@@ -10,6 +10,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "client/shrm_client.h"
 #include "core/base/geometry.h"
 #include "core/envmap/envmap.h"
 #include "core/shrm/radiance_cube.h"
@@ -40,6 +41,13 @@ absl::StatusOr<Mat3> EnvRotation(const EnvArgs& args);
 // SHA-256 of the input files (one hash, or the hash of the six hashes joined by ',').
 absl::StatusOr<std::string> EnvSourceHash(const EnvArgs& args);
 
+// --server host:port (or dns:///host:port): run the subcommand on an shrmd service.
+void AddServerOption(CLI::App* app, std::string* server);
+// Uploads the --env files the server lacks and describes them for a request (docs/server.md).
+// Options a server cannot honour (--ocio-config) are refused.
+absl::Status RemoteEnvironment(const EnvArgs& args, client::ShrmClient* client,
+                               shrm::v1::Environment* env);
+
 // Parses "x,y,z" into a unit vector; errors name `what` (e.g. "--normal").
 absl::StatusOr<Vec3> ParseDirection(const std::string& text, const char* what);
 
@@ -58,6 +66,29 @@ class Progress {
   bool enabled_;
   std::string stage_;
   std::chrono::steady_clock::time_point start_;
+};
+
+// Checks before any work that an output can be created: its folder exists, is a folder, and a
+// file can be created in it (probed with a temporary that is removed). Errors name the option and
+// the path. Empty paths (optional outputs not asked for) pass.
+absl::Status CheckOutputPath(const std::string& path, const char* option);
+
+// The outputs of one command, committed together: each is written to a temporary path (Temp())
+// and renamed into place by Commit(); if the command fails before Commit(), the destructor
+// removes every temporary, so no output (and no old output) is touched.
+class OutputTransaction {
+ public:
+  OutputTransaction() = default;
+  OutputTransaction(const OutputTransaction&) = delete;
+  OutputTransaction& operator=(const OutputTransaction&) = delete;
+  ~OutputTransaction();
+  // The temporary path to write `final_path` to.
+  std::string Temp(const std::string& final_path);
+  absl::Status Commit();
+
+ private:
+  std::vector<std::pair<std::string, std::string>> files_;  // (temporary, final)
+  bool committed_ = false;
 };
 
 // Writes a radiance cube as a horizontal-cross EXR (4S x 3S: [. +Y . .] [-X +Z +X -Z]

@@ -6,6 +6,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/cli_common.h"
+#include "client/cli_validators.h"
 #include "client/commands.h"
 #include "client/report.h"
 #include "core/base/status_macros.h"
@@ -32,6 +33,7 @@ struct AnalyzeArgs {
   int threads = 0;
   bool json = false;
   bool verbose = false;
+  std::string server;
 };
 
 absl::Status CheckEpsilons(const std::vector<double>& eps) {
@@ -199,10 +201,77 @@ absl::Status AnalyzeBoth(const AnalyzeArgs& a, const Brdf& brdf) {
   return absl::OkStatus();
 }
 
+// --server: the analysis on shrmd (needs --brdf; the lighting-only analysis is embedded only).
+absl::Status AnalyzeRemote(const AnalyzeArgs& a) {
+  if (a.brdf.empty()) {
+    return absl::InvalidArgumentError(
+        "--server needs --brdf (lighting-only analysis runs "
+        "in-process only)");
+  }
+  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> client,
+                        client::ShrmClient::Connect(a.server));
+  shrm::v1::AnalyzeRequest req;
+  req.set_brdf(a.brdf);
+  for (double e : a.epsilons) req.add_epsilon(e);
+  if (!a.env.files.empty()) {
+    SHRM_RETURN_IF_ERROR(RemoteEnvironment(a.env, client.get(), req.mutable_environment()));
+  }
+  absl::StatusOr<shrm::v1::AnalyzeResponse> resp = client->Analyze(req);
+  if (!resp.ok()) {
+    return absl::Status(resp.status().code(),
+                        absl::StrCat(a.server, ": ", resp.status().message()));
+  }
+  nlohmann::json all = nlohmann::json::array();
+  const bool with_env = !a.env.files.empty();
+  if (!a.json && !with_env)
+    std::printf("BRDF %s\n  %-10s %6s %6s %12s\n", resp->brdf().c_str(), "epsilon", "F_rho",
+                "P_rho", "eps_brdf");
+  for (const shrm::v1::AnalyzeResult& r : resp->results()) {
+    if (a.json) {
+      if (with_env) {
+        all.push_back(nlohmann::json::parse(r.analysis_json(), nullptr, false));
+      } else {
+        all.push_back({{"epsilon", r.epsilon()},
+                       {"F_rho", r.f_brdf()},
+                       {"P_rho", r.p_brdf()},
+                       {"eps_brdf", r.eps_brdf()},
+                       {"F_L", nullptr},
+                       {"F_B", r.f_b()},
+                       {"P_B", r.p_b()},
+                       {"eps_light", nullptr},
+                       {"eps_bound", nullptr}});
+      }
+      continue;
+    }
+    if (!with_env) {
+      std::printf("  %-10g %6d %6d %12.6g\n", r.epsilon(), r.f_brdf(), r.p_brdf(), r.eps_brdf());
+      continue;
+    }
+    std::printf("epsilon %g: F_L %s, (F_rho, P_rho) = (%d, %d), (F_B, P_B) = (%d, %d)\n",
+                r.epsilon(), r.f_light() >= 0 ? std::to_string(r.f_light()).c_str() : "not reached",
+                r.f_brdf(), r.p_brdf(), r.f_b(), r.p_b());
+    std::printf("  eps_light %.4g  eps_brdf %.4g  estimate min %.4g  bound (eq. 5.19) %.4g\n",
+                r.eps_light(), r.eps_brdf(), r.eps_estimate(), r.eps_bound());
+    std::printf("  suggested S_B %d, T_B %d\n", r.suggested_face_size(), r.suggested_view_size());
+  }
+  if (a.json) {
+    if (!with_env && all.size() != 1) {
+      nlohmann::json j;
+      j["brdf"] = resp->brdf();
+      j["results"] = all;
+      std::printf("%s\n", j.dump(2).c_str());
+    } else {
+      std::printf("%s\n", (all.size() == 1 ? all[0] : all).dump(2).c_str());
+    }
+  }
+  return absl::OkStatus();
+}
+
 absl::Status RunAnalyze(const AnalyzeArgs& a) {
   SHRM_RETURN_IF_ERROR(CheckEpsilons(a.epsilons));
   if (a.print_lmax < 0) return absl::InvalidArgumentError("--print-lmax must be >= 0");
   if (a.threads < 0) return absl::InvalidArgumentError("--threads must be >= 0");
+  if (!a.server.empty()) return AnalyzeRemote(a);
   if (a.brdf.empty()) {
     if (a.env.files.empty()) return absl::InvalidArgumentError("give --env, --brdf or both");
     return AnalyzeLighting(a);
@@ -222,15 +291,19 @@ void RegisterAnalyze(CLI::App& app, absl::Status* status) {
   sub->add_option("map", args->env.files, "environment map (same as --env)");
   sub->add_option("--brdf", args->brdf, "BRDF spec, e.g. phong:s=32 (docs/brdf.md)");
   sub->add_option("--epsilon", args->epsilons, "tolerance(s), each in (0, 1)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(kOpenUnitInterval);
   sub->add_option("--lmax", args->lmax,
                   "lighting-only: maximum degree (default: what the map resolves, at most 255)");
   sub->add_option("--print-lmax", args->print_lmax, "lighting-only: print L_lm up to this degree")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   sub->add_flag("--json", args->json, "machine-readable output");
   sub->add_flag("--verbose", args->verbose, "stage timings on stderr");
+  AddServerOption(sub, &args->server);
   sub->callback([args, status] { *status = RunAnalyze(*args); });
 }
 

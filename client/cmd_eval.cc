@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/cli_common.h"
+#include "client/cli_validators.h"
 #include "client/commands.h"
 #include "client/report.h"
 #include "core/base/status_macros.h"
@@ -112,10 +113,13 @@ void RegisterEval(CLI::App& app, absl::Status* status) {
   auto args = std::make_shared<PointArgs>();
   CLI::App* sub = app.add_subcommand("eval", "reflected radiance from an SHRM file at one (N, V)");
   sub->add_option("--shrm", args->shrm, "SHRM file")->required();
-  sub->add_option("--normal", args->normal, "unit normal N as x,y,z (world, +Y up)");
-  sub->add_option("--tangent", args->tangent, "tangent T (Kajiya-Kay SHRMs) as x,y,z");
+  sub->add_option("--normal", args->normal, "unit normal N as x,y,z (world, +Y up)")
+      ->check(kDirection);
+  sub->add_option("--tangent", args->tangent, "tangent T (Kajiya-Kay SHRMs) as x,y,z")
+      ->check(kDirection);
   sub->add_option("--view", args->view, "view direction V (towards the viewer) as x,y,z")
-      ->required();
+      ->required()
+      ->check(kDirection);
   sub->add_flag("--json", args->json, "print {\"rgb\": [r, g, b]}");
   sub->callback([args, status] { *status = RunEval(*args); });
 }
@@ -126,10 +130,12 @@ void RegisterReference(CLI::App& app, absl::Status* status) {
       "reference", "brute-force reflected radiance over the map's pixels at one (N, V)");
   AddEnvOptions(sub, &args->env, /*required=*/true);
   sub->add_option("--brdf", args->brdf, "BRDF spec (docs/brdf.md)")->required();
-  sub->add_option("--normal", args->normal, "unit normal N as x,y,z (world, +Y up)");
-  sub->add_option("--tangent", args->tangent, "tangent T (Kajiya-Kay) as x,y,z");
+  sub->add_option("--normal", args->normal, "unit normal N as x,y,z (world, +Y up)")
+      ->check(kDirection);
+  sub->add_option("--tangent", args->tangent, "tangent T (Kajiya-Kay) as x,y,z")->check(kDirection);
   sub->add_option("--view", args->view, "view direction V (towards the viewer) as x,y,z")
-      ->required();
+      ->required()
+      ->check(kDirection);
   sub->add_flag("--json", args->json, "print {\"rgb\": [r, g, b]}");
   sub->callback([args, status] { *status = RunReference(*args); });
 }

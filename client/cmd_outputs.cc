@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/cli_common.h"
+#include "client/cli_validators.h"
 #include "client/commands.h"
 #include "client/report.h"
 #include "core/base/status_macros.h"
@@ -31,6 +32,7 @@ struct OutputArgs {
 };
 
 absl::Status RunRender(const OutputArgs& a) {
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(a.output, "--output"));
   SHRM_ASSIGN_OR_RETURN(Vec3 v, ParseDirection(a.view, "--view"));
   SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrmFile(a.shrm));
   SHRM_ASSIGN_OR_RETURN(RadianceCube map,
@@ -43,6 +45,7 @@ absl::Status RunRender(const OutputArgs& a) {
 
 absl::Status RunExplicit(const OutputArgs& a) {
   if (a.tb < 1) return absl::InvalidArgumentError("--tb must be >= 1");
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(absl::StrCat(a.output, "_0.exr"), "--output"));
   SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrmFile(a.shrm));
   const int threads = ResolveThreads(a.threads);
   std::vector<RadianceCube> maps;
@@ -70,6 +73,7 @@ absl::Status RunExplicit(const OutputArgs& a) {
 
 absl::Status RunIrradiance(const OutputArgs& a) {
   if (a.size < 1) return absl::InvalidArgumentError("--size must be >= 1");
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(a.output, "--output"));
   SHRM_ASSIGN_OR_RETURN(Mat3 rot, EnvRotation(a.env));
   SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(a.env));
   SHRM_ASSIGN_OR_RETURN(std::vector<double> light,
@@ -112,9 +116,11 @@ void RegisterRender(CLI::App& app, absl::Status* status) {
       app.add_subcommand("render", "the reflection map of an SHRM for one view (eq. 5.35)");
   sub->add_option("--shrm", args->shrm, "SHRM file")->required();
   sub->add_option("--view", args->view, "view direction V (towards the viewer) as x,y,z")
-      ->required();
+      ->required()
+      ->check(kDirection);
   sub->add_option("-o,--output", args->output, "output EXR (horizontal cross)")->required();
-  sub->add_option("--threads", args->threads, "worker threads (0: all cores)");
+  sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
+      ->check(CLI::NonNegativeNumber);
   sub->callback([args, status] { *status = RunRender(*args); });
 }
 
@@ -127,9 +133,10 @@ void RegisterExplicit(CLI::App& app, absl::Status* status) {
                   "cabral (12 icosahedral views), kautz-mccool (T_B "
                   "slices, local SHRMs) or grid (T_B x T_B views)")
       ->capture_default_str();
-  sub->add_option("--tb", args->tb, "T_B")->capture_default_str();
+  sub->add_option("--tb", args->tb, "T_B")->capture_default_str()->check(CLI::PositiveNumber);
   sub->add_option("-o,--output", args->output, "output prefix: PREFIX_<k>.exr")->required();
-  sub->add_option("--threads", args->threads, "worker threads (0: all cores)");
+  sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
+      ->check(CLI::NonNegativeNumber);
   sub->callback([args, status] { *status = RunExplicit(*args); });
 }
 
@@ -139,9 +146,11 @@ void RegisterIrradiance(CLI::App& app, absl::Status* status) {
       "irradiance", "Lambertian irradiance: 9 SH coefficients and an irradiance cube map");
   AddEnvOptions(sub, &args->env, /*required=*/true);
   sub->add_option("--size", args->size, "cube face size of the irradiance map")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   sub->add_option("-o,--output", args->output, "output EXR (horizontal cross), optional");
-  sub->add_option("--threads", args->threads, "worker threads (0: all cores)");
+  sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
+      ->check(CLI::NonNegativeNumber);
   sub->add_flag("--json", args->json, "machine-readable output");
   sub->callback([args, status] { *status = RunIrradiance(*args); });
 }

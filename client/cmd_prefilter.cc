@@ -11,10 +11,12 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "client/cli_common.h"
+#include "client/cli_validators.h"
 #include "client/commands.h"
 #include "client/report.h"
 #include "core/base/status_macros.h"
 #include "core/brdf/brdf.h"
+#include "core/io/atomic_file.h"
 #include "core/io/image.h"
 #include "core/shrm/prefilter.h"
 #include "core/shrm/shrm_file.h"
@@ -22,6 +24,8 @@
 
 namespace shrm::cli {
 namespace {
+
+namespace v1 = ::shrm::v1;
 
 // Preview: three spheres seen from these directions (front, side, above).
 constexpr int kPreviewSize = 256;
@@ -40,6 +44,7 @@ struct PrefilterArgs {
   int threads = 0;
   bool json = false;
   bool verbose = false;
+  std::string server;
 };
 
 // Orthographic renders of a unit sphere carrying the SHRM, seen from three views, side by side;
@@ -90,6 +95,93 @@ double AutoExposure(const Image& img) {
   return n > 0 && sum > 0 ? std::log2(0.18 * n / sum) : 0.0;
 }
 
+// Prints the summary lines of a run (both modes).
+void PrintSummary(const PrefilterArgs& a, const std::string& brdf_spec, int face_size,
+                  const ShrmAnalysis& an, const nlohmann::json& timings) {
+  std::printf("wrote %s: %s SHRM, %d x %d x 6 texels, (F_B, P_B) = (%d, %d)\n", a.output.c_str(),
+              a.kind.c_str(), face_size, face_size, an.f_b, an.p_b);
+  std::printf("  BRDF %s: (F_rho, P_rho) = (%d, %d), eps_brdf %.4g\n", brdf_spec.c_str(), an.f_brdf,
+              an.p_brdf, an.eps_brdf);
+  std::printf("  lighting: F_L %s, eps_light %.4g; eq. 5.19 bound %.4g\n",
+              an.f_light >= 0 ? std::to_string(an.f_light).c_str() : "not reached", an.eps_light,
+              an.eps_bound);
+  std::printf("  time:");
+  for (const auto& [k, v] : timings.items()) std::printf(" %s %.1f", k.c_str(), v.get<double>());
+  std::printf("\n");
+}
+
+// --server: the same job on shrmd; the SHRM file it returns is byte-identical to the embedded
+// run's (tests/service_test.cc).
+absl::Status RunPrefilterRemote(const PrefilterArgs& a, const PrefilterOptions& opt) {
+  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> client,
+                        client::ShrmClient::Connect(a.server));
+  Progress progress(a.verbose);
+  v1::PrefilterRequest req;
+  progress.Begin("upload");
+  SHRM_RETURN_IF_ERROR(RemoteEnvironment(a.env, client.get(), req.mutable_environment()));
+  const double upload_ms = progress.End();
+  req.set_brdf(a.brdf);
+  if (opt.f >= 0) {
+    req.mutable_orders()->set_f(opt.f);
+    req.mutable_orders()->set_p(opt.p);
+  } else {
+    req.set_epsilon(a.epsilon);
+  }
+  req.set_kind(opt.kind == ShrmKind::kLocal ? v1::SHRM_KIND_LOCAL : v1::SHRM_KIND_GLOBAL);
+  req.set_face_size(a.size);
+  req.set_half(a.half);
+  bool first = true;
+  auto on_progress = [&](const v1::PrefilterProgress& p) {
+    if (!first) progress.End();
+    first = false;
+    progress.Begin("remote " + p.stage());
+  };
+  absl::StatusOr<client::PrefilterOutcome> out = client->Prefilter(req, on_progress);
+  if (!first) progress.End();
+  if (!out.ok()) {
+    return absl::Status(out.status().code(), absl::StrCat(a.server, ": ", out.status().message()));
+  }
+  OutputTransaction outputs;
+  const std::string shrm_tmp = outputs.Temp(a.output);
+  progress.Begin("write");
+  SHRM_RETURN_IF_ERROR(WriteFileAtomically(shrm_tmp, out->shrm_file));
+  const double write_ms = progress.End();
+  const v1::PrefilterReport& rep = out->report;
+  nlohmann::json report = nlohmann::json::parse(rep.report_json(), nullptr, false);
+  if (report.is_discarded()) return absl::DataLossError("the server's report is not JSON");
+  report["output"] = a.output;
+  report["source"] = a.env.files;
+  report["server"] = a.server;
+  report["timings"]["upload_ms"] = upload_ms;
+  report["timings"]["local_write_ms"] = write_ms;
+  if (!a.preview.empty()) {
+    progress.Begin("preview");
+    SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrmFile(shrm_tmp));
+    const Image spheres = RenderSpheres(file.cube);
+    SHRM_RETURN_IF_ERROR(WritePreviewPng(outputs.Temp(a.preview), spheres, AutoExposure(spheres)));
+    report["timings"]["preview_ms"] = progress.End();
+  }
+  if (!a.report.empty()) SHRM_RETURN_IF_ERROR(WriteJsonFile(outputs.Temp(a.report), report));
+  SHRM_RETURN_IF_ERROR(outputs.Commit());
+  if (a.json) {
+    std::printf("%s\n", report.dump(2).c_str());
+    return absl::OkStatus();
+  }
+  ShrmAnalysis an;
+  an.f_light = rep.f_light();
+  an.f_brdf = rep.f_brdf();
+  an.p_brdf = rep.p_brdf();
+  an.f_b = rep.f_b();
+  an.p_b = rep.p_b();
+  an.eps_light = rep.eps_light();
+  an.eps_brdf = rep.eps_brdf();
+  an.eps_bound = rep.eps_bound();
+  PrintSummary(a, rep.brdf(), rep.face_size(), an, report["timings"]);
+  std::printf("  server %s: lighting cache %s, BRDF cache %s\n", a.server.c_str(),
+              rep.cache().lighting_hit() ? "hit" : "miss", rep.cache().brdf_hit() ? "hit" : "miss");
+  return absl::OkStatus();
+}
+
 absl::Status RunPrefilter(const PrefilterArgs& a) {
   PrefilterOptions opt;
   opt.epsilon = a.epsilon;
@@ -113,6 +205,10 @@ absl::Status RunPrefilter(const PrefilterArgs& a) {
   if (a.threads < 0) return absl::InvalidArgumentError("--threads must be >= 0");
   opt.face_size = a.size;
   opt.threads = ResolveThreads(a.threads);
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(a.output, "--output"));
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(a.preview, "--preview"));
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(a.report, "--report"));
+  if (!a.server.empty()) return RunPrefilterRemote(a, opt);
 
   Progress progress(a.verbose);
   SHRM_ASSIGN_OR_RETURN(std::unique_ptr<Brdf> brdf, ParseBrdfSpec(a.brdf));
@@ -127,6 +223,7 @@ absl::Status RunPrefilter(const PrefilterArgs& a) {
     if (!first) progress.End();
     first = false;
     progress.Begin(std::string(stage));
+    return absl::OkStatus();
   };
   SHRM_ASSIGN_OR_RETURN(PrefilterResult r, Prefilter(env, *brdf, opt, on_stage));
   if (!first) progress.End();
@@ -146,8 +243,9 @@ absl::Status RunPrefilter(const PrefilterArgs& a) {
       {"shrm:layout", EnvLayoutName(env.layout())},
   };
   if (!a.env.rotate.empty()) attrs["shrm:rotate_ypr_deg"] = absl::StrJoin(a.env.rotate, ",");
+  OutputTransaction outputs;
   progress.Begin("write");
-  SHRM_RETURN_IF_ERROR(WriteShrmFile(a.output, r.cube, attrs, a.half));
+  SHRM_RETURN_IF_ERROR(WriteShrmFile(outputs.Temp(a.output), r.cube, attrs, a.half));
   const double write_ms = progress.End();
 
   nlohmann::json report = AnalysisJson(an);
@@ -164,24 +262,16 @@ absl::Status RunPrefilter(const PrefilterArgs& a) {
   if (!a.preview.empty()) {
     progress.Begin("preview");
     const Image spheres = RenderSpheres(r.cube);
-    SHRM_RETURN_IF_ERROR(WritePreviewPng(a.preview, spheres, AutoExposure(spheres)));
+    SHRM_RETURN_IF_ERROR(WritePreviewPng(outputs.Temp(a.preview), spheres, AutoExposure(spheres)));
     timings["preview_ms"] = progress.End();
   }
   report["timings"] = timings;
-  if (!a.report.empty()) SHRM_RETURN_IF_ERROR(WriteJsonFile(a.report, report));
+  if (!a.report.empty()) SHRM_RETURN_IF_ERROR(WriteJsonFile(outputs.Temp(a.report), report));
+  SHRM_RETURN_IF_ERROR(outputs.Commit());
   if (a.json) {
     std::printf("%s\n", report.dump(2).c_str());
   } else {
-    std::printf("wrote %s: %s SHRM, %d x %d x 6 texels, (F_B, P_B) = (%d, %d)\n", a.output.c_str(),
-                a.kind.c_str(), r.cube.face_size, r.cube.face_size, an.f_b, an.p_b);
-    std::printf("  BRDF %s: (F_rho, P_rho) = (%d, %d), eps_brdf %.4g\n", brdf->spec().c_str(),
-                an.f_brdf, an.p_brdf, an.eps_brdf);
-    std::printf("  lighting: F_L %s, eps_light %.4g; eq. 5.19 bound %.4g\n",
-                an.f_light >= 0 ? std::to_string(an.f_light).c_str() : "not reached", an.eps_light,
-                an.eps_bound);
-    std::printf("  time:");
-    for (const auto& [k, v] : timings.items()) std::printf(" %s %.1f", k.c_str(), v.get<double>());
-    std::printf("\n");
+    PrintSummary(a, brdf->spec(), r.cube.face_size, an, timings);
   }
   return absl::OkStatus();
 }
@@ -195,19 +285,26 @@ void RegisterPrefilter(CLI::App& app, absl::Status* status) {
   sub->add_option("--brdf", args->brdf, "BRDF spec, e.g. microfacet:sigma=0.2 (docs/brdf.md)")
       ->required();
   sub->add_option("--epsilon", args->epsilon, "tolerance for the orders, in (0, 1)")
-      ->capture_default_str();
-  sub->add_option("--orders", args->orders, "explicit orders F,P instead of --epsilon");
-  sub->add_option("--kind", args->kind, "global or local SHRM")->capture_default_str();
+      ->capture_default_str()
+      ->check(kOpenUnitInterval);
+  sub->add_option("--orders", args->orders, "explicit orders F,P instead of --epsilon")
+      ->check(kOrders);
+  sub->add_option("--kind", args->kind, "global or local SHRM")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"global", "local"}));
   sub->add_option("--size", args->size, "cube face size S_B (0: about 10 F_B)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   sub->add_option("-o,--output", args->output, "output SHRM file (.shrm.exr)")->required();
   sub->add_option("--report", args->report, "write a JSON report here");
   sub->add_option("--preview", args->preview, "write a PNG preview (three spheres) here");
   sub->add_flag("--half", args->half, "store half floats instead of float32");
   sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   sub->add_flag("--json", args->json, "print the report as JSON on stdout");
   sub->add_flag("--verbose", args->verbose, "stage timings on stderr");
+  AddServerOption(sub, &args->server);
   sub->callback([args, status] { *status = RunPrefilter(*args); });
 }
 

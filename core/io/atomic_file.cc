@@ -9,7 +9,13 @@
 
 namespace shrm {
 
-std::string TempPathFor(const std::string& path) { return absl::StrCat(path, ".tmp-", ::getpid()); }
+std::string TempPathFor(const std::string& path) {
+  // Keep the extension last so that writers choosing the format by extension still can.
+  const std::filesystem::path p(path);
+  return (p.parent_path() /
+          absl::StrCat(p.stem().string(), ".tmp-", ::getpid(), p.extension().string()))
+      .string();
+}
 
 void DiscardTempFile(const std::string& tmp) {
   std::error_code ec;

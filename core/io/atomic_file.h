@@ -11,7 +11,8 @@
 
 namespace shrm {
 
-// "<path>.tmp-<pid>": same folder (so the rename is atomic), unique per process.
+// "<stem>.tmp-<pid><ext>" next to `path`: same folder (so the rename is atomic), unique per
+// process, same extension.
 std::string TempPathFor(const std::string& path);
 // Renames `tmp` over `path`; on failure removes `tmp` and returns Unavailable naming `path`.
 absl::Status CommitTempFile(const std::string& tmp, const std::string& path);

@@ -8,6 +8,8 @@
 #ifndef SHRM_CORE_SHRM_PREFILTER_H_
 #define SHRM_CORE_SHRM_PREFILTER_H_
 
+#include <array>
+#include <chrono>
 #include <functional>
 #include <string>
 #include <string_view>
@@ -48,8 +50,26 @@ struct PrefilterResult {
   std::vector<StageTiming> timings;
 };
 
-// Called at the start of each stage with its name ("brdf", "lighting", "analysis", "synthesis").
-using PrefilterProgress = std::function<void(std::string_view stage)>;
+// Called at the start of each stage with its name ("brdf", "lighting", "analysis", "synthesis");
+// a non-OK status (e.g. a cancelled or expired request) stops the pipeline with that status.
+using PrefilterProgress = std::function<absl::Status(std::string_view stage)>;
+
+// Times stages into a StageTiming list, calling the progress hook at each start.
+class StageClock {
+ public:
+  StageClock(std::vector<StageTiming>* timings, const PrefilterProgress& progress)
+      : timings_(timings), progress_(progress) {}
+  // Calls the hook (its error stops the caller) and starts timing `stage`.
+  absl::Status Begin(const char* stage);
+  // Appends the running stage's time.
+  void End();
+
+ private:
+  std::vector<StageTiming>* timings_;
+  const PrefilterProgress& progress_;
+  std::string stage_;
+  std::chrono::steady_clock::time_point start_;
+};
 
 // Errors: InvalidArgument for bad options (epsilon outside (0, 1), one of f/p without the other,
 // negative orders, an order above what the map resolves), OutOfRange when the BRDF cannot reach
@@ -57,6 +77,33 @@ using PrefilterProgress = std::function<void(std::string_view stage)>;
 absl::StatusOr<PrefilterResult> Prefilter(const EnvMap& env, const Brdf& brdf,
                                           const PrefilterOptions& options,
                                           const PrefilterProgress& progress = nullptr);
+
+// The stages of Prefilter(), for callers that cache their results (the service): the BRDF stage
+// depends only on the BRDF and (epsilon | F, P); the lighting stage only on the map, the rotation
+// and the degree F_rho.
+absl::Status ValidatePrefilterOptions(const PrefilterOptions& options);
+
+struct BrdfStage {
+  int f_rho = 0, p_rho = 0;
+  BrdfCoefficients coefficients;  // at least (f_rho, p_rho)
+};
+// Stage 1: (F_rho, P_rho) and rho_lpq.
+absl::StatusOr<BrdfStage> ComputeBrdfStage(const Brdf& brdf, const PrefilterOptions& options);
+
+struct LightingStage {
+  std::vector<double> light;       // RGB L_lm up to the stage's degree, rotated
+  std::array<double, 3> energy{};  // integral L_c^2 dw (eq. 5.15)
+};
+// Stage 2: L_lm up to degree lmax (= F_rho) and the map's energy.
+absl::StatusOr<LightingStage> ComputeLightingStage(const EnvMap& env, int lmax,
+                                                   const PrefilterOptions& options);
+
+// Stages 3-4 into *r (r->brdf, r->light, r->analysis, r->cube; "analysis" and "synthesis"
+// appended to r->timings). max_cube_values > 0 bounds 6 S_B^2 (P_B + 1)^2 3 (InvalidArgument
+// naming S_B and P_B above it).
+absl::Status FinishPrefilter(const BrdfStage& brdf, const LightingStage& lighting,
+                             const PrefilterOptions& options, const PrefilterProgress& progress,
+                             PrefilterResult* r, double max_cube_values = 0);
 
 }  // namespace shrm
 

@@ -128,6 +128,11 @@ absl::StatusOr<ShrmAnalysis> AnalyzeShrm(int light_lmax, int channels,
   std::vector<double> eb_cum(fmax + 1);
   for (int l = 0; l <= fmax; ++l) eb_cum[l] = eb[l] + (l ? eb_cum[l - 1] : 0.0);
 
+  // Eq. 5.19 generalized to (F, P): the energy of B outside l <= f, p <= P_B is bounded by
+  //  (a) the l > f tail: (4 pi / (2f + 3)) (eps_L L_tot)(residual rho energy), as in eq. 5.19;
+  //  (b) the p > P_B tail for l <= f: sum_l (4 pi / (2l + 1)) |L_l|^2 rho_{l, p > P_B}, exact
+  //      for the computed coefficients (p <= brdf.pmax), plus the rho energy outside the computed
+  //      set times the largest (4 pi / (2l + 1)) |L_l|^2 (worst case: all of it in that band).
   auto bound = [&](int f) {
     double res = 0;
     for (int c = 0; c < channels; ++c) {
@@ -138,6 +143,15 @@ absl::StatusOr<ShrmAnalysis> AnalyzeShrm(int light_lmax, int channels,
       const double lres = std::max(0.0, ltot[c] - lcap);
       const double rres = std::max(0.0, RhoTotal(brdf, bc(c)) - rcap);
       res += 4 * kPi / (2 * f + 3) * lres * rres;
+      double computed = 0, worst_weight = 0;
+      for (int l = 0; l <= brdf.lmax; ++l) computed += RhoBand(brdf, l, brdf.pmax, bc(c));
+      const double outside = std::max(0.0, RhoTotal(brdf, bc(c)) - computed);
+      for (int l = 0; l <= std::min({f, light_lmax, brdf.lmax}); ++l) {
+        const double w = 4 * kPi / (2 * l + 1) * lband[l * channels + c];
+        res += w * (RhoBand(brdf, l, brdf.pmax, bc(c)) - RhoBand(brdf, l, a.p_b, bc(c)));
+        worst_weight = std::max(worst_weight, w);
+      }
+      res += worst_weight * outside;
     }
     const double e = eb_cum[std::min(f, fmax)];
     return res + e > 0 ? res / (e + res) : 0.0;

@@ -6,7 +6,9 @@
 //   minimum rule: F_B = min(F_L, F_rho), P_B = P_rho, eps_B ~ min(eps_L, eps_rho);
 //   eq. 5.19 (conservative bound), in the norm of docs/shrm.md where the energy of B over
 //             (R, view) is sum (4 pi / (2l + 1)) |B_lmpq|^2 (B_lmpq = L_lm rho_lpq, no Lambda):
-//             B_res(F) = sum_c (4 pi / (2F + 3)) (eps_L L_tot)_c (eps_rho(F, P_B) rho_tot)_c,
+//             B_res(F) = sum_c (4 pi / (2F + 3)) (eps_L L_tot)_c (eps_rho(F, P_B) rho_tot)_c
+//             (the l > F tail) plus the p > P_B tail of l <= F (exact for the computed rho_lpq,
+//             worst-case band weight for rho energy outside them),
 //             eps_B <= B_res / (E_B(F, P_B) + B_res);
 //   sec. 5.5.2: S_B ~ 10 F_B (and T_B ~ 10 P_B);
 //   Fig. 5.5: accuracy curves vs F (lighting, BRDF, B relative to the highest available order,

@@ -4,6 +4,10 @@
 #include <cmath>
 #include <thread>
 
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/cubemap.h"
@@ -38,6 +42,23 @@ void ParallelRows(int rows, int threads, Body&& body) {
   for (auto& th : pool) th.join();
 }
 
+// Runs `body(begin, end)` over [0, n) split into `threads` contiguous chunks.
+template <typename Body>
+void ParallelFor(int n, int threads, Body&& body) {
+  threads = std::max(1, std::min(threads, n));
+  if (threads == 1) {
+    body(0, n);
+    return;
+  }
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) {
+    const int b = static_cast<int>(static_cast<long>(n) * t / threads);
+    const int e = static_cast<int>(static_cast<long>(n) * (t + 1) / threads);
+    pool.emplace_back([&body, b, e] { body(b, e); });
+  }
+  for (auto& th : pool) th.join();
+}
+
 RadianceCube EmptyMap(int face_size, int channels) {
   RadianceCube m;
   m.face_size = face_size;
@@ -56,12 +77,69 @@ absl::StatusOr<RadianceCube> ReflectionMapForView(const ShrmCube& cube, const Ve
   return std::move((*maps)[0]);
 }
 
-absl::StatusOr<std::vector<RadianceCube>> ReflectionMapsForViews(const ShrmCube& cube,
-                                                                 std::span<const Vec3> views,
-                                                                 int threads) {
+namespace {
+
+// Sizes `m` for (face_size, channels), reusing its storage when it already has the right size
+// (then the old values are simply overwritten: no allocation, no page faults).
+void PrepareMap(RadianceCube& m, int face_size, int channels) {
+  m.face_size = face_size;
+  m.channels = channels;
+  if (m.data.size() != m.size()) {
+    m.data.clear();
+    m.data.shrink_to_fit();
+    m.data.resize(m.size());
+  }
+}
+
+// out[v][i] = sum_k y[v * n + k] t[k * tstride + i] for i < width and views v0 .. v0 + NV - 1:
+// eq. 5.35 on one block of texels (one face row), t the transposed coefficients (k-major, the
+// texel-channel index contiguous). Register-blocked: every 16-float slice of t[k] is loaded once
+// for NV views; each output row is written once, sequentially.
+template <int NV>
+void ProductBlock(const float* t, size_t tstride, int n, int width, const float* y,
+                  float* const* out) {
+#if defined(__AVX512F__)
+  int i = 0;
+  for (; i + 16 <= width; i += 16) {
+    __m512 acc[NV];
+    for (int v = 0; v < NV; ++v) acc[v] = _mm512_setzero_ps();
+    for (int k = 0; k < n; ++k) {
+      const __m512 tk = _mm512_loadu_ps(t + k * tstride + i);
+      for (int v = 0; v < NV; ++v)
+        acc[v] = _mm512_fmadd_ps(_mm512_set1_ps(y[v * n + k]), tk, acc[v]);
+    }
+    for (int v = 0; v < NV; ++v) _mm512_storeu_ps(out[v] + i, acc[v]);
+  }
+  if (i < width) {
+    const __mmask16 mask = static_cast<__mmask16>((1u << (width - i)) - 1);
+    __m512 acc[NV];
+    for (int v = 0; v < NV; ++v) acc[v] = _mm512_setzero_ps();
+    for (int k = 0; k < n; ++k) {
+      const __m512 tk = _mm512_maskz_loadu_ps(mask, t + k * tstride + i);
+      for (int v = 0; v < NV; ++v)
+        acc[v] = _mm512_fmadd_ps(_mm512_set1_ps(y[v * n + k]), tk, acc[v]);
+    }
+    for (int v = 0; v < NV; ++v) _mm512_mask_storeu_ps(out[v] + i, mask, acc[v]);
+  }
+#else
+  for (int v = 0; v < NV; ++v) {
+    float* o = out[v];
+    const float* yv = y + v * n;
+    for (int i = 0; i < width; ++i) o[i] = yv[0] * t[i];
+    for (int k = 1; k < n; ++k)
+      for (int i = 0; i < width; ++i) o[i] += yv[k] * t[k * tstride + i];
+  }
+#endif
+}
+
+}  // namespace
+
+absl::Status ReflectionMapsForViewsInto(const ShrmCube& cube, std::span<const Vec3> views,
+                                        std::vector<RadianceCube>& maps, int threads) {
   if (absl::Status s = CheckCube(cube, threads); !s.ok()) return s;
   const int size = cube.face_size, n = cube.coeff_count(), ch = cube.channels;
-  std::vector<RadianceCube> maps(views.size(), EmptyMap(size, ch));
+  maps.resize(views.size());
+  for (RadianceCube& m : maps) PrepareMap(m, size, ch);
   const int rows = kCubeFaceCount * size;
   if (cube.kind == ShrmKind::kGlobal) {
     std::vector<float> y(views.size() * n);
@@ -70,23 +148,26 @@ absl::StatusOr<std::vector<RadianceCube>> ReflectionMapsForViews(const ShrmCube&
       for (int k = 0; k < n; ++k) y[v * n + k] = static_cast<float>(yv[k]);
     }
     const int width = size * ch;
-    ParallelRows(rows, threads, [&](int row) {
-      const int face = row / size, yy = row % size;
-      std::vector<float> t(static_cast<size_t>(n) * width);
-      const float* src = cube.data.data() + cube.Index(face, 0, yy, 0, 0);
-      for (int x = 0; x < size; ++x)
-        for (int k = 0; k < n; ++k)
-          for (int c = 0; c < ch; ++c)
-            t[static_cast<size_t>(k) * width + x * ch + c] =
-                src[(static_cast<size_t>(x) * n + k) * ch + c];
-      for (size_t v = 0; v < views.size(); ++v) {
-        const float* yv = y.data() + v * n;
-        float* acc = maps[v].data.data() + maps[v].Index(face, 0, yy, 0);
-        for (int i = 0; i < width; ++i) acc[i] = yv[0] * t[i];
-        for (int k = 1; k < n; ++k) {
-          const float w = yv[k];
-          const float* tk = t.data() + static_cast<size_t>(k) * width;
-          for (int i = 0; i < width; ++i) acc[i] += w * tk[i];
+    const size_t tstride = (static_cast<size_t>(width) + 15) / 16 * 16;
+    ParallelFor(rows, threads, [&](int begin, int end) {
+      std::vector<float> t(static_cast<size_t>(n) * tstride);
+      for (int row = begin; row < end; ++row) {
+        const int face = row / size, yy = row % size;
+        const float* src = cube.data.data() + cube.Index(face, 0, yy, 0, 0);
+        for (int x = 0; x < size; ++x)
+          for (int k = 0; k < n; ++k)
+            for (int c = 0; c < ch; ++c)
+              t[k * tstride + x * ch + c] = src[(static_cast<size_t>(x) * n + k) * ch + c];
+        size_t v = 0;
+        float* out[4];
+        for (; v + 4 <= views.size(); v += 4) {
+          for (int j = 0; j < 4; ++j)
+            out[j] = maps[v + j].data.data() + maps[v + j].Index(face, 0, yy, 0);
+          ProductBlock<4>(t.data(), tstride, n, width, y.data() + v * n, out);
+        }
+        for (; v < views.size(); ++v) {
+          out[0] = maps[v].data.data() + maps[v].Index(face, 0, yy, 0);
+          ProductBlock<1>(t.data(), tstride, n, width, y.data() + v * n, out);
         }
       }
     });
@@ -96,11 +177,19 @@ absl::StatusOr<std::vector<RadianceCube>> ReflectionMapsForViews(const ShrmCube&
       for (int x = 0; x < size; ++x)
         for (size_t v = 0; v < views.size(); ++v) {
           const std::array<double, 3> b = ShrmTexelRadiance(cube, face, x, yy, views[v]);
-          for (int c = 0; c < std::min(ch, 3); ++c)
-            maps[v].data[maps[v].Index(face, x, yy, c)] = static_cast<float>(b[c]);
+          for (int c = 0; c < ch; ++c)
+            maps[v].data[maps[v].Index(face, x, yy, c)] = c < 3 ? static_cast<float>(b[c]) : 0.0f;
         }
     });
   }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::vector<RadianceCube>> ReflectionMapsForViews(const ShrmCube& cube,
+                                                                 std::span<const Vec3> views,
+                                                                 int threads) {
+  std::vector<RadianceCube> maps;
+  if (absl::Status s = ReflectionMapsForViewsInto(cube, views, maps, threads); !s.ok()) return s;
   return maps;
 }
 
@@ -134,9 +223,16 @@ std::vector<Vec3> ViewGrid(int t_b) {
 }
 
 absl::StatusOr<std::vector<RadianceCube>> ViewGridMaps(const ShrmCube& cube, int t_b, int threads) {
+  std::vector<RadianceCube> maps;
+  if (absl::Status s = ViewGridMapsInto(cube, t_b, maps, threads); !s.ok()) return s;
+  return maps;
+}
+
+absl::Status ViewGridMapsInto(const ShrmCube& cube, int t_b, std::vector<RadianceCube>& maps,
+                              int threads) {
   if (t_b < 1) return absl::InvalidArgumentError(absl::StrCat("T_B = ", t_b, " (must be >= 1)"));
   const std::vector<Vec3> views = ViewGrid(t_b);
-  return ReflectionMapsForViews(cube, views, threads);
+  return ReflectionMapsForViewsInto(cube, views, maps, threads);
 }
 
 double KautzMcCoolTheta(int k, int t_b) { return kPi * (k + 0.5) / t_b; }

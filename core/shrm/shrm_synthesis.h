@@ -47,6 +47,11 @@ class WignerColumnTables {
  public:
   WignerColumnTables(int lmax, int qmax);
   void Compute(double alpha, std::span<double> out) const;
+  // The columns of kWignerBlock angles at once (n <= kWignerBlock of them; the other lanes repeat
+  // alpha[n - 1]), interleaved: out[WignerColumnIndex(...) * kWignerBlock + r] for angle r;
+  // out holds WignerColumnCount(lmax, qmax) * kWignerBlock doubles.
+  static constexpr int kWignerBlock = 8;
+  void ComputeBlock(const double* alpha, int n, double* out) const;
 
  private:
   int lmax_, qmax_;
@@ -62,10 +67,15 @@ Mat3 ShrmLocalFrame(double alpha, double beta);
 
 struct ShrmGridOptions {
   // Equiangular grid rows in alpha over [0, pi] (pixel centres alpha_j = pi (j + 1/2) / N);
-  // 0 = automatic: max(32, 4 (F + P + 1)) rounded up to a multiple of 8. The beta grid
+  // 0 = automatic: max(32, 4 (F + P + 1)) rounded up to a multiple of 8, then to the next
+  // multiple of 8 with no prime factor above 7 (FFT-friendly 2 N). The beta grid
   // has 2 N columns (N >= F + P + 1 is required so the FFT over m does not alias).
   int alpha_samples = 0;
   int threads = 1;
+  // P = 0 only: synthesize B_00 on the grid with the inverse SHT (core/transform/sht.h) of the
+  // coefficients sqrt(4 pi / (2l + 1)) rho_l L_lm instead of the Wigner / FFT rows (same grid,
+  // same interpolation; faster for every F). false = the general path (tests compare the two).
+  bool p0_sht_path = true;
 };
 
 // The SHRM of one lighting and one BRDF: L_lm (complex, converted from the real input) and
@@ -104,7 +114,10 @@ class ShrmSynthesizer {
 
   // Fast path (sec. 5.6.2 step 3): the SHRM on the equiangular (alpha, beta) grid, then resampled
   // onto the texel centres of a cube map of face_size S_B by 4 x 4 Lagrange (cubic) interpolation
-  // in (alpha, beta). Errors: face_size < 1, bad grid options.
+  // in (alpha, beta). For P = 0 the grid is by default one inverse SHT of the real coefficients
+  // sqrt(4 pi / (2l + 1)) rho_l00 L_lm (ShrmGridOptions::p0_sht_path). The output buffer of large
+  // cubes is hinted for transparent huge pages (first-touch page faults). Errors: face_size < 1,
+  // bad grid options.
   absl::StatusOr<ShrmCube> BuildCube(ShrmKind kind, int face_size,
                                      const ShrmGridOptions& options = {}) const;
 
@@ -121,11 +134,20 @@ class ShrmSynthesizer {
 
  private:
   ShrmSynthesizer() = default;
-  // Coefficients of one grid row (alpha) for all nb columns into row_out (nb * stride floats).
-  void SynthesizeRow(ShrmKind kind, double alpha, int nb, void* fft_plan,
-                     const WignerColumnTables& tables, const WignerColumnTables& ptables,
-                     std::span<double> cols, std::span<double> dp, std::complex<double>* work,
-                     float* row_out) const;
+  // The P = 0 path of BuildCube (ShrmGridOptions::p0_sht_path).
+  absl::StatusOr<ShrmCube> BuildCubeP0(ShrmKind kind, int face_size, int na, int threads) const;
+  // Per-thread buffers of SynthesizeRows.
+  struct RowScratch {
+    std::vector<double> cols, dp, bre, bim, sre, sim;
+    std::complex<double>* work = nullptr;  // FFT input, nseries * nb (FFTW-allocated)
+    std::complex<double>* out = nullptr;   // FFT output, same size
+  };
+  static constexpr int kWignerBlock = WignerColumnTables::kWignerBlock;
+  // Coefficients of `rows` <= kWignerBlock consecutive grid rows (alphas[r]) for all nb columns
+  // into rows_out (rows * nb * stride floats).
+  void SynthesizeRows(ShrmKind kind, const double* alphas, int rows, int nb, void* fft_plan,
+                      const WignerColumnTables& tables, const WignerColumnTables& ptables,
+                      RowScratch& scratch, float* rows_out) const;
 
   int lmax_ = 0, pmax_ = 0, channels_ = 3;
   ReparamKind reparam_ = ReparamKind::kReflection;

@@ -1,0 +1,230 @@
+#include "client/shrm_client.h"
+
+#include <grpcpp/grpcpp.h>
+
+#include <algorithm>
+#include <fstream>
+#include <iterator>
+#include <thread>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
+#include "core/io/sha256.h"
+
+namespace shrm::client {
+namespace {
+
+namespace v1 = ::shrm::v1;
+
+// Upload chunk size: 1 MiB, a quarter of gRPC's default 4 MiB message limit.
+constexpr size_t kUploadChunkBytes = 1 << 20;
+
+void SetDeadline(grpc::ClientContext* context, absl::Duration d) {
+  if (d == absl::InfiniteDuration()) return;
+  context->set_deadline(absl::ToChronoTime(absl::Now() + d));
+}
+
+}  // namespace
+
+absl::Status FromGrpcStatus(const grpc::Status& status) {
+  if (status.ok()) return absl::OkStatus();
+  return absl::Status(static_cast<absl::StatusCode>(status.error_code()), status.error_message());
+}
+
+absl::StatusOr<std::unique_ptr<ShrmClient>> ShrmClient::Connect(const std::string& target,
+                                                                const ClientOptions& options) {
+  if (target.empty()) return absl::InvalidArgumentError("--server: empty target");
+  if (options.max_attempts < 1) return absl::InvalidArgumentError("max_attempts must be >= 1");
+  grpc::ChannelArguments args;
+  args.SetLoadBalancingPolicyName("round_robin");
+  std::shared_ptr<grpc::Channel> channel =
+      grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), args);
+  if (!channel) return absl::InvalidArgumentError(absl::StrCat("--server: bad target ", target));
+  return std::unique_ptr<ShrmClient>(new ShrmClient(std::move(channel), options));
+}
+
+ShrmClient::ShrmClient(std::shared_ptr<grpc::Channel> channel, const ClientOptions& options)
+    : channel_(std::move(channel)), stub_(v1::Shrm::NewStub(channel_)), options_(options) {}
+
+absl::Status ShrmClient::WithRetries(
+    const std::function<grpc::Status(grpc::ClientContext*)>& attempt, absl::Duration deadline) {
+  absl::Duration backoff = options_.initial_backoff;
+  grpc::Status status;
+  for (int i = 0; i < options_.max_attempts; ++i) {
+    if (i > 0) {
+      absl::SleepFor(backoff);
+      backoff = std::min(backoff * 2, options_.max_backoff);
+    }
+    grpc::ClientContext context;
+    SetDeadline(&context, std::min(deadline, options_.call_timeout));
+    status = attempt(&context);
+    last_retry_after_ms_ = 0;
+    if (status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) {
+      auto it = context.GetServerTrailingMetadata().find("retry-after-ms");
+      int64_t ms = 0;
+      if (it != context.GetServerTrailingMetadata().end() &&
+          absl::SimpleAtoi(absl::string_view(it->second.data(), it->second.size()), &ms)) {
+        last_retry_after_ms_ = ms;
+      }
+    }
+    if (status.error_code() != grpc::StatusCode::UNAVAILABLE) break;
+  }
+  return FromGrpcStatus(status);
+}
+
+absl::StatusOr<v1::HasBlobResponse> ShrmClient::HasBlob(const std::string& sha256) {
+  v1::HasBlobRequest req;
+  req.set_sha256(sha256);
+  v1::HasBlobResponse resp;
+  absl::Status s =
+      WithRetries([&](grpc::ClientContext* c) { return stub_->HasBlob(c, req, &resp); },
+                  absl::InfiniteDuration());
+  if (!s.ok()) return s;
+  return resp;
+}
+
+absl::Status ShrmClient::UploadOnce(grpc::ClientContext* context, std::string_view bytes,
+                                    const std::string& sha256, std::string* verified) {
+  v1::UploadBlobResponse resp;
+  std::unique_ptr<grpc::ClientWriter<v1::UploadBlobChunk>> writer =
+      stub_->UploadBlob(context, &resp);
+  size_t offset = 0;
+  bool first = true;
+  while (first || offset < bytes.size()) {
+    v1::UploadBlobChunk chunk;
+    if (first) {
+      chunk.set_sha256(sha256);
+      chunk.set_total_size(bytes.size());
+      first = false;
+    }
+    const size_t n = std::min(kUploadChunkBytes, bytes.size() - offset);
+    chunk.set_data(bytes.data() + offset, n);
+    offset += n;
+    if (!writer->Write(chunk)) break;  // the server ended the call: Finish() says why
+  }
+  writer->WritesDone();
+  grpc::Status status = writer->Finish();
+  if (status.ok()) *verified = resp.sha256();
+  return FromGrpcStatus(status);
+}
+
+absl::StatusOr<std::string> ShrmClient::UploadBytes(std::string_view bytes) {
+  const std::string sha = Sha256Hex(bytes);
+  std::string verified;
+  absl::Status s = WithRetries(
+      [&](grpc::ClientContext* c) {
+        absl::Status u = UploadOnce(c, bytes, sha, &verified);
+        return grpc::Status(static_cast<grpc::StatusCode>(u.code()), std::string(u.message()));
+      },
+      absl::InfiniteDuration());
+  if (!s.ok()) return s;
+  if (verified != sha) {
+    return absl::DataLossError(
+        absl::StrCat("upload: server verified ", verified, ", expected ", sha));
+  }
+  return sha;
+}
+
+absl::StatusOr<std::string> ShrmClient::UploadIfMissing(const std::string& path) {
+  absl::StatusOr<std::string> sha = Sha256OfFile(path);
+  if (!sha.ok()) return sha.status();
+  absl::StatusOr<v1::HasBlobResponse> has = HasBlob(*sha);
+  if (!has.ok()) return has.status();
+  if (has->present()) return *sha;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return absl::NotFoundError(absl::StrCat(path, ": cannot open"));
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  absl::StatusOr<std::string> up = UploadBytes(bytes);
+  if (!up.ok()) return up.status();
+  if (*up != *sha) return absl::DataLossError(absl::StrCat(path, ": changed while uploading"));
+  return *sha;
+}
+
+absl::StatusOr<PrefilterOutcome> ShrmClient::Prefilter(const v1::PrefilterRequest& request,
+                                                       const ProgressCallback& progress,
+                                                       absl::Duration deadline) {
+  grpc::ClientContext context;
+  SetDeadline(&context, deadline);
+  std::unique_ptr<grpc::ClientReader<v1::PrefilterEvent>> reader =
+      stub_->Prefilter(&context, request);
+  PrefilterOutcome out;
+  v1::PrefilterEvent ev;
+  bool have_last = false, have_report = false;
+  std::string expected_sha;
+  while (reader->Read(&ev)) {
+    switch (ev.event_case()) {
+      case v1::PrefilterEvent::kProgress:
+        if (progress) progress(ev.progress());
+        break;
+      case v1::PrefilterEvent::kReport:
+        out.report = ev.report();
+        have_report = true;
+        break;
+      case v1::PrefilterEvent::kShrmFile:
+        if (ev.shrm_file().offset() != out.shrm_file.size()) {
+          context.TryCancel();
+          return absl::DataLossError("SHRM file chunks out of order");
+        }
+        out.shrm_file += ev.shrm_file().data();
+        if (ev.shrm_file().last()) {
+          have_last = true;
+          expected_sha = ev.shrm_file().sha256();
+        }
+        break;
+      default:
+        break;
+    }
+  }
+  grpc::Status status = reader->Finish();
+  last_retry_after_ms_ = 0;
+  if (status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) {
+    auto it = context.GetServerTrailingMetadata().find("retry-after-ms");
+    int64_t ms = 0;
+    if (it != context.GetServerTrailingMetadata().end() &&
+        absl::SimpleAtoi(absl::string_view(it->second.data(), it->second.size()), &ms)) {
+      last_retry_after_ms_ = ms;
+    }
+  }
+  if (!status.ok()) return FromGrpcStatus(status);
+  const bool want_file =
+      request.outputs_size() == 0 || std::find(request.outputs().begin(), request.outputs().end(),
+                                               v1::OUTPUT_SHRM_FILE) != request.outputs().end();
+  if (!have_report) return absl::DataLossError("the server sent no report");
+  if (want_file) {
+    if (!have_last) return absl::DataLossError("the SHRM file transfer was incomplete");
+    out.shrm_sha256 = Sha256Hex(out.shrm_file);
+    if (out.shrm_sha256 != expected_sha) {
+      return absl::DataLossError(absl::StrCat("SHRM file SHA-256 mismatch: got ", out.shrm_sha256,
+                                              ", server said ", expected_sha));
+    }
+  }
+  return out;
+}
+
+absl::StatusOr<v1::AnalyzeResponse> ShrmClient::Analyze(const v1::AnalyzeRequest& request,
+                                                        absl::Duration deadline) {
+  v1::AnalyzeResponse resp;
+  absl::Status s = WithRetries(
+      [&](grpc::ClientContext* c) {
+        resp.Clear();
+        return stub_->Analyze(c, request, &resp);
+      },
+      deadline);
+  if (!s.ok()) return s;
+  return resp;
+}
+
+absl::StatusOr<v1::ListBrdfModelsResponse> ShrmClient::ListBrdfModels() {
+  v1::ListBrdfModelsResponse resp;
+  absl::Status s = WithRetries(
+      [&](grpc::ClientContext* c) {
+        resp.Clear();
+        return stub_->ListBrdfModels(c, v1::ListBrdfModelsRequest(), &resp);
+      },
+      absl::InfiniteDuration());
+  if (!s.ok()) return s;
+  return resp;
+}
+
+}  // namespace shrm::client

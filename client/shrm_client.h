@@ -1,0 +1,80 @@
+// Client library of the shrm service (shrm.v1.Shrm, docs/server.md): typed calls returning
+// absl::StatusOr. Idempotent calls (HasBlob, UploadBlob, Analyze, ListBrdfModels) are retried on
+// UNAVAILABLE with exponential backoff; Prefilter is not (it is a long streamed job).
+#ifndef SHRM_CLIENT_SHRM_CLIENT_H_
+#define SHRM_CLIENT_SHRM_CLIENT_H_
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/time/time.h"
+#include "shrm/v1/shrm.grpc.pb.h"
+
+namespace shrm::client {
+
+struct ClientOptions {
+  int max_attempts = 4;  // per idempotent call, including the first
+  absl::Duration initial_backoff = absl::Milliseconds(100);
+  absl::Duration max_backoff = absl::Seconds(2);
+  // Deadline of each idempotent call attempt (uploads: per attempt of the whole blob).
+  absl::Duration call_timeout = absl::Minutes(5);
+};
+
+struct PrefilterOutcome {
+  shrm::v1::PrefilterReport report;  // report.report_json: the CLI's --report JSON
+  std::string shrm_file;             // the SHRM file bytes, SHA-256 verified
+  std::string shrm_sha256;
+};
+
+// Called for every progress event (the stage starting and the fraction of stages done).
+using ProgressCallback = std::function<void(const shrm::v1::PrefilterProgress&)>;
+
+class ShrmClient {
+ public:
+  // `target`: "host:port" or "dns:///host:port" (round-robin over the resolved addresses).
+  // Insecure channel (TLS is a later stage). Does not wait for the connection.
+  static absl::StatusOr<std::unique_ptr<ShrmClient>> Connect(const std::string& target,
+                                                             const ClientOptions& options = {});
+
+  absl::StatusOr<shrm::v1::HasBlobResponse> HasBlob(const std::string& sha256);
+  // Streams `bytes` (1 MiB chunks) under its SHA-256; returns the hash the server verified.
+  absl::StatusOr<std::string> UploadBytes(std::string_view bytes);
+  // The file's SHA-256; uploads it only when the server does not have it.
+  absl::StatusOr<std::string> UploadIfMissing(const std::string& path);
+  // Runs the job; `deadline` is relative (absl::InfiniteDuration() for none). The file is
+  // checked against the SHA-256 of the last chunk (DataLoss on a mismatch).
+  absl::StatusOr<PrefilterOutcome> Prefilter(const shrm::v1::PrefilterRequest& request,
+                                             const ProgressCallback& progress = nullptr,
+                                             absl::Duration deadline = absl::InfiniteDuration());
+  absl::StatusOr<shrm::v1::AnalyzeResponse> Analyze(
+      const shrm::v1::AnalyzeRequest& request, absl::Duration deadline = absl::InfiniteDuration());
+  absl::StatusOr<shrm::v1::ListBrdfModelsResponse> ListBrdfModels();
+
+  // Trailing metadata "retry-after-ms" of the last RESOURCE_EXHAUSTED answer (0 when none).
+  int64_t last_retry_after_ms() const { return last_retry_after_ms_; }
+
+ private:
+  ShrmClient(std::shared_ptr<grpc::Channel> channel, const ClientOptions& options);
+  // Runs `attempt` (returning a grpc::Status) until it is not UNAVAILABLE or attempts run out.
+  absl::Status WithRetries(const std::function<grpc::Status(grpc::ClientContext*)>& attempt,
+                           absl::Duration deadline);
+  absl::Status UploadOnce(grpc::ClientContext* context, std::string_view bytes,
+                          const std::string& sha256, std::string* verified);
+
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<shrm::v1::Shrm::Stub> stub_;
+  ClientOptions options_;
+  int64_t last_retry_after_ms_ = 0;
+};
+
+// grpc::Status -> absl::Status (same codes; the message kept).
+absl::Status FromGrpcStatus(const grpc::Status& status);
+
+}  // namespace shrm::client
+
+#endif  // SHRM_CLIENT_SHRM_CLIENT_H_

@@ -1,0 +1,51 @@
+#include "server/server.h"
+
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/health_check_service_interface.h>
+
+#include <chrono>
+
+#include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
+#include "server/request_log.h"
+
+namespace shrm::server {
+
+absl::StatusOr<std::unique_ptr<ShrmServer>> ShrmServer::Start(const ServerOptions& options) {
+  std::unique_ptr<ShrmServer> s(new ShrmServer());
+  SHRM_ASSIGN_OR_RETURN(s->service_, ShrmServiceImpl::Create(options.service));
+  grpc::EnableDefaultHealthCheckService(true);
+  if (options.reflection) grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &s->port_);
+  builder.RegisterService(s->service_.get());
+  s->server_ = builder.BuildAndStart();
+  if (!s->server_ || s->port_ == 0) {
+    return absl::UnavailableError(absl::StrCat("cannot listen on ", options.listen));
+  }
+  grpc::HealthCheckServiceInterface* health = s->server_->GetHealthCheckService();
+  health->SetServingStatus(kLivenessService, true);
+  health->SetServingStatus(kReadinessService, true);
+  health->SetServingStatus("", true);
+  LogEvent("listening", {{"address", options.listen},
+                         {"port", std::to_string(s->port_)},
+                         {"reflection", options.reflection ? "on" : "off"}});
+  return s;
+}
+
+ShrmServer::~ShrmServer() { Shutdown(absl::ZeroDuration()); }
+
+void ShrmServer::Shutdown(absl::Duration grace) {
+  if (shut_down_) return;
+  shut_down_ = true;
+  LogEvent("draining", {{"grace_ms", std::to_string(absl::ToInt64Milliseconds(grace))}});
+  server_->GetHealthCheckService()->SetServingStatus(kReadinessService, false);
+  service_->BeginDrain();
+  server_->Shutdown(std::chrono::system_clock::now() +
+                    std::chrono::milliseconds(absl::ToInt64Milliseconds(grace)));
+  LogEvent("stopped", {});
+}
+
+void ShrmServer::Wait() { server_->Wait(); }
+
+}  // namespace shrm::server

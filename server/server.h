@@ -1,0 +1,49 @@
+// An shrmd server: the service, gRPC health checking ("shrm.v1.readiness", "shrm.v1.liveness"),
+// optional reflection, and graceful shutdown. Used by shrmd_main.cc and by the tests (in
+// process, on an ephemeral port).
+#ifndef SHRM_SERVER_SERVER_H_
+#define SHRM_SERVER_SERVER_H_
+
+#include <grpcpp/grpcpp.h>
+
+#include <memory>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "absl/time/time.h"
+#include "server/shrm_service.h"
+
+namespace shrm::server {
+
+inline constexpr char kReadinessService[] = "shrm.v1.readiness";
+inline constexpr char kLivenessService[] = "shrm.v1.liveness";
+
+struct ServerOptions {
+  std::string listen = "[::]:50051";  // host:port; port 0 = pick a free port
+  bool reflection = false;
+  ServiceOptions service;
+};
+
+class ShrmServer {
+ public:
+  static absl::StatusOr<std::unique_ptr<ShrmServer>> Start(const ServerOptions& options);
+  ~ShrmServer();
+
+  int port() const { return port_; }
+  // Readiness NOT_SERVING, new jobs refused with UNAVAILABLE, running calls get until `grace`
+  // to finish (then they are cancelled), then the server stops. Idempotent.
+  void Shutdown(absl::Duration grace);
+  // Blocks until the server has stopped.
+  void Wait();
+
+ private:
+  ShrmServer() = default;
+  std::unique_ptr<ShrmServiceImpl> service_;
+  std::unique_ptr<grpc::Server> server_;
+  int port_ = 0;
+  bool shut_down_ = false;
+};
+
+}  // namespace shrm::server
+
+#endif  // SHRM_SERVER_SERVER_H_

@@ -1,0 +1,66 @@
+// The shrm.v1.Shrm service: a thin layer that turns requests into core types, calls core (through
+// server/cached_prefilter.h for the prefilter pipeline) and turns the results into responses.
+// All math lives in core/. docs/server.md documents the behaviour and the status codes.
+#ifndef SHRM_SERVER_SHRM_SERVICE_H_
+#define SHRM_SERVER_SHRM_SERVICE_H_
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "absl/time/time.h"
+#include "server/blob_store.h"
+#include "server/cached_prefilter.h"
+#include "shrm/v1/shrm.grpc.pb.h"
+
+namespace shrm::server {
+
+struct ServiceOptions {
+  std::string spool_dir;                 // blob store directory (created if needed)
+  uint64_t spool_bytes = 8ull << 30;     // LRU bound of the blob store
+  uint64_t max_blob_bytes = 1ull << 30;  // largest accepted upload
+  int max_jobs = 1;                      // concurrent Prefilter/Analyze calls
+  int job_threads = 1;                   // worker threads of one job
+  size_t cache_bytes = 512ull << 20;     // L_lm + rho_lpq caches together
+  // Testing only: sleep this long at the start of every pipeline stage (makes jobs slow).
+  absl::Duration test_stage_delay = absl::ZeroDuration();
+};
+
+class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
+ public:
+  static absl::StatusOr<std::unique_ptr<ShrmServiceImpl>> Create(const ServiceOptions& options);
+
+  // Refuse new jobs with UNAVAILABLE (graceful shutdown); running jobs continue.
+  void BeginDrain() { draining_ = true; }
+
+  grpc::Status HasBlob(grpc::ServerContext* context, const shrm::v1::HasBlobRequest* request,
+                       shrm::v1::HasBlobResponse* response) override;
+  grpc::Status UploadBlob(grpc::ServerContext* context,
+                          grpc::ServerReader<shrm::v1::UploadBlobChunk>* reader,
+                          shrm::v1::UploadBlobResponse* response) override;
+  grpc::Status Prefilter(grpc::ServerContext* context, const shrm::v1::PrefilterRequest* request,
+                         grpc::ServerWriter<shrm::v1::PrefilterEvent>* writer) override;
+  grpc::Status Analyze(grpc::ServerContext* context, const shrm::v1::AnalyzeRequest* request,
+                       shrm::v1::AnalyzeResponse* response) override;
+  grpc::Status ListBrdfModels(grpc::ServerContext* context,
+                              const shrm::v1::ListBrdfModelsRequest* request,
+                              shrm::v1::ListBrdfModelsResponse* response) override;
+
+ private:
+  class JobSlot;
+  ShrmServiceImpl(const ServiceOptions& options, std::unique_ptr<BlobStore> blobs);
+  // OK and a held slot, or RESOURCE_EXHAUSTED / UNAVAILABLE (with a retry hint).
+  absl::StatusOr<std::unique_ptr<JobSlot>> Admit(grpc::ServerContext* context);
+
+  const ServiceOptions options_;
+  std::unique_ptr<BlobStore> blobs_;
+  PrefilterCaches caches_;
+  std::atomic<int> running_jobs_{0};
+  std::atomic<bool> draining_{false};
+};
+
+}  // namespace shrm::server
+
+#endif  // SHRM_SERVER_SHRM_SERVICE_H_

@@ -1,0 +1,102 @@
+// shrmd: the shrm prefilter service (gRPC, shrm.v1.Shrm). docs/server.md documents every flag.
+#include <grpcpp/grpcpp.h>
+#include <signal.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <thread>
+
+#include "absl/time/time.h"
+#include "server/request_log.h"
+#include "server/server.h"
+
+namespace {
+
+// Defaults (docs/server.md).
+constexpr int kDefaultPort = 50051;
+constexpr double kDefaultGraceSeconds = 30;
+constexpr uint64_t kMiB = 1ull << 20;
+
+std::string DefaultSpoolDir() {
+  const char* tmp = std::getenv("TMPDIR");
+  return (std::filesystem::path(tmp && *tmp ? tmp : "/tmp") / "shrmd-spool").string();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  shrm::server::ServerOptions opt;
+  opt.listen = "[::]:" + std::to_string(kDefaultPort);
+  opt.service.spool_dir = DefaultSpoolDir();
+  opt.service.max_jobs = cores;
+  uint64_t spool_mib = opt.service.spool_bytes / kMiB;
+  uint64_t max_blob_mib = opt.service.max_blob_bytes / kMiB;
+  uint64_t cache_mib = opt.service.cache_bytes / kMiB;
+  int job_threads = 0;
+  double grace_s = kDefaultGraceSeconds;
+
+  CLI::App app{"shrmd: the shrm prefilter service (gRPC shrm.v1.Shrm; docs/server.md)"};
+  app.add_option("--listen", opt.listen, "address to listen on, host:port (port 0: any free port)")
+      ->capture_default_str();
+  app.add_option("--spool-dir", opt.service.spool_dir,
+                 "blob store directory (uploaded maps, files named by SHA-256)")
+      ->capture_default_str();
+  app.add_option("--spool-mib", spool_mib, "blob store bound in MiB (LRU eviction)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--max-blob-mib", max_blob_mib, "largest accepted upload in MiB")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--max-jobs", opt.service.max_jobs,
+                 "concurrent Prefilter/Analyze jobs; more are refused with RESOURCE_EXHAUSTED "
+                 "(default: the number of cores)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--job-threads", job_threads,
+                 "worker threads per job (0: cores / max-jobs, at least 1)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--cache-mib", cache_mib, "L_lm and rho_lpq caches together, in MiB (LRU)")
+      ->capture_default_str();
+  app.add_option("--grace-period", grace_s,
+                 "seconds running jobs get to finish after SIGTERM/SIGINT")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  app.add_flag("--reflection", opt.reflection, "enable gRPC server reflection");
+  CLI11_PARSE(app, argc, argv);
+
+  opt.service.spool_bytes = spool_mib * kMiB;
+  opt.service.max_blob_bytes = max_blob_mib * kMiB;
+  opt.service.cache_bytes = cache_mib * kMiB;
+  opt.service.job_threads =
+      job_threads > 0 ? job_threads : std::max(1, cores / opt.service.max_jobs);
+
+  // Signals are taken by one thread with sigwait (blocked everywhere else, including the gRPC
+  // threads created below).
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  absl::StatusOr<std::unique_ptr<shrm::server::ShrmServer>> server =
+      shrm::server::ShrmServer::Start(opt);
+  if (!server.ok()) {
+    std::fprintf(stderr, "shrmd: error: %s\n", std::string(server.status().message()).c_str());
+    return 1;
+  }
+  std::thread signal_thread([&] {
+    int sig = 0;
+    sigwait(&signals, &sig);
+    shrm::server::LogEvent("signal", {{"signal", sig == SIGTERM ? "SIGTERM" : "SIGINT"}});
+    (*server)->Shutdown(absl::Seconds(grace_s));
+  });
+  (*server)->Wait();
+  signal_thread.join();
+  return 0;
+}

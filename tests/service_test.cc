@@ -1,0 +1,376 @@
+// Loopback tests of the shrm service: an in-process server (server/server.h) on an ephemeral
+// port, the client library (client/shrm_client.h), and `shrm prefilter --server` against the
+// embedded `shrm prefilter` (byte-identical SHRM files).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <memory>
+#include <random>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "client/shrm_client.h"
+#include "core/brdf/brdf.h"
+#include "core/envmap/envmap.h"
+#include "core/io/sha256.h"
+#include "core/shrm/prefilter.h"
+#include "core/shrm/shrm_file.h"
+#include "server/server.h"
+#include "tests/test_paths.h"
+
+namespace shrm {
+namespace {
+
+namespace v1 = ::shrm::v1;
+using client::ShrmClient;
+using server::ServerOptions;
+using server::ShrmServer;
+
+// Small explicit orders keep every prefilter well under a second on the bundled 1024 x 512 maps;
+// equal F for both BRDFs is what lets the second call hit the L_lm cache (keyed by F).
+constexpr int kTestF = 8;
+constexpr int kTestP = 2;
+constexpr int kTestFaceSize = 32;
+// A large upload: 32 MiB in 1 MiB chunks (exercises streaming well past the 4 MiB message limit).
+constexpr size_t kLargeUploadBytes = 32u << 20;
+// Upload limit of the "small limit" server, and an upload just above it.
+constexpr uint64_t kSmallBlobLimit = 64 << 10;
+// Slow jobs for admission/deadline tests: every stage sleeps this long (6 stages: ~1.2 s a job).
+constexpr absl::Duration kSlowStage = absl::Milliseconds(200);
+// A refused job must come back long before an accepted one finishes (~1.2 s): "quickly".
+constexpr auto kQuickRejection = std::chrono::milliseconds(500);
+// Far shorter than a slow job.
+constexpr absl::Duration kShortDeadline = absl::Milliseconds(300);
+constexpr int kConcurrentJobs = 3;
+
+std::string MapPath(const char* name) {
+  return absl::StrCat(SHRM_SOURCE_DIR, "/data/envmaps/", name);
+}
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// OpenImageIO stamps every EXR part header with "capDate" (the wall-clock second of the write),
+// so two runs a second apart differ there and only there. Blank that attribute's value
+// (name "capDate\0", type "string\0", int32 size, value) so the rest compares byte for byte.
+// core/io/cube_exr.cc could drop the stamp (reported to the lead).
+std::string WithoutCapDate(std::string bytes) {
+  static const std::string kName("capDate\0string\0", 15);
+  for (size_t pos = bytes.find(kName); pos != std::string::npos; pos = bytes.find(kName, pos + 1)) {
+    const size_t size_at = pos + kName.size();
+    if (size_at + 4 > bytes.size()) break;
+    int32_t n = 0;
+    std::memcpy(&n, &bytes[size_at], 4);
+    if (n < 0 || size_at + 4 + static_cast<size_t>(n) > bytes.size()) break;
+    std::fill_n(bytes.begin() + size_at + 4, n, '0');
+  }
+  return bytes;
+}
+
+class ServiceTest : public ::testing::Test {
+ protected:
+  void TearDown() override {
+    servers_.clear();
+    std::error_code ec;
+    for (const std::string& d : dirs_) std::filesystem::remove_all(d, ec);
+  }
+
+  // Starts a server on a free loopback port; returns a connected client.
+  std::unique_ptr<ShrmClient> StartServer(ServerOptions opt = {}) {
+    const std::string dir = testing::UniqueTempPath(absl::StrCat("spool", dirs_.size()));
+    dirs_.push_back(dir);
+    opt.listen = "127.0.0.1:0";
+    opt.service.spool_dir = dir;
+    if (opt.service.max_jobs < 1) opt.service.max_jobs = 2;
+    absl::StatusOr<std::unique_ptr<ShrmServer>> s = ShrmServer::Start(opt);
+    EXPECT_TRUE(s.ok()) << s.status();
+    port_ = (*s)->port();
+    servers_.push_back(std::move(*s));
+    absl::StatusOr<std::unique_ptr<ShrmClient>> c =
+        ShrmClient::Connect(absl::StrCat("127.0.0.1:", port_));
+    EXPECT_TRUE(c.ok()) << c.status();
+    return std::move(*c);
+  }
+
+  static v1::PrefilterRequest Request(const std::string& sha, const std::string& brdf) {
+    v1::PrefilterRequest req;
+    req.mutable_environment()->add_sha256(sha);
+    req.set_brdf(brdf);
+    req.mutable_orders()->set_f(kTestF);
+    req.mutable_orders()->set_p(kTestP);
+    req.set_face_size(kTestFaceSize);
+    return req;
+  }
+
+  int port_ = 0;
+  std::vector<std::unique_ptr<ShrmServer>> servers_;
+  std::vector<std::string> dirs_;
+};
+
+TEST_F(ServiceTest, RoundTripMatchesEmbeddedRunAndHitsLightingCache) {
+  auto c = StartServer();
+  const std::string map = MapPath("courtyard.exr");
+  absl::StatusOr<std::string> sha = c->UploadIfMissing(map);
+  ASSERT_TRUE(sha.ok()) << sha.status();
+  EXPECT_EQ(*sha, *Sha256OfFile(map));
+  absl::StatusOr<v1::HasBlobResponse> has = c->HasBlob(*sha);
+  ASSERT_TRUE(has.ok());
+  EXPECT_TRUE(has->present());
+  EXPECT_EQ(has->size(), std::filesystem::file_size(map));
+
+  int progress_events = 0;
+  auto req1 = Request(*sha, "phong:s=32");
+  req1.mutable_environment()->add_source_names(map);
+  absl::StatusOr<client::PrefilterOutcome> r1 =
+      c->Prefilter(req1, [&](const v1::PrefilterProgress&) { ++progress_events; });
+  ASSERT_TRUE(r1.ok()) << r1.status();
+  EXPECT_GE(progress_events, 4);
+  EXPECT_FALSE(r1->report.cache().lighting_hit());
+  EXPECT_FALSE(r1->report.cache().brdf_hit());
+  EXPECT_EQ(r1->report.f_b(), kTestF);
+
+  auto req2 = Request(*sha, "microfacet:sigma=0.2");
+  req2.mutable_environment()->add_source_names(map);
+  absl::StatusOr<client::PrefilterOutcome> r2 = c->Prefilter(req2);
+  ASSERT_TRUE(r2.ok()) << r2.status();
+  EXPECT_TRUE(r2->report.cache().lighting_hit());
+  EXPECT_FALSE(r2->report.cache().brdf_hit());
+  EXPECT_NE(r2->report.report_json().find("\"lighting\": \"hit\""), std::string::npos);
+
+  // The same job in process through core's Prefilter() and WriteShrmFile, with the attributes
+  // the CLI writes: byte for byte the same file.
+  auto brdf = ParseBrdfSpec("microfacet:sigma=0.2");
+  ASSERT_TRUE(brdf.ok());
+  EnvMapOptions eo;
+  eo.paths = {map};
+  absl::StatusOr<EnvMap> env = EnvMap::Load(eo);
+  ASSERT_TRUE(env.ok());
+  PrefilterOptions po;
+  po.f = kTestF;
+  po.p = kTestP;
+  po.face_size = kTestFaceSize;
+  po.threads = 3;  // thread count must not matter (core's transforms are bit-exact in it)
+  absl::StatusOr<PrefilterResult> pr = Prefilter(*env, **brdf, po);
+  ASSERT_TRUE(pr.ok());
+  const ShrmAnalysis& an = pr->analysis;
+  const std::map<std::string, std::string> attrs = {
+      {"shrm:brdf", (*brdf)->spec()},
+      {"shrm:epsilon", "explicit orders"},
+      {"shrm:orders", absl::StrCat(an.f_b, ",", an.p_b)},
+      {"shrm:brdf_orders", absl::StrCat(an.f_brdf, ",", an.p_brdf)},
+      {"shrm:eps_light", absl::StrCat(an.eps_light)},
+      {"shrm:eps_brdf", absl::StrCat(an.eps_brdf)},
+      {"shrm:eps_bound", absl::StrCat(an.eps_bound)},
+      {"shrm:source", map},
+      {"shrm:source_sha256", *sha},
+      {"shrm:working_space", "lin_rec709"},
+      {"shrm:layout", EnvLayoutName(env->layout())},
+  };
+  const std::string local = testing::UniqueTempPath("embedded.shrm.exr");
+  ASSERT_TRUE(WriteShrmFile(local, pr->cube, attrs).ok());
+  const std::string local_bytes = ReadFile(local);
+  std::filesystem::remove(local);
+  EXPECT_EQ(r2->shrm_file.size(), local_bytes.size());
+  EXPECT_NE(local_bytes.find("capDate"), std::string::npos);
+  EXPECT_TRUE(WithoutCapDate(r2->shrm_file) == WithoutCapDate(local_bytes))
+      << "remote SHRM file differs from the embedded one";
+}
+
+TEST_F(ServiceTest, CliServerOutputIsByteIdenticalToEmbedded) {
+  auto c = StartServer();
+  const std::string map = MapPath("city.exr");
+  const std::string a = testing::UniqueTempPath("cli_embedded.shrm.exr");
+  const std::string b = testing::UniqueTempPath("cli_remote.shrm.exr");
+  const std::string rep = testing::UniqueTempPath("cli_remote.json");
+  const std::string common = absl::StrCat(" prefilter --env ", map,
+                                          " --brdf microfacet:sigma=0.3 --epsilon 0.1 --rotate "
+                                          "30,10,5 --kind local > /dev/null 2>&1");
+  ASSERT_EQ(std::system(absl::StrCat(SHRM_CLI_PATH, common, " -o ", a).c_str()), 0);
+  ASSERT_EQ(std::system(absl::StrCat(SHRM_CLI_PATH, common, " -o ", b, " --report ", rep,
+                                     " --server 127.0.0.1:", port_)
+                            .c_str()),
+            0);
+  const std::string ea = ReadFile(a), eb = ReadFile(b);
+  EXPECT_FALSE(ea.empty());
+  EXPECT_TRUE(WithoutCapDate(ea) == WithoutCapDate(eb)) << "shrm --server wrote a different file";
+  EXPECT_NE(ReadFile(rep).find("\"F_B\""), std::string::npos);
+  for (const auto& f : {a, b, rep}) std::filesystem::remove(f);
+
+  // analyze --server runs too.
+  EXPECT_EQ(std::system(absl::StrCat(SHRM_CLI_PATH, " analyze --env ", map,
+                                     " --brdf phong:s=32 --epsilon 0.1 --json --server "
+                                     "127.0.0.1:",
+                                     port_, " > /dev/null 2>&1")
+                            .c_str()),
+            0);
+}
+
+TEST_F(ServiceTest, UploadOverLimitIsRefused) {
+  ServerOptions opt;
+  opt.service.max_blob_bytes = kSmallBlobLimit;
+  auto c = StartServer(opt);
+  const std::string big(kSmallBlobLimit + 1, 'x');
+  absl::StatusOr<std::string> r = c->UploadBytes(big);
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kResourceExhausted) << r.status();
+  EXPECT_NE(r.status().message().find("limit"), std::string::npos);
+  // Still serving.
+  EXPECT_TRUE(c->UploadBytes(std::string(100, 'y')).ok());
+}
+
+TEST_F(ServiceTest, LargeChunkedUploadKeepsItsHash) {
+  auto c = StartServer();
+  std::string bytes(kLargeUploadBytes, '\0');
+  std::mt19937_64 rng(42);
+  for (size_t i = 0; i + 8 <= bytes.size(); i += 8) {
+    const uint64_t v = rng();
+    std::memcpy(&bytes[i], &v, 8);
+  }
+  absl::StatusOr<std::string> sha = c->UploadBytes(bytes);
+  ASSERT_TRUE(sha.ok()) << sha.status();
+  EXPECT_EQ(*sha, Sha256Hex(bytes));
+  absl::StatusOr<v1::HasBlobResponse> has = c->HasBlob(*sha);
+  ASSERT_TRUE(has.ok());
+  EXPECT_TRUE(has->present());
+  EXPECT_EQ(has->size(), kLargeUploadBytes);
+}
+
+TEST_F(ServiceTest, MalformedRequestsGetTheRightStatusAndTheServerKeepsServing) {
+  auto c = StartServer();
+  const std::string map_bytes = ReadFile(MapPath("interior.exr"));
+  absl::StatusOr<std::string> good = c->UploadBytes(map_bytes);
+  ASSERT_TRUE(good.ok());
+  absl::StatusOr<std::string> truncated = c->UploadBytes(map_bytes.substr(0, map_bytes.size() / 3));
+  ASSERT_TRUE(truncated.ok());
+  std::string huge_hdr = "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 100000 +X 100000\n";
+  huge_hdr += std::string(1024, '\x01');
+  absl::StatusOr<std::string> huge = c->UploadBytes(huge_hdr);
+  ASSERT_TRUE(huge.ok());
+
+  struct Case {
+    const char* what;
+    v1::PrefilterRequest req;
+    absl::StatusCode code;
+    const char* message_part;
+  };
+  std::vector<Case> cases;
+  cases.push_back({"truncated EXR", Request(*truncated, "phong:s=32"),
+                   absl::StatusCode::kInvalidArgument, "blob"});
+  // core's header check (before decoding) answers ResourceExhausted for over-limit images.
+  cases.push_back({"100000 x 100000 Radiance header", Request(*huge, "phong:s=32"),
+                   absl::StatusCode::kResourceExhausted, "100000 x 100000"});
+  cases.push_back({"bad BRDF spec", Request(*good, "nosuchmodel:x=1"),
+                   absl::StatusCode::kInvalidArgument, "brdf"});
+  cases.push_back({"file BRDF spec", Request(*good, "merl:/etc/passwd"),
+                   absl::StatusCode::kInvalidArgument, "merl"});
+  cases.push_back({"missing blob", Request(std::string(64, 'a'), "phong:s=32"),
+                   absl::StatusCode::kNotFound, "upload it first"});
+  cases.push_back({"malformed hash", Request("xyz", "phong:s=32"),
+                   absl::StatusCode::kInvalidArgument, "sha256"});
+  auto orders = Request(*good, "phong:s=32");
+  orders.mutable_orders()->set_f(100000);
+  cases.push_back({"orders out of range", orders, absl::StatusCode::kInvalidArgument, "orders"});
+  auto eps = Request(*good, "phong:s=32");
+  eps.set_epsilon(1.5);
+  cases.push_back({"epsilon out of range", eps, absl::StatusCode::kInvalidArgument, "epsilon"});
+  for (const Case& k : cases) {
+    absl::StatusOr<client::PrefilterOutcome> r = c->Prefilter(k.req);
+    EXPECT_EQ(r.status().code(), k.code) << k.what << ": " << r.status();
+    EXPECT_NE(r.status().message().find(k.message_part), std::string::npos)
+        << k.what << ": " << r.status();
+    EXPECT_EQ(r.status().message().find(dirs_[0]), std::string::npos)
+        << k.what << ": the message leaks the spool path: " << r.status();
+  }
+  absl::StatusOr<client::PrefilterOutcome> ok = c->Prefilter(Request(*good, "phong:s=32"));
+  EXPECT_TRUE(ok.ok()) << ok.status();
+}
+
+TEST_F(ServiceTest, AdmissionControlRefusesExcessJobsQuickly) {
+  ServerOptions opt;
+  opt.service.max_jobs = 1;
+  opt.service.test_stage_delay = kSlowStage;
+  auto c = StartServer(opt);
+  absl::StatusOr<std::string> sha = c->UploadIfMissing(MapPath("interior.exr"));
+  ASSERT_TRUE(sha.ok());
+  std::vector<absl::Status> results(kConcurrentJobs);
+  std::vector<std::chrono::milliseconds> took(kConcurrentJobs);
+  std::vector<int64_t> retry_after(kConcurrentJobs);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < kConcurrentJobs; ++i) {
+    threads.emplace_back([&, i] {
+      auto ci = ShrmClient::Connect(absl::StrCat("127.0.0.1:", port_));
+      const auto t0 = std::chrono::steady_clock::now();
+      results[i] = (*ci)->Prefilter(Request(*sha, "phong:s=32")).status();
+      took[i] = std::chrono::duration_cast<std::chrono::milliseconds>(
+          std::chrono::steady_clock::now() - t0);
+      retry_after[i] = (*ci)->last_retry_after_ms();
+    });
+  }
+  for (auto& t : threads) t.join();
+  int ok = 0, refused = 0;
+  for (int i = 0; i < kConcurrentJobs; ++i) {
+    if (results[i].ok()) {
+      ++ok;
+    } else {
+      EXPECT_EQ(results[i].code(), absl::StatusCode::kResourceExhausted) << results[i];
+      EXPECT_LT(took[i], kQuickRejection);
+      EXPECT_GT(retry_after[i], 0);
+      ++refused;
+    }
+  }
+  EXPECT_GE(ok, 1);
+  EXPECT_GE(refused, 1);
+}
+
+TEST_F(ServiceTest, ShortDeadlineGivesDeadlineExceeded) {
+  ServerOptions opt;
+  opt.service.test_stage_delay = kSlowStage;
+  auto c = StartServer(opt);
+  absl::StatusOr<std::string> sha = c->UploadIfMissing(MapPath("interior.exr"));
+  ASSERT_TRUE(sha.ok());
+  absl::StatusOr<client::PrefilterOutcome> r =
+      c->Prefilter(Request(*sha, "phong:s=32"), nullptr, kShortDeadline);
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kDeadlineExceeded) << r.status();
+}
+
+TEST_F(ServiceTest, AnalyzeAndListBrdfModels) {
+  auto c = StartServer();
+  absl::StatusOr<v1::ListBrdfModelsResponse> models = c->ListBrdfModels();
+  ASSERT_TRUE(models.ok());
+  EXPECT_EQ(models->models_size(), static_cast<int>(ListBrdfModels().size()));
+  absl::StatusOr<std::string> sha = c->UploadIfMissing(MapPath("forest.exr"));
+  ASSERT_TRUE(sha.ok());
+  v1::AnalyzeRequest req;
+  req.mutable_environment()->add_sha256(*sha);
+  req.set_brdf("phong:s=32");
+  req.add_epsilon(0.1);
+  absl::StatusOr<v1::AnalyzeResponse> resp = c->Analyze(req);
+  ASSERT_TRUE(resp.ok()) << resp.status();
+  ASSERT_EQ(resp->results_size(), 1);
+  // The same analysis in process.
+  EnvMapOptions eo;
+  eo.paths = {MapPath("forest.exr")};
+  auto env = EnvMap::Load(eo);
+  auto brdf = ParseBrdfSpec("phong:s=32");
+  PrefilterOptions po;
+  po.epsilon = 0.1;
+  po.synthesize = false;
+  auto pr = Prefilter(*env, **brdf, po);
+  ASSERT_TRUE(pr.ok());
+  EXPECT_EQ(resp->results(0).f_b(), pr->analysis.f_b);
+  EXPECT_EQ(resp->results(0).p_b(), pr->analysis.p_b);
+  EXPECT_EQ(resp->results(0).eps_bound(), pr->analysis.eps_bound);
+}
+
+}  // namespace
+}  // namespace shrm
