@@ -251,7 +251,7 @@ else
 fi
 
 # eval vs reference within the report's sqrt(eps_bound). The bound is on energy over the (R, V)
-# domain (docs/acceptance.md), so it is compared with the relative RMS over random pairs, R and V
+# domain (docs/results.md), so it is compared with the relative RMS over random pairs, R and V
 # uniform on the sphere, N = normalize(R + V), not with single points (a dim point next to the
 # sun's ringing can be off by 100 % at (F, P) = (10, 0) while the energy error is 3 %). The SHRM
 # for this is prefiltered at the suggested S_B (~10 F_B): the bound covers the order truncation,

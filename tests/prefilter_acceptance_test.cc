@@ -7,7 +7,7 @@
 // [0, pi)), N = normalize(R + V). A relative RMS over random (R, V) pairs,
 //   sqrt(sum |eval - ref|^2) / sqrt(sum |ref|^2)   (RGB, all pairs),
 // estimates sqrt(eps_B), so it is compared with sqrt(eps_bound) (eq. 5.19) and reported next to
-// sqrt(eps_estimate) = sqrt(min(eps_light, eps_brdf)). docs/acceptance.md has the measurements.
+// sqrt(eps_estimate) = sqrt(min(eps_light, eps_brdf)). docs/results.md has the measurements.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -385,7 +385,7 @@ INSTANTIATE_TEST_SUITE_P(AllMapsAndBrdfs, PrefilterAcceptanceRealMapTest,
 
 // Microfacet sigma = 0.2 at a fixed large F: eps_brdf and the measured error vs P. The horizon
 // cut makes rho-hat discontinuous in theta_o', so its p-spectrum decays slowly (eps ~ 1/P). The
-// test checks that both fall monotonically and prints the curve for docs/acceptance.md.
+// test checks that both fall monotonically and prints the curve for docs/results.md.
 TEST(PrefilterAcceptanceTest, MicrofacetErrorFallsWithViewOrder) {
   constexpr int kF = 40;
   const MapScene& scene = Scene("courtyard.exr");
