@@ -148,7 +148,7 @@ int ResolveThreads(int requested) {
                        : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 }
 
-Progress::Progress(bool verbose) : enabled_(verbose || ::isatty(2)) {}
+Progress::Progress(bool verbose, bool quiet) : enabled_(!quiet && (verbose || ::isatty(2))) {}
 
 void Progress::Begin(const std::string& stage) {
   stage_ = stage;

@@ -57,7 +57,8 @@ int ResolveThreads(int requested);
 // Stage lines on stderr ("[shrm] decode ... 12.3 ms") when stderr is a terminal or `verbose`.
 class Progress {
  public:
-  explicit Progress(bool verbose);
+  // `quiet` disables the lines even on a terminal (concurrent batch jobs).
+  explicit Progress(bool verbose, bool quiet = false);
   void Begin(const std::string& stage);
   // Ends the current stage; returns its duration in milliseconds.
   double End();

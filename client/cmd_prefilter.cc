@@ -13,6 +13,7 @@
 #include "client/cli_common.h"
 #include "client/cli_validators.h"
 #include "client/commands.h"
+#include "client/prefilter_job.h"
 #include "client/report.h"
 #include "core/base/status_macros.h"
 #include "core/brdf/brdf.h"
@@ -29,23 +30,6 @@ namespace v1 = ::shrm::v1;
 
 // Preview: three spheres seen from these directions (front, side, above).
 constexpr int kPreviewSize = 256;
-
-struct PrefilterArgs {
-  EnvArgs env;
-  std::string brdf;
-  double epsilon = 0.03;
-  std::string orders;  // "F,P"
-  std::string kind = "global";
-  int size = 0;
-  std::string output;
-  std::string report;
-  std::string preview;
-  bool half = false;
-  int threads = 0;
-  bool json = false;
-  bool verbose = false;
-  std::string server;
-};
 
 // Orthographic renders of a unit sphere carrying the SHRM, seen from three views, side by side;
 // exposure chosen so that the mean is mid-grey.
@@ -112,10 +96,11 @@ void PrintSummary(const PrefilterArgs& a, const std::string& brdf_spec, int face
 
 // --server: the same job on shrmd; the SHRM file it returns is byte-identical to the embedded
 // run's (tests/service_test.cc).
-absl::Status RunPrefilterRemote(const PrefilterArgs& a, const PrefilterOptions& opt) {
+absl::Status RunPrefilterRemote(const PrefilterArgs& a, const PrefilterOptions& opt,
+                                PrefilterJobOutcome* outcome) {
   SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> client,
                         client::ShrmClient::Connect(a.server));
-  Progress progress(a.verbose);
+  Progress progress(a.verbose, a.quiet);
   v1::PrefilterRequest req;
   progress.Begin("upload");
   SHRM_RETURN_IF_ERROR(RemoteEnvironment(a.env, client.get(), req.mutable_environment()));
@@ -163,6 +148,11 @@ absl::Status RunPrefilterRemote(const PrefilterArgs& a, const PrefilterOptions& 
   }
   if (!a.report.empty()) SHRM_RETURN_IF_ERROR(WriteJsonFile(outputs.Temp(a.report), report));
   SHRM_RETURN_IF_ERROR(outputs.Commit());
+  if (outcome != nullptr) {
+    outcome->f_b = rep.f_b();
+    outcome->p_b = rep.p_b();
+  }
+  if (a.quiet) return absl::OkStatus();
   if (a.json) {
     std::printf("%s\n", report.dump(2).c_str());
     return absl::OkStatus();
@@ -182,7 +172,9 @@ absl::Status RunPrefilterRemote(const PrefilterArgs& a, const PrefilterOptions& 
   return absl::OkStatus();
 }
 
-absl::Status RunPrefilter(const PrefilterArgs& a) {
+}  // namespace
+
+absl::Status RunPrefilterJob(const PrefilterArgs& a, PrefilterJobOutcome* outcome) {
   PrefilterOptions opt;
   opt.epsilon = a.epsilon;
   if (a.kind == "global") {
@@ -208,9 +200,9 @@ absl::Status RunPrefilter(const PrefilterArgs& a) {
   SHRM_RETURN_IF_ERROR(CheckOutputPath(a.output, "--output"));
   SHRM_RETURN_IF_ERROR(CheckOutputPath(a.preview, "--preview"));
   SHRM_RETURN_IF_ERROR(CheckOutputPath(a.report, "--report"));
-  if (!a.server.empty()) return RunPrefilterRemote(a, opt);
+  if (!a.server.empty()) return RunPrefilterRemote(a, opt, outcome);
 
-  Progress progress(a.verbose);
+  Progress progress(a.verbose, a.quiet);
   SHRM_ASSIGN_OR_RETURN(std::unique_ptr<Brdf> brdf, ParseBrdfSpec(a.brdf));
   SHRM_ASSIGN_OR_RETURN(opt.rotation, EnvRotation(a.env));
   progress.Begin("decode");
@@ -268,6 +260,11 @@ absl::Status RunPrefilter(const PrefilterArgs& a) {
   report["timings"] = timings;
   if (!a.report.empty()) SHRM_RETURN_IF_ERROR(WriteJsonFile(outputs.Temp(a.report), report));
   SHRM_RETURN_IF_ERROR(outputs.Commit());
+  if (outcome != nullptr) {
+    outcome->f_b = an.f_b;
+    outcome->p_b = an.p_b;
+  }
+  if (a.quiet) return absl::OkStatus();
   if (a.json) {
     std::printf("%s\n", report.dump(2).c_str());
   } else {
@@ -275,8 +272,6 @@ absl::Status RunPrefilter(const PrefilterArgs& a) {
   }
   return absl::OkStatus();
 }
-
-}  // namespace
 
 void RegisterPrefilter(CLI::App& app, absl::Status* status) {
   auto args = std::make_shared<PrefilterArgs>();
@@ -305,7 +300,7 @@ void RegisterPrefilter(CLI::App& app, absl::Status* status) {
   sub->add_flag("--json", args->json, "print the report as JSON on stdout");
   sub->add_flag("--verbose", args->verbose, "stage timings on stderr");
   AddServerOption(sub, &args->server);
-  sub->callback([args, status] { *status = RunPrefilter(*args); });
+  sub->callback([args, status] { *status = RunPrefilterJob(*args); });
 }
 
 }  // namespace shrm::cli

@@ -17,6 +17,7 @@ void RegisterRender(CLI::App& app, absl::Status* status);
 void RegisterExplicit(CLI::App& app, absl::Status* status);
 void RegisterIrradiance(CLI::App& app, absl::Status* status);
 void RegisterInfo(CLI::App& app, absl::Status* status);
+void RegisterBatch(CLI::App& app, absl::Status* status);
 
 }  // namespace shrm::cli
 

@@ -3,10 +3,13 @@
 #include <grpcpp/grpcpp.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <fstream>
 #include <iterator>
+#include <sstream>
 #include <thread>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
@@ -25,6 +28,32 @@ void SetDeadline(grpc::ClientContext* context, absl::Duration d) {
   context->set_deadline(absl::ToChronoTime(absl::Now() + d));
 }
 
+void FromEnv(std::string* field, const char* name) {
+  if (!field->empty()) return;
+  const char* v = std::getenv(name);
+  if (v != nullptr) *field = v;
+}
+
+absl::StatusOr<std::string> ReadPem(const std::string& path, const char* what) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return absl::InvalidArgumentError(absl::StrCat(what, ": cannot read ", path));
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// The first non-blank line of `path` not starting with '#' (error messages never show it).
+absl::StatusOr<std::string> ReadToken(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return absl::InvalidArgumentError(absl::StrCat("token file: cannot read ", path));
+  std::string line;
+  while (std::getline(in, line)) {
+    absl::string_view t = absl::StripAsciiWhitespace(line);
+    if (!t.empty() && t.front() != '#') return std::string(t);
+  }
+  return absl::InvalidArgumentError(absl::StrCat("token file: no token in ", path));
+}
+
 }  // namespace
 
 absl::Status FromGrpcStatus(const grpc::Status& status) {
@@ -36,16 +65,55 @@ absl::StatusOr<std::unique_ptr<ShrmClient>> ShrmClient::Connect(const std::strin
                                                                 const ClientOptions& options) {
   if (target.empty()) return absl::InvalidArgumentError("--server: empty target");
   if (options.max_attempts < 1) return absl::InvalidArgumentError("max_attempts must be >= 1");
+  ClientOptions opt = options;
+  FromEnv(&opt.token_file, "SHRM_TOKEN_FILE");
+  FromEnv(&opt.tls_ca_file, "SHRM_TLS_CA");
+  FromEnv(&opt.tls_cert_file, "SHRM_TLS_CERT");
+  FromEnv(&opt.tls_key_file, "SHRM_TLS_KEY");
+  if (opt.token.empty() && !opt.token_file.empty()) {
+    absl::StatusOr<std::string> token = ReadToken(opt.token_file);
+    if (!token.ok()) return token.status();
+    opt.token = *std::move(token);
+  }
+  if (opt.tls_cert_file.empty() != opt.tls_key_file.empty()) {
+    return absl::InvalidArgumentError("--tls-cert and --tls-key go together");
+  }
   grpc::ChannelArguments args;
   args.SetLoadBalancingPolicyName("round_robin");
-  std::shared_ptr<grpc::Channel> channel =
-      grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), args);
+  std::shared_ptr<grpc::ChannelCredentials> creds;
+  if (!opt.tls_ca_file.empty() || !opt.tls_cert_file.empty()) {
+    grpc::SslCredentialsOptions ssl;
+    if (!opt.tls_ca_file.empty()) {
+      absl::StatusOr<std::string> ca = ReadPem(opt.tls_ca_file, "--tls-ca");
+      if (!ca.ok()) return ca.status();
+      ssl.pem_root_certs = *ca;
+    }
+    if (!opt.tls_cert_file.empty()) {
+      absl::StatusOr<std::string> cert = ReadPem(opt.tls_cert_file, "--tls-cert");
+      if (!cert.ok()) return cert.status();
+      absl::StatusOr<std::string> key = ReadPem(opt.tls_key_file, "--tls-key");
+      if (!key.ok()) return key.status();
+      ssl.pem_cert_chain = *cert;
+      ssl.pem_private_key = *key;
+    }
+    creds = grpc::SslCredentials(ssl);
+    if (!opt.tls_server_name.empty()) args.SetSslTargetNameOverride(opt.tls_server_name);
+  } else if (!opt.token.empty()) {
+    creds = grpc::experimental::LocalCredentials(LOCAL_TCP);
+  } else {
+    creds = grpc::InsecureChannelCredentials();
+  }
+  std::shared_ptr<grpc::Channel> channel = grpc::CreateCustomChannel(target, creds, args);
   if (!channel) return absl::InvalidArgumentError(absl::StrCat("--server: bad target ", target));
-  return std::unique_ptr<ShrmClient>(new ShrmClient(std::move(channel), options));
+  return std::unique_ptr<ShrmClient>(new ShrmClient(std::move(channel), opt));
 }
 
 ShrmClient::ShrmClient(std::shared_ptr<grpc::Channel> channel, const ClientOptions& options)
     : channel_(std::move(channel)), stub_(v1::Shrm::NewStub(channel_)), options_(options) {}
+
+void ShrmClient::Authorize(grpc::ClientContext* context) const {
+  if (!options_.token.empty()) context->AddMetadata("authorization", "Bearer " + options_.token);
+}
 
 absl::Status ShrmClient::WithRetries(
     const std::function<grpc::Status(grpc::ClientContext*)>& attempt, absl::Duration deadline) {
@@ -58,6 +126,7 @@ absl::Status ShrmClient::WithRetries(
     }
     grpc::ClientContext context;
     SetDeadline(&context, std::min(deadline, options_.call_timeout));
+    Authorize(&context);
     status = attempt(&context);
     last_retry_after_ms_ = 0;
     if (status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) {
@@ -146,6 +215,7 @@ absl::StatusOr<PrefilterOutcome> ShrmClient::Prefilter(const v1::PrefilterReques
                                                        absl::Duration deadline) {
   grpc::ClientContext context;
   SetDeadline(&context, deadline);
+  Authorize(&context);
   std::unique_ptr<grpc::ClientReader<v1::PrefilterEvent>> reader =
       stub_->Prefilter(&context, request);
   PrefilterOutcome out;

@@ -23,6 +23,18 @@ struct ClientOptions {
   absl::Duration max_backoff = absl::Seconds(2);
   // Deadline of each idempotent call attempt (uploads: per attempt of the whole blob).
   absl::Duration call_timeout = absl::Minutes(5);
+
+  // Security (docs/server.md, "Security"). Empty fields fall back to the environment variables
+  // SHRM_TOKEN_FILE, SHRM_TLS_CA, SHRM_TLS_CERT, SHRM_TLS_KEY (so `shrm --server` picks them up).
+  // TLS when tls_ca_file or tls_cert_file is set (client certificate for mutual TLS with both
+  // tls_cert_file and tls_key_file); else local credentials (loopback only) when a token is
+  // set; else an insecure channel. The token goes in `authorization: Bearer <token>`.
+  std::string token;       // the bearer token itself (wins over token_file)
+  std::string token_file;  // a file whose first non-blank, non-'#' line is the token
+  std::string tls_ca_file;
+  std::string tls_cert_file;
+  std::string tls_key_file;
+  std::string tls_server_name;  // overrides the name checked against the server certificate
 };
 
 struct PrefilterOutcome {
@@ -37,7 +49,7 @@ using ProgressCallback = std::function<void(const shrm::v1::PrefilterProgress&)>
 class ShrmClient {
  public:
   // `target`: "host:port" or "dns:///host:port" (round-robin over the resolved addresses).
-  // Insecure channel (TLS is a later stage). Does not wait for the connection.
+  // Credentials from `options` (see ClientOptions). Does not wait for the connection.
   static absl::StatusOr<std::unique_ptr<ShrmClient>> Connect(const std::string& target,
                                                              const ClientOptions& options = {});
 
@@ -63,6 +75,8 @@ class ShrmClient {
   // Runs `attempt` (returning a grpc::Status) until it is not UNAVAILABLE or attempts run out.
   absl::Status WithRetries(const std::function<grpc::Status(grpc::ClientContext*)>& attempt,
                            absl::Duration deadline);
+  // Adds the bearer token (when there is one) to a call's metadata.
+  void Authorize(grpc::ClientContext* context) const;
   absl::Status UploadOnce(grpc::ClientContext* context, std::string_view bytes,
                           const std::string& sha256, std::string* verified);
 

@@ -5,9 +5,11 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
+#include "server/metrics.h"
 
 namespace shrm::server {
 namespace {
@@ -78,9 +80,22 @@ grpc::Status RequestLog::Finish(grpc::Status status) {
   for (const auto& [k, v] : stages_) stages[k + "_ms"] = v;
   j["stages"] = stages;
   for (const auto& [k, v] : extra_) j[k] = v;
-  j["total_ms"] =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  j["total_ms"] = seconds * 1000;
   WriteLine(j);
+  Metrics::Global().RecordRequest(call_, CodeName(status.error_code()), seconds);
+  switch (status.error_code()) {
+    case grpc::StatusCode::INVALID_ARGUMENT:
+    case grpc::StatusCode::NOT_FOUND:
+    case grpc::StatusCode::RESOURCE_EXHAUSTED:
+    case grpc::StatusCode::OUT_OF_RANGE:
+    case grpc::StatusCode::FAILED_PRECONDITION:
+      Metrics::Global().RecordRejected(absl::AsciiStrToLower(CodeName(status.error_code())));
+      break;
+    default:
+      break;
+  }
   return status;
 }
 

@@ -13,15 +13,23 @@ namespace shrm::server {
 
 absl::StatusOr<std::unique_ptr<ShrmServer>> ShrmServer::Start(const ServerOptions& options) {
   std::unique_ptr<ShrmServer> s(new ShrmServer());
+  SHRM_ASSIGN_OR_RETURN(std::shared_ptr<grpc::ServerCredentials> creds,
+                        MakeServerCredentials(options.security, options.listen));
   SHRM_ASSIGN_OR_RETURN(s->service_, ShrmServiceImpl::Create(options.service));
   grpc::EnableDefaultHealthCheckService(true);
   if (options.reflection) grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
-  builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &s->port_);
+  builder.AddListeningPort(options.listen, creds, &s->port_);
   builder.RegisterService(s->service_.get());
   s->server_ = builder.BuildAndStart();
   if (!s->server_ || s->port_ == 0) {
     return absl::UnavailableError(absl::StrCat("cannot listen on ", options.listen));
+  }
+  if (options.metrics_port >= 0) {
+    SHRM_ASSIGN_OR_RETURN(s->metrics_,
+                          MetricsHttpServer::Start(options.metrics_address, options.metrics_port));
+    LogEvent("metrics",
+             {{"address", options.metrics_address}, {"port", std::to_string(s->metrics_->port())}});
   }
   grpc::HealthCheckServiceInterface* health = s->server_->GetHealthCheckService();
   health->SetServingStatus(kLivenessService, true);
@@ -29,14 +37,18 @@ absl::StatusOr<std::unique_ptr<ShrmServer>> ShrmServer::Start(const ServerOption
   health->SetServingStatus("", true);
   LogEvent("listening", {{"address", options.listen},
                          {"port", std::to_string(s->port_)},
-                         {"reflection", options.reflection ? "on" : "off"}});
+                         {"reflection", options.reflection ? "on" : "off"},
+                         {"tls", options.security.tls_cert_file.empty()   ? "off"
+                                 : options.security.tls_client_ca.empty() ? "on"
+                                                                          : "mutual"},
+                         {"tokens", options.security.token_file.empty() ? "off" : "on"}});
   return s;
 }
 
 ShrmServer::~ShrmServer() { Shutdown(absl::ZeroDuration()); }
 
 void ShrmServer::Shutdown(absl::Duration grace) {
-  if (shut_down_) return;
+  if (shut_down_ || !server_) return;  // !server_: Start failed before building it
   shut_down_ = true;
   LogEvent("draining", {{"grace_ms", std::to_string(absl::ToInt64Milliseconds(grace))}});
   server_->GetHealthCheckService()->SetServingStatus(kReadinessService, false);
@@ -46,6 +58,8 @@ void ShrmServer::Shutdown(absl::Duration grace) {
   LogEvent("stopped", {});
 }
 
-void ShrmServer::Wait() { server_->Wait(); }
+void ShrmServer::Wait() {
+  if (server_) server_->Wait();
+}
 
 }  // namespace shrm::server

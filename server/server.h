@@ -11,6 +11,8 @@
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
+#include "server/auth.h"
+#include "server/metrics.h"
 #include "server/shrm_service.h"
 
 namespace shrm::server {
@@ -21,6 +23,10 @@ inline constexpr char kLivenessService[] = "shrm.v1.liveness";
 struct ServerOptions {
   std::string listen = "[::]:50051";  // host:port; port 0 = pick a free port
   bool reflection = false;
+  SecurityOptions security;  // tokens, TLS (server/auth.h)
+  // Prometheus metrics over HTTP on GET /metrics: -1 off, 0 any free port (server/metrics.h).
+  int metrics_port = -1;
+  std::string metrics_address = "127.0.0.1";
   ServiceOptions service;
 };
 
@@ -30,6 +36,7 @@ class ShrmServer {
   ~ShrmServer();
 
   int port() const { return port_; }
+  int metrics_port() const { return metrics_ ? metrics_->port() : -1; }
   // Readiness NOT_SERVING, new jobs refused with UNAVAILABLE, running calls get until `grace`
   // to finish (then they are cancelled), then the server stops. Idempotent.
   void Shutdown(absl::Duration grace);
@@ -40,6 +47,7 @@ class ShrmServer {
   ShrmServer() = default;
   std::unique_ptr<ShrmServiceImpl> service_;
   std::unique_ptr<grpc::Server> server_;
+  std::unique_ptr<MetricsHttpServer> metrics_;
   int port_ = 0;
   bool shut_down_ = false;
 };

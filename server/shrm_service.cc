@@ -27,6 +27,7 @@
 #include "core/envmap/lighting.h"
 #include "core/io/sha256.h"
 #include "core/shrm/shrm_file.h"
+#include "server/metrics.h"
 #include "server/request_log.h"
 #include "server/status_mapping.h"
 
@@ -220,8 +221,13 @@ void FillResult(const ShrmAnalysis& an, v1::AnalyzeResult* res) {
 // A held job slot; releases it on destruction.
 class ShrmServiceImpl::JobSlot {
  public:
-  explicit JobSlot(std::atomic<int>* running) : running_(running) {}
-  ~JobSlot() { running_->fetch_sub(1); }
+  explicit JobSlot(std::atomic<int>* running) : running_(running) {
+    Metrics::Global().JobStarted();
+  }
+  ~JobSlot() {
+    running_->fetch_sub(1);
+    Metrics::Global().JobFinished();
+  }
 
  private:
   std::atomic<int>* running_;
@@ -443,6 +449,8 @@ grpc::Status ShrmServiceImpl::Prefilter(grpc::ServerContext* context,
   wt->set_ms(write_ms);
   rep->mutable_cache()->set_lighting_hit(res->lighting_hit);
   rep->mutable_cache()->set_brdf_hit(res->brdf_hit);
+  Metrics::Global().RecordCache("lighting", res->lighting_hit);
+  Metrics::Global().RecordCache("brdf", res->brdf_hit);
   log.Set("lighting_cache", res->lighting_hit ? "hit" : "miss");
   log.Set("brdf_cache", res->brdf_hit ? "hit" : "miss");
   if (want_report) {
@@ -549,6 +557,8 @@ grpc::Status ShrmServiceImpl::Analyze(grpc::ServerContext* context,
     r->set_analysis_json(j.dump(2));
     response->mutable_cache()->set_lighting_hit(res->lighting_hit);
     response->mutable_cache()->set_brdf_hit(res->brdf_hit);
+    Metrics::Global().RecordCache("lighting", res->lighting_hit);
+    Metrics::Global().RecordCache("brdf", res->brdf_hit);
   }
   return log.Finish(grpc::Status::OK);
 }

@@ -68,6 +68,24 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--reflection", opt.reflection, "enable gRPC server reflection");
+  app.add_option("--metrics-port", opt.metrics_port,
+                 "serve Prometheus metrics on GET /metrics at this port (-1: off, 0: any)")
+      ->capture_default_str()
+      ->check(CLI::Range(-1, 65535));
+  app.add_option("--metrics-address", opt.metrics_address,
+                 "IPv4 address of the metrics endpoint (loopback by default)")
+      ->capture_default_str();
+  app.add_option("--token-file", opt.security.token_file,
+                 "bearer tokens, one a line: every call needs 'authorization: Bearer <token>' "
+                 "(without TLS the listen address must be loopback)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--tls-cert", opt.security.tls_cert_file, "PEM server certificate (chain)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--tls-key", opt.security.tls_key_file, "PEM private key of --tls-cert")
+      ->check(CLI::ExistingFile);
+  app.add_option("--tls-client-ca", opt.security.tls_client_ca,
+                 "PEM CA: require client certificates signed by it (mutual TLS)")
+      ->check(CLI::ExistingFile);
   CLI11_PARSE(app, argc, argv);
 
   opt.service.spool_bytes = spool_mib * kMiB;

@@ -1,0 +1,180 @@
+#!/usr/bin/env bash
+# Acceptance test of `shrm batch` (docs/cli.md): a 2 maps x 2 BRDFs manifest run with --jobs 2
+# must write four outputs byte-identical to single `shrm prefilter` runs; a rerun skips all four
+# (resume); a changed or corrupt output, or a changed manifest option, is recomputed (and only
+# that); a manifest with bad content is rejected up front with JSON paths and nothing runs; a job
+# failing at run time (truncated EXR) makes the exit code 1 while the other jobs complete.
+#
+# Usage: batch_test.sh SHRM_BINARY REPO_ROOT   (registered with CTest as batch_test)
+set -u
+
+if [ $# -ne 2 ]; then
+  echo "usage: $0 SHRM_BINARY REPO_ROOT" >&2
+  exit 2
+fi
+SHRM=$1
+ROOT=$2
+[ -x "$SHRM" ] || { echo "not executable: $SHRM" >&2; exit 2; }
+for m in courtyard city; do
+  [ -f "$ROOT/data/envmaps/$m.exr" ] || { echo "missing bundled map: $m.exr" >&2; exit 2; }
+done
+
+TMP=$(mktemp -d "${TMPDIR:-/tmp}/shrm_batch_test.XXXXXX")
+trap 'rm -rf "$TMP"' EXIT
+cd "$TMP" || exit 2
+
+FAILURES=0
+fail() {
+  echo "FAIL: $*"
+  FAILURES=$((FAILURES + 1))
+}
+# count STATUS FILE: how many jobs of a --json summary have that status.
+count() { grep -c "\"status\": \"$1\"" "$2"; }
+
+mkdir maps other
+cp "$ROOT/data/envmaps/courtyard.exr" "$ROOT/data/envmaps/city.exr" maps/
+cp "$ROOT/data/envmaps/city.exr" other/
+BYTES=$(stat -c %s maps/city.exr)
+head -c $((BYTES / 3)) maps/city.exr >maps/truncated.exr
+
+BRDFS=("phong:s=32" "microfacet:sigma=0.2")
+NAMES=("phong_s_32" "microfacet_sigma_0.2")
+manifest() {  # manifest FILE EPSILON
+  cat >"$1" <<JSON
+{"maps": ["maps/courtyard.exr", "maps/city.exr"],
+ "brdfs": ["phong:s=32", "microfacet:sigma=0.2"],
+ "options": {"epsilon": $2, "size": 16, "kind": "global"},
+ "output": "out/{map}_{brdf}.shrm.exr"}
+JSON
+}
+
+# --- 1. the 2 x 2 batch equals single prefilter runs ---------------------------------------
+echo "== 2 x 2 batch, --jobs 2"
+manifest batch.json 0.1
+"$SHRM" batch batch.json --jobs 2 --json >run1.json 2>run1.err
+rc=$?
+[ $rc -eq 0 ] || fail "batch exit $rc: $(cat run1.err)"
+[ "$(count ok run1.json)" -eq 4 ] || fail "first run: expected 4 ok: $(cat run1.json)"
+mkdir single
+for m in courtyard city; do
+  for i in 0 1; do
+    out="out/${m}_${NAMES[$i]}.shrm.exr"
+    ref="single/${m}_${NAMES[$i]}.shrm.exr"
+    [ -f "$out" ] || { fail "missing $out"; continue; }
+    "$SHRM" prefilter --env "maps/$m.exr" --brdf "${BRDFS[$i]}" --epsilon 0.1 --size 16 \
+      -o "$ref" >/dev/null 2>&1 || fail "prefilter $m ${BRDFS[$i]} failed"
+    cmp -s "$out" "$ref" || fail "$out differs from the single prefilter output"
+  done
+done
+ls out/*.tmp-* >/dev/null 2>&1 && fail "temporaries left in out/"
+
+# --- 2. resume: everything skipped ----------------------------------------------------------
+echo "== rerun: all skipped"
+"$SHRM" batch batch.json --jobs 2 --json >run2.json 2>run2.err || fail "rerun exit $?"
+[ "$(count skipped run2.json)" -eq 4 ] || fail "rerun: expected 4 skipped: $(cat run2.json)"
+
+# --- 3. a changed and a corrupt output are recomputed, only them ----------------------------
+echo "== changed / corrupt outputs recomputed"
+"$SHRM" prefilter --env maps/city.exr --brdf phong:s=32 --epsilon 0.2 --size 16 \
+  -o out/city_phong_s_32.shrm.exr >/dev/null 2>&1 || fail "prefilter at epsilon 0.2 failed"
+head -c 100 single/courtyard_microfacet_sigma_0.2.shrm.exr >out/courtyard_microfacet_sigma_0.2.shrm.exr
+"$SHRM" batch batch.json --jobs 2 --json >run3.json 2>run3.err || fail "run 3 exit $?"
+[ "$(count ok run3.json)" -eq 2 ] || fail "run 3: expected 2 recomputed: $(cat run3.json)"
+[ "$(count skipped run3.json)" -eq 2 ] || fail "run 3: expected 2 skipped: $(cat run3.json)"
+for f in city_phong_s_32 courtyard_microfacet_sigma_0.2; do
+  cmp -s "out/$f.shrm.exr" "single/$f.shrm.exr" || fail "out/$f.shrm.exr not restored"
+done
+# A different manifest epsilon: every job recomputed; --force: everything recomputed.
+manifest batch2.json 0.2
+"$SHRM" batch batch2.json --json >run4.json 2>run4.err || fail "run 4 exit $?"
+[ "$(count ok run4.json)" -eq 4 ] || fail "epsilon change: expected 4 recomputed: $(cat run4.json)"
+"$SHRM" batch batch2.json --force --json >run5.json 2>run5.err || fail "run 5 exit $?"
+[ "$(count ok run5.json)" -eq 4 ] || fail "--force: expected 4 recomputed: $(cat run5.json)"
+# The text summary.
+"$SHRM" batch batch2.json >run6.txt 2>&1 || fail "run 6 exit $?"
+grep -q "4 jobs: 0 ok, 4 skipped, 0 failed" run6.txt || fail "summary line: $(cat run6.txt)"
+
+# --- 4. bad manifests are rejected up front -------------------------------------------------
+echo "== bad manifests rejected before any job"
+cat >bad.json <<'JSON'
+{"maps": ["maps/courtyard.exr", "maps/nosuch.exr"], "brdfs": ["phong:s=32", "nosuch:x=1"],
+ "options": {"epsilon": 0.1, "size": 16, "colour": 1}, "output": "bad/{map}_{brdf}.shrm.exr",
+ "extra": true}
+JSON
+"$SHRM" batch bad.json >bad.out 2>bad.err
+rc=$?
+[ $rc -eq 1 ] || fail "bad manifest: exit $rc, expected 1"
+for p in '$.brdfs[1]' '$.maps[1]' '$.options.colour' '$.extra'; do
+  grep -qF "$p" bad.err || fail "bad manifest: $p not reported: $(cat bad.err)"
+done
+[ -e bad ] && fail "bad manifest: something ran (bad/ exists)"
+cat >dup.json <<'JSON'
+{"maps": ["maps/city.exr", "other/city.exr"], "brdfs": ["phong:s=32"],
+ "options": {"size": 16}, "output": "dup/{map}_{brdf}.shrm.exr"}
+JSON
+"$SHRM" batch dup.json >dup.out 2>dup.err
+[ $? -eq 1 ] || fail "duplicate outputs: expected exit 1"
+grep -q "both write" dup.err || fail "duplicate outputs not reported: $(cat dup.err)"
+[ -e dup ] && fail "duplicate outputs: something ran"
+cat >nopat.json <<'JSON'
+{"maps": ["maps/city.exr"], "brdfs": ["phong:s=32", "phong:s=8"], "output": "x/{map}.shrm.exr"}
+JSON
+"$SHRM" batch nopat.json >/dev/null 2>nopat.err
+[ $? -eq 1 ] || fail "pattern without {brdf}: expected exit 1"
+grep -qF '$.output' nopat.err || fail "pattern without {brdf} not reported: $(cat nopat.err)"
+echo '{"maps": [' >notjson.json
+"$SHRM" batch notjson.json >/dev/null 2>notjson.err
+[ $? -eq 1 ] || fail "malformed JSON: expected exit 1"
+"$SHRM" batch batch.json --jobs 0 >/dev/null 2>&1
+[ $? -eq 2 ] || fail "--jobs 0: expected usage error 2"
+
+# --- 5. a job failing at run time -----------------------------------------------------------
+echo "== a failing job, the others complete"
+cat >fails.json <<'JSON'
+{"maps": ["maps/truncated.exr", "maps/courtyard.exr"], "brdfs": ["phong:s=32"],
+ "options": {"epsilon": 0.1, "size": 16}, "output": "fails/{map}_{brdf}.shrm.exr"}
+JSON
+"$SHRM" batch fails.json --jobs 2 --json >fails.out 2>fails.err
+rc=$?
+[ $rc -eq 1 ] || fail "failing job: exit $rc, expected 1"
+[ "$(count failed fails.out)" -eq 1 ] || fail "failing job: expected 1 failed: $(cat fails.out)"
+[ "$(count ok fails.out)" -eq 1 ] || fail "failing job: expected 1 ok: $(cat fails.out)"
+cmp -s fails/courtyard_phong_s_32.shrm.exr single/courtyard_phong_s_32.shrm.exr ||
+  fail "failing batch: the good output is missing or differs"
+[ -e fails/truncated_phong_s_32.shrm.exr ] && fail "failing job left an output"
+grep -q "1 of 2 jobs failed" fails.err || fail "failing job: no error line: $(cat fails.err)"
+
+# --- 6. --server (when shrmd is built next to shrm): same files, each map uploaded once ---------
+SHRMD="$(dirname "$SHRM")/../server/shrmd"
+if [ -x "$SHRMD" ]; then
+  echo "== --server"
+  "$SHRMD" --listen 127.0.0.1:0 --spool-dir "$TMP/spool" >shrmd.log 2>&1 &
+  SHRMD_PID=$!
+  trap 'kill $SHRMD_PID 2>/dev/null; wait $SHRMD_PID 2>/dev/null; rm -rf "$TMP"' EXIT
+  PORT=""
+  for _ in $(seq 50); do
+    PORT=$(grep -o '"port":"[0-9]*"' shrmd.log | grep -o '[0-9][0-9]*')
+    [ -n "$PORT" ] && break
+    sleep 0.1
+  done
+  if [ -z "$PORT" ]; then
+    fail "shrmd did not start: $(cat shrmd.log)"
+  else
+    sed 's#"out/#"remote/#' batch.json >remote.json
+    "$SHRM" batch remote.json --jobs 2 --server "127.0.0.1:$PORT" --json >remote.out 2>remote.err ||
+      fail "--server batch exit $?: $(cat remote.err)"
+    [ "$(count ok remote.out)" -eq 4 ] || fail "--server: expected 4 ok: $(cat remote.out)"
+    for f in single/*.shrm.exr; do
+      cmp -s "$f" "remote/$(basename "$f")" || fail "--server: remote/$(basename "$f") differs"
+    done
+    [ "$(grep -c '"call":"UploadBlob"' shrmd.log)" -le 2 ] || fail "--server: a map uploaded twice"
+  fi
+  kill $SHRMD_PID 2>/dev/null
+  wait $SHRMD_PID 2>/dev/null
+fi
+
+if [ $FAILURES -ne 0 ]; then
+  echo "$FAILURES failure(s)"
+  exit 1
+fi
+echo "batch_test: all checks passed"
