@@ -211,7 +211,10 @@ absl::Status AnalyzeRemote(const AnalyzeArgs& a) {
   SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> client,
                         client::ShrmClient::Connect(a.server));
   shrm::v1::AnalyzeRequest req;
-  req.set_brdf(a.brdf);
+  SHRM_ASSIGN_OR_RETURN(client::RemoteBrdf brdf, client::ResolveRemoteBrdf(a.brdf, client.get()));
+  req.set_brdf(brdf.spec);
+  req.set_brdf_blob_sha256(brdf.blob_sha256);
+  req.set_brdf_display_spec(brdf.display_spec);
   for (double e : a.epsilons) req.add_epsilon(e);
   if (!a.env.files.empty()) {
     SHRM_RETURN_IF_ERROR(RemoteEnvironment(a.env, client.get(), req.mutable_environment()));

@@ -104,8 +104,12 @@ absl::Status RunPrefilterRemote(const PrefilterArgs& a, const PrefilterOptions& 
   v1::PrefilterRequest req;
   progress.Begin("upload");
   SHRM_RETURN_IF_ERROR(RemoteEnvironment(a.env, client.get(), req.mutable_environment()));
+  // table:PATH / merl:PATH: the file travels as a blob; shrm:brdf records the local spec.
+  SHRM_ASSIGN_OR_RETURN(client::RemoteBrdf brdf, client::ResolveRemoteBrdf(a.brdf, client.get()));
   const double upload_ms = progress.End();
-  req.set_brdf(a.brdf);
+  req.set_brdf(brdf.spec);
+  req.set_brdf_blob_sha256(brdf.blob_sha256);
+  req.set_brdf_display_spec(brdf.display_spec);
   if (opt.f >= 0) {
     req.mutable_orders()->set_f(opt.f);
     req.mutable_orders()->set_p(opt.p);

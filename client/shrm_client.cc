@@ -195,6 +195,28 @@ absl::StatusOr<std::string> ShrmClient::UploadBytes(std::string_view bytes) {
   return sha;
 }
 
+absl::StatusOr<RemoteBrdf> ResolveRemoteBrdf(const std::string& spec, ShrmClient* client) {
+  RemoteBrdf out;
+  out.spec = spec;
+  // Split as core's ParseBrdfSpec does (core/brdf/brdf.cc): the model name and the path are
+  // stripped of surrounding whitespace, and TableBrdf/MerlBrdf::spec() is "<model>:<path>".
+  const absl::string_view s = absl::StripAsciiWhitespace(spec);
+  const size_t colon = s.find(':');
+  if (colon == absl::string_view::npos) return out;
+  const std::string model(absl::StripAsciiWhitespace(s.substr(0, colon)));
+  const std::string path(absl::StripAsciiWhitespace(s.substr(colon + 1)));
+  if ((model != "table" && model != "merl") || path.empty() || path == "@") return out;
+  absl::StatusOr<std::string> sha = client->UploadIfMissing(path);
+  if (!sha.ok()) {
+    return absl::Status(sha.status().code(), absl::StrCat("--brdf ", model, " file ", path, ": ",
+                                                          sha.status().message()));
+  }
+  out.spec = absl::StrCat(model, ":@");
+  out.blob_sha256 = *sha;
+  out.display_spec = absl::StrCat(model, ":", path);
+  return out;
+}
+
 absl::StatusOr<std::string> ShrmClient::UploadIfMissing(const std::string& path) {
   absl::StatusOr<std::string> sha = Sha256OfFile(path);
   if (!sha.ok()) return sha.status();

@@ -86,6 +86,17 @@ class ShrmClient {
   int64_t last_retry_after_ms_ = 0;
 };
 
+// The BRDF fields of a request for a CLI --brdf spec. "table:PATH" and "merl:PATH" upload the
+// file (UploadIfMissing) and become spec "table:@" / "merl:@" with its hash, and the local spec
+// ("table:PATH", as core's TableBrdf::spec()) as display spec, so that the SHRM file's shrm:brdf
+// is the embedded run's. Other specs pass through unchanged (no blob, no display spec).
+struct RemoteBrdf {
+  std::string spec;
+  std::string blob_sha256;
+  std::string display_spec;
+};
+absl::StatusOr<RemoteBrdf> ResolveRemoteBrdf(const std::string& spec, ShrmClient* client);
+
 // grpc::Status -> absl::Status (same codes; the message kept).
 absl::Status FromGrpcStatus(const grpc::Status& status);
 

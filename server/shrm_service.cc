@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
@@ -76,21 +77,102 @@ absl::StatusOr<EnvLayout> LayoutFromProto(v1::Layout layout) {
   }
 }
 
-// Parses a BRDF spec from a request. File-based specs (table:, merl:) would make the server read
-// its own files: refused.
-absl::StatusOr<std::unique_ptr<Brdf>> ParseRequestBrdf(const std::string& spec) {
+// A BRDF read from a blob: forwards everything to the parsed model except spec(), which names
+// the blob's content ("table:@<sha256>") instead of its spool path. CachedPrefilter keys rho_lpq
+// by spec(), so the BRDF cache is keyed by content and no message carries the path.
+class BlobBrdf final : public Brdf {
+ public:
+  BlobBrdf(std::unique_ptr<Brdf> inner, std::string spec)
+      : inner_(std::move(inner)), spec_(std::move(spec)) {}
+  std::string spec() const override { return spec_; }
+  int channels() const override { return inner_->channels(); }
+  ReparamKind reparam() const override { return inner_->reparam(); }
+  bool radially_symmetric() const override { return inner_->radially_symmetric(); }
+  bool clipped_at_normal_horizon() const override { return inner_->clipped_at_normal_horizon(); }
+  bool azimuth_independent() const override { return inner_->azimuth_independent(); }
+  BrdfBandwidthHint bandwidth_hint() const override { return inner_->bandwidth_hint(); }
+  double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override {
+    return inner_->Transfer(n, v, w, c);
+  }
+  double ReparamTransfer(double theta_i, double theta_o, double phi, int c) const override {
+    return inner_->ReparamTransfer(theta_i, theta_o, phi, c);
+  }
+  void ReparamTransferAll(double theta_i, double theta_o, double phi, double* out) const override {
+    inner_->ReparamTransferAll(theta_i, theta_o, phi, out);
+  }
+
+ private:
+  std::unique_ptr<Brdf> inner_;
+  std::string spec_;
+};
+
+// The BRDF of a request and the spec reported for it (shrm:brdf, report, response).
+struct RequestBrdf {
+  std::unique_ptr<Brdf> brdf;
+  std::string display_spec;
+};
+
+// Parses the BRDF of a request. Analytic models: the spec string. File-based models travel as
+// blobs ("table:@" / "merl:@" with brdf_blob_sha256); a spec naming a server file (table:PATH,
+// merl:PATH) is refused, and no message names the spool file.
+absl::StatusOr<RequestBrdf> ParseRequestBrdf(const std::string& spec, const std::string& blob_sha,
+                                             const std::string& display_spec, BlobStore* blobs) {
   if (spec.empty()) return absl::InvalidArgumentError("brdf: a BRDF spec is required");
+  const std::string stripped(absl::StripAsciiWhitespace(spec));
+  const size_t colon = stripped.find(':');
   const std::string model =
-      absl::AsciiStrToLower(absl::StripAsciiWhitespace(spec.substr(0, spec.find(':'))));
+      absl::AsciiStrToLower(absl::StripAsciiWhitespace(stripped.substr(0, colon)));
+  const std::string rest(
+      colon == std::string::npos
+          ? absl::string_view()
+          : absl::StripAsciiWhitespace(absl::string_view(stripped).substr(colon + 1)));
+  RequestBrdf out;
   if (model == "table" || model == "merl") {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "brdf: '", model, ":' specs name files and are not accepted by the service yet"));
+    if (rest != "@") {
+      return absl::InvalidArgumentError(
+          absl::StrCat("brdf: '", model,
+                       ":' specs name files, which the service does not read; "
+                       "upload the file and send '",
+                       model, ":@' with brdf_blob_sha256"));
+    }
+    if (!IsSha256Hex(blob_sha)) {
+      return absl::InvalidArgumentError(absl::StrCat("brdf_blob_sha256: '", model,
+                                                     ":@' needs the BRDF blob's hash (64 "
+                                                     "lowercase hex digits)"));
+    }
+    absl::StatusOr<std::unique_ptr<BlobStore::Lease>> lease = blobs->Pin(blob_sha);
+    if (!lease.ok()) {
+      return absl::Status(lease.status().code(),
+                          absl::StrCat("brdf_blob_sha256: BRDF ", lease.status().message()));
+    }
+    // The model reads the whole file now; the lease only has to outlive the parse.
+    const std::string path = (*lease)->path();
+    absl::StatusOr<std::unique_ptr<Brdf>> parsed = ParseBrdfSpec(absl::StrCat(model, ":", path));
+    if (!parsed.ok()) {
+      // Core's message names the file: name the blob instead.
+      const std::string name = absl::StrCat("BRDF blob ", blob_sha);
+      const absl::string_view msg = parsed.status().message();
+      return absl::InvalidArgumentError(
+          absl::StrContains(msg, path)
+              ? absl::StrCat("brdf: ", absl::StrReplaceAll(msg, {{path, name}}))
+              : absl::StrCat("brdf: ", name, ": ", msg));
+    }
+    const std::string key_spec = absl::StrCat(model, ":@", blob_sha);
+    out.brdf = std::make_unique<BlobBrdf>(std::move(*parsed), key_spec);
+    out.display_spec = display_spec.empty() ? key_spec : display_spec;
+    return out;
+  }
+  if (!blob_sha.empty() || !display_spec.empty()) {
+    return absl::InvalidArgumentError(
+        "brdf_blob_sha256 and brdf_display_spec go only with a 'table:@' or 'merl:@' brdf");
   }
   absl::StatusOr<std::unique_ptr<Brdf>> brdf = ParseBrdfSpec(spec);
   if (!brdf.ok()) {
     return absl::InvalidArgumentError(absl::StrCat("brdf: ", brdf.status().message()));
   }
-  return brdf;
+  out.brdf = std::move(*brdf);
+  out.display_spec = out.brdf->spec();
+  return out;
 }
 
 // A pinned environment: leases on its blobs, the EnvMapOptions that read them, and the cache key
@@ -332,10 +414,11 @@ grpc::Status ShrmServiceImpl::Prefilter(grpc::ServerContext* context,
   if (!slot.ok()) return fail(slot.status());
 
   // Request -> core types.
-  absl::StatusOr<std::unique_ptr<Brdf>> brdf = ParseRequestBrdf(request->brdf());
+  absl::StatusOr<RequestBrdf> brdf = ParseRequestBrdf(request->brdf(), request->brdf_blob_sha256(),
+                                                      request->brdf_display_spec(), blobs_.get());
   if (!brdf.ok()) return fail(brdf.status());
   CachedPrefilterInput in;
-  in.brdf = brdf->get();
+  in.brdf = brdf->brdf.get();
   in.options.epsilon = kDefaultEpsilon;
   if (request->has_orders()) {
     const int f = request->orders().f(), p = request->orders().p();
@@ -400,7 +483,7 @@ grpc::Status ShrmServiceImpl::Prefilter(grpc::ServerContext* context,
   // The SHRM file with the CLI's attributes (client/cmd_prefilter.cc), written in the spool.
   const auto write_start = std::chrono::steady_clock::now();
   std::map<std::string, std::string> attrs = {
-      {"shrm:brdf", (*brdf)->spec()},
+      {"shrm:brdf", brdf->display_spec},
       {"shrm:epsilon",
        request->has_orders() ? "explicit orders" : absl::StrCat(in.options.epsilon)},
       {"shrm:orders", absl::StrCat(an.f_b, ",", an.p_b)},
@@ -436,7 +519,7 @@ grpc::Status ShrmServiceImpl::Prefilter(grpc::ServerContext* context,
   v1::PrefilterReport* rep = ev.mutable_report();
   FillReport(an, rep);
   rep->set_face_size(res->result.cube.face_size);
-  rep->set_brdf((*brdf)->spec());
+  rep->set_brdf(brdf->display_spec);
   rep->set_layout(EnvLayoutName(res->layout));
   rep->set_source_sha256(env->source_sha256);
   for (const StageTiming& t : res->result.timings) {
@@ -455,7 +538,7 @@ grpc::Status ShrmServiceImpl::Prefilter(grpc::ServerContext* context,
   log.Set("brdf_cache", res->brdf_hit ? "hit" : "miss");
   if (want_report) {
     nlohmann::json report = cli::AnalysisJson(an);
-    report["brdf"] = (*brdf)->spec();
+    report["brdf"] = brdf->display_spec;
     report["kind"] = in.options.kind == ShrmKind::kLocal ? "local" : "global";
     report["face_size"] = res->result.cube.face_size;
     report["source_sha256"] = env->source_sha256;
@@ -505,7 +588,8 @@ grpc::Status ShrmServiceImpl::Analyze(grpc::ServerContext* context,
   };
   absl::StatusOr<std::unique_ptr<JobSlot>> slot = Admit(context);
   if (!slot.ok()) return fail(slot.status());
-  absl::StatusOr<std::unique_ptr<Brdf>> brdf = ParseRequestBrdf(request->brdf());
+  absl::StatusOr<RequestBrdf> brdf = ParseRequestBrdf(request->brdf(), request->brdf_blob_sha256(),
+                                                      request->brdf_display_spec(), blobs_.get());
   if (!brdf.ok()) return fail(brdf.status());
   std::vector<double> epsilons(request->epsilon().begin(), request->epsilon().end());
   if (epsilons.empty()) {
@@ -517,12 +601,12 @@ grpc::Status ShrmServiceImpl::Analyze(grpc::ServerContext* context,
           absl::InvalidArgumentError(absl::StrCat("epsilon values must be in (0, 1), got ", e)));
     }
   }
-  response->set_brdf((*brdf)->spec());
+  response->set_brdf(brdf->display_spec);
   if (!request->has_environment()) {
     // BRDF only: (F_rho, P_rho) per epsilon (as `shrm analyze --brdf`).
     for (double e : epsilons) {
       if (absl::Status s = CheckContext(context); !s.ok()) return fail(s);
-      absl::StatusOr<BrdfOrders> o = SelectBrdfOrders(**brdf, e);
+      absl::StatusOr<BrdfOrders> o = SelectBrdfOrders(*brdf->brdf, e);
       if (!o.ok()) return fail(o.status());
       v1::AnalyzeResult* r = response->add_results();
       r->set_epsilon(e);
@@ -540,7 +624,7 @@ grpc::Status ShrmServiceImpl::Analyze(grpc::ServerContext* context,
   pinned_for_messages = &*env;
   for (double e : epsilons) {
     CachedPrefilterInput in;
-    in.brdf = brdf->get();
+    in.brdf = brdf->brdf.get();
     in.env = env->options;
     in.env_key = env->key;
     in.options.epsilon = e;

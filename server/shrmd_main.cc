@@ -9,8 +9,11 @@
 #include <filesystem>
 #include <string>
 #include <thread>
+#include <vector>
 
+#include "absl/status/statusor.h"
 #include "absl/time/time.h"
+#include "server/config_file.h"
 #include "server/request_log.h"
 #include "server/server.h"
 
@@ -86,7 +89,40 @@ int main(int argc, char** argv) {
   app.add_option("--tls-client-ca", opt.security.tls_client_ca,
                  "PEM CA: require client certificates signed by it (mutual TLS)")
       ->check(CLI::ExistingFile);
+  std::string config_path;
+  app.add_option("--config", config_path,
+                 "config file: 'key = value' lines, keys are the long flag names; flags on the "
+                 "command line override it")
+      ->check(CLI::ExistingFile);
   CLI11_PARSE(app, argc, argv);
+  if (!config_path.empty()) {
+    // Parse again with the file's settings in front of the command line, leaving out the keys
+    // the command line already gave (so they win).
+    absl::StatusOr<std::vector<shrm::server::ConfigEntry>> entries =
+        shrm::server::ReadConfigFile(config_path);
+    absl::StatusOr<std::vector<std::string>> extra =
+        entries.ok()
+            ? shrm::server::ConfigToArgs(
+                  *entries, {"reflection"},
+                  [&](const std::string& key) {
+                    return key != "config" && app.get_option_no_throw("--" + key) != nullptr;
+                  },
+                  [&](const std::string& key) {
+                    return app.get_option_no_throw("--" + key)->count() > 0;
+                  })
+            : absl::StatusOr<std::vector<std::string>>(entries.status());
+    if (!extra.ok()) {
+      std::fprintf(stderr, "shrmd: error: %s: %s\n", config_path.c_str(),
+                   std::string(extra.status().message()).c_str());
+      return 1;
+    }
+    std::vector<std::string> args = {argv[0]};
+    args.insert(args.end(), extra->begin(), extra->end());
+    for (int i = 1; i < argc; ++i) args.push_back(argv[i]);
+    std::vector<char*> argv2;
+    for (std::string& a : args) argv2.push_back(a.data());
+    CLI11_PARSE(app, static_cast<int>(argv2.size()), argv2.data());
+  }
 
   opt.service.spool_bytes = spool_mib * kMiB;
   opt.service.max_blob_bytes = max_blob_mib * kMiB;

@@ -19,6 +19,7 @@
 #include "absl/strings/str_cat.h"
 #include "client/shrm_client.h"
 #include "core/brdf/brdf.h"
+#include "core/brdf/brdf_table.h"
 #include "core/envmap/envmap.h"
 #include "core/io/sha256.h"
 #include "core/shrm/prefilter.h"
@@ -50,6 +51,9 @@ constexpr auto kQuickRejection = std::chrono::milliseconds(500);
 // Far shorter than a slow job.
 constexpr absl::Duration kShortDeadline = absl::Milliseconds(300);
 constexpr int kConcurrentJobs = 3;
+// The tabulated BRDF of the blob tests: GGX sampled on a small grid (smooth enough for F = 8).
+constexpr char kTableSource[] = "ggx:alpha=0.5,f0=1";
+constexpr int kTableThetaI = 32, kTableThetaO = 32, kTablePhi = 16;
 
 std::string MapPath(const char* name) {
   return absl::StrCat(SHRM_SOURCE_DIR, "/data/envmaps/", name);
@@ -350,6 +354,121 @@ TEST_F(ServiceTest, AnalyzeAndListBrdfModels) {
   EXPECT_EQ(resp->results(0).f_b(), pr->analysis.f_b);
   EXPECT_EQ(resp->results(0).p_b(), pr->analysis.p_b);
   EXPECT_EQ(resp->results(0).eps_bound(), pr->analysis.eps_bound);
+}
+
+// Writes kTableSource sampled as a SHRMBRDF table to `path`.
+void WriteGgxTable(const std::string& path) {
+  auto ggx = ParseBrdfSpec(kTableSource);
+  ASSERT_TRUE(ggx.ok()) << ggx.status();
+  absl::StatusOr<BrdfTableData> table =
+      SampleBrdfTable(**ggx, kTableThetaI, kTableThetaO, kTablePhi);
+  ASSERT_TRUE(table.ok()) << table.status();
+  ASSERT_TRUE(WriteBrdfTable(path, *table).ok());
+}
+
+TEST_F(ServiceTest, TableBrdfTravelsAsBlobAndMatchesEmbeddedByteForByte) {
+  auto c = StartServer();
+  const std::string table = testing::UniqueTempPath("ggx_table.shrmbrdf");
+  WriteGgxTable(table);
+  const std::string map = MapPath("courtyard.exr");
+  const std::string a = testing::UniqueTempPath("table_embedded.shrm.exr");
+  const std::string b = testing::UniqueTempPath("table_remote.shrm.exr");
+  const std::string rep = testing::UniqueTempPath("table_remote.json");
+  const std::string common =
+      absl::StrCat(" prefilter --env ", map, " --brdf table:", table, " --orders ", kTestF, ",",
+                   kTestP, " --size ", kTestFaceSize, " > /dev/null 2>&1");
+  ASSERT_EQ(std::system(absl::StrCat(SHRM_CLI_PATH, common, " -o ", a).c_str()), 0);
+  ASSERT_EQ(std::system(absl::StrCat(SHRM_CLI_PATH, common, " -o ", b, " --report ", rep,
+                                     " --server 127.0.0.1:", port_)
+                            .c_str()),
+            0);
+  const std::string ea = ReadFile(a), eb = ReadFile(b);
+  EXPECT_FALSE(ea.empty());
+  EXPECT_TRUE(ea == eb) << "shrm --server with a table BRDF wrote a different file";
+  absl::StatusOr<ShrmFile> remote = ReadShrmFile(b);
+  ASSERT_TRUE(remote.ok()) << remote.status();
+  EXPECT_EQ(remote->attributes.at("shrm:brdf"), absl::StrCat("table:", table));
+  const std::string report = ReadFile(rep);
+  EXPECT_NE(report.find(absl::StrCat("\"table:", table, "\"")), std::string::npos) << report;
+  EXPECT_EQ(report.find(dirs_[0]), std::string::npos) << "the report leaks the spool path";
+  EXPECT_NE(report.find("\"brdf\": \"miss\""), std::string::npos) << report;
+
+  // The table went up as a blob under its content hash.
+  const std::string table_sha = *Sha256OfFile(table);
+  absl::StatusOr<v1::HasBlobResponse> has = c->HasBlob(table_sha);
+  ASSERT_TRUE(has.ok());
+  EXPECT_TRUE(has->present());
+
+  // Again with the same content under another name: rho_lpq comes from the cache (keyed by the
+  // blob's hash, not by a path or the display spec).
+  absl::StatusOr<std::string> env_sha = c->UploadIfMissing(map);
+  ASSERT_TRUE(env_sha.ok());
+  auto req = Request(*env_sha, "table:@");
+  req.set_brdf_blob_sha256(table_sha);
+  absl::StatusOr<client::PrefilterOutcome> r = c->Prefilter(req);
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_TRUE(r->report.cache().brdf_hit());
+  EXPECT_TRUE(r->report.cache().lighting_hit());
+  EXPECT_EQ(r->report.brdf(), absl::StrCat("table:@", table_sha));
+
+  // Analyze takes blob BRDFs too.
+  v1::AnalyzeRequest areq;
+  areq.set_brdf("table:@");
+  areq.set_brdf_blob_sha256(table_sha);
+  areq.set_brdf_display_spec("table:mine.shrmbrdf");
+  areq.add_epsilon(0.1);
+  absl::StatusOr<v1::AnalyzeResponse> an = c->Analyze(areq);
+  ASSERT_TRUE(an.ok()) << an.status();
+  EXPECT_EQ(an->brdf(), "table:mine.shrmbrdf");
+  ASSERT_EQ(an->results_size(), 1);
+  EXPECT_GT(an->results(0).f_brdf(), 0);
+  for (const auto& f : {a, b, rep, table}) std::filesystem::remove(f);
+}
+
+TEST_F(ServiceTest, BadBrdfBlobsGetNotFoundAndInvalidArgumentWithoutPaths) {
+  auto c = StartServer();
+  absl::StatusOr<std::string> env_sha = c->UploadIfMissing(MapPath("interior.exr"));
+  ASSERT_TRUE(env_sha.ok());
+  const std::string missing(64, 'b');
+  // A table whose header promises more values than it holds.
+  std::string corrupt = "SHRMBRDF";
+  for (uint32_t v : {1u, 1u, 0u, 0u, 8u, 8u, 4u}) corrupt.append(reinterpret_cast<char*>(&v), 4);
+  corrupt += std::string(100, '\x3f');
+  absl::StatusOr<std::string> corrupt_sha = c->UploadBytes(corrupt);
+  ASSERT_TRUE(corrupt_sha.ok());
+
+  struct Case {
+    const char* what;
+    std::string spec, sha;
+    absl::StatusCode code;
+    std::string message_part;
+  };
+  const std::vector<Case> cases = {
+      {"missing table blob", "table:@", missing, absl::StatusCode::kNotFound,
+       absl::StrCat("BRDF blob ", missing)},
+      {"missing MERL blob", "merl:@", missing, absl::StatusCode::kNotFound, "upload it first"},
+      {"corrupt table blob", "table:@", *corrupt_sha, absl::StatusCode::kInvalidArgument,
+       absl::StrCat("BRDF blob ", *corrupt_sha)},
+      {"corrupt MERL blob", "merl:@", *corrupt_sha, absl::StatusCode::kInvalidArgument,
+       absl::StrCat("BRDF blob ", *corrupt_sha)},
+      {"table:@ without a hash", "table:@", "", absl::StatusCode::kInvalidArgument,
+       "brdf_blob_sha256"},
+      {"hash with an analytic BRDF", "phong:s=32", *corrupt_sha, absl::StatusCode::kInvalidArgument,
+       "brdf_blob_sha256"},
+      {"table path", "table:/etc/passwd", "", absl::StatusCode::kInvalidArgument, "table:@"},
+  };
+  for (const Case& k : cases) {
+    auto req = Request(*env_sha, k.spec);
+    req.set_brdf_blob_sha256(k.sha);
+    absl::StatusOr<client::PrefilterOutcome> r = c->Prefilter(req);
+    EXPECT_EQ(r.status().code(), k.code) << k.what << ": " << r.status();
+    EXPECT_NE(r.status().message().find(k.message_part), std::string::npos)
+        << k.what << ": " << r.status();
+    EXPECT_EQ(r.status().message().find(dirs_[0]), std::string::npos)
+        << k.what << ": the message leaks the spool path: " << r.status();
+  }
+  absl::StatusOr<client::PrefilterOutcome> ok = c->Prefilter(Request(*env_sha, "phong:s=32"));
+  EXPECT_TRUE(ok.ok()) << ok.status();
 }
 
 }  // namespace
