@@ -40,8 +40,8 @@ using server::ShrmServer;
 constexpr int kTestF = 8;
 constexpr int kTestP = 2;
 constexpr int kTestFaceSize = 32;
-// A large upload: 32 MiB in 1 MiB chunks (exercises streaming well past the 4 MiB message limit).
-constexpr size_t kLargeUploadBytes = 32u << 20;
+// A large upload: 64 MiB in 1 MiB chunks (the size; well past the 4 MiB message limit).
+constexpr size_t kLargeUploadBytes = 64u << 20;
 // Upload limit of the "small limit" server, and an upload just above it.
 constexpr uint64_t kSmallBlobLimit = 64 << 10;
 // Slow jobs for admission/deadline tests: every stage sleeps this long (6 stages: ~1.2 s a job).
