@@ -11,6 +11,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/cubemap.h"
+#include "core/base/parallel.h"
 #include "core/sh/hbasis.h"
 #include "core/sh/sh.h"
 #include "core/shrm/shrm_synthesis.h"
@@ -39,23 +40,6 @@ void ParallelRows(int rows, int threads, Body&& body) {
     pool.emplace_back([&body, t, threads, rows] {
       for (int r = t; r < rows; r += threads) body(r);
     });
-  for (auto& th : pool) th.join();
-}
-
-// Runs `body(begin, end)` over [0, n) split into `threads` contiguous chunks.
-template <typename Body>
-void ParallelFor(int n, int threads, Body&& body) {
-  threads = std::max(1, std::min(threads, n));
-  if (threads == 1) {
-    body(0, n);
-    return;
-  }
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t) {
-    const int b = static_cast<int>(static_cast<long>(n) * t / threads);
-    const int e = static_cast<int>(static_cast<long>(n) * (t + 1) / threads);
-    pool.emplace_back([&body, b, e] { body(b, e); });
-  }
   for (auto& th : pool) th.join();
 }
 
@@ -149,7 +133,7 @@ absl::Status ReflectionMapsForViewsInto(const ShrmCube& cube, std::span<const Ve
     }
     const int width = size * ch;
     const size_t tstride = (static_cast<size_t>(width) + 15) / 16 * 16;
-    ParallelFor(rows, threads, [&](int begin, int end) {
+    ParallelChunks(rows, threads, [&](int begin, int end) {
       std::vector<float> t(static_cast<size_t>(n) * tstride);
       for (int row = begin; row < end; ++row) {
         const int face = row / size, yy = row % size;

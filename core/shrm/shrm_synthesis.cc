@@ -24,6 +24,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/cubemap.h"
+#include "core/base/parallel.h"
 #include "core/sh/rotation.h"
 #include "core/sh/sh.h"
 #include "core/sh/wigner.h"
@@ -49,23 +50,6 @@ double IntPow(double x, int n) {
 double SqrtBinomial(int two_l, int k) {
   return std::exp(0.5 *
                   (std::lgamma(two_l + 1.0) - std::lgamma(k + 1.0) - std::lgamma(two_l - k + 1.0)));
-}
-
-// Runs `body(begin, end)` over [0, n) split into `threads` contiguous chunks.
-template <typename Body>
-void ParallelFor(int n, int threads, Body&& body) {
-  threads = std::max(1, std::min(threads, n));
-  if (threads == 1) {
-    body(0, n);
-    return;
-  }
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t) {
-    const int b = static_cast<int>(static_cast<long>(n) * t / threads);
-    const int e = static_cast<int>(static_cast<long>(n) * (t + 1) / threads);
-    pool.emplace_back([&body, b, e] { body(b, e); });
-  }
-  for (auto& th : pool) th.join();
 }
 
 // Reserves `n` floats in `v` and, for large buffers on Linux, asks for transparent huge pages on
@@ -247,7 +231,7 @@ void ResampleToCube(const float* values, int na, int stride, GridColumns columns
   const std::shared_ptr<const std::vector<TexelTaps>> taps = GetTexelTaps(face_size, na, columns);
   const int rows_total = kCubeFaceCount * face_size;
   auto run = [&]<int N>(std::integral_constant<int, N>) {
-    ParallelFor(rows_total, threads, [&](int begin, int end) {
+    ParallelChunks(rows_total, threads, [&](int begin, int end) {
       for (size_t texel = static_cast<size_t>(begin) * face_size;
            texel < static_cast<size_t>(end) * face_size; ++texel)
         Interpolate<N>(values, nb, stride, (*taps)[texel], cube.data.data() + texel * stride);
@@ -719,7 +703,7 @@ absl::StatusOr<ShrmSynthesizer::Grid> ShrmSynthesizer::BuildGrid(ShrmKind kind, 
   const WignerColumnTables tables(lmax_, qmax), ptables(pmax_, pmax_);
   constexpr int B = kWignerBlock;
   const int blocks = (rows + B - 1) / B;
-  ParallelFor(blocks, threads, [&](int begin, int end) {
+  ParallelChunks(blocks, threads, [&](int begin, int end) {
     RowScratch scratch;
     {
       std::lock_guard<std::mutex> lock(FftwPlannerMutex());
