@@ -116,6 +116,8 @@ absl::Status RemoteEnvironment(const EnvArgs& args, client::ShrmClient* client,
   env->set_working_colour_space(args.working_space);
   env->set_non_finite(args.replace_non_finite ? shrm::v1::NON_FINITE_POLICY_REPLACE_ZERO
                                               : shrm::v1::NON_FINITE_POLICY_REJECT);
+  env->clear_sha256();
+  env->clear_source_names();
   for (const std::string& f : args.files) {
     absl::StatusOr<std::string> sha = client->UploadIfMissing(f);
     if (!sha.ok()) {

@@ -67,6 +67,7 @@ struct Job {
   std::string status = "pending";  // ok, skipped, failed
   std::string orders;
   double seconds = 0;
+  int retries = 0;  // remote: attempts beyond the first
   std::string message;
 };
 
@@ -353,6 +354,7 @@ absl::Status RunBatch(const BatchArgs& args) {
       Job& job = jobs[k];
       const auto start = std::chrono::steady_clock::now();
       std::string status, message, orders;
+      int retries = 0;
       EnvArgs env;
       env.files = {job.map};
       env.rotate = opt.rotate;
@@ -394,6 +396,7 @@ absl::Status RunBatch(const BatchArgs& args) {
         a.quiet = true;
         PrefilterJobOutcome outcome;
         const absl::Status s = RunPrefilterJob(a, &outcome);
+        retries = outcome.retries;
         if (s.ok()) {
           status = "ok";
           orders = absl::StrCat(outcome.f_b, ",", outcome.p_b);
@@ -411,6 +414,7 @@ absl::Status RunBatch(const BatchArgs& args) {
       job.message = message;
       job.orders = orders;
       job.seconds = seconds;
+      job.retries = retries;
       ++done;
       if (status == "failed") ++failed;
       show();
@@ -422,10 +426,11 @@ absl::Status RunBatch(const BatchArgs& args) {
   for (std::thread& t : pool) t.join();
   if (tty) std::fprintf(stderr, "\n");
 
-  int ok = 0, skipped = 0;
+  int ok = 0, skipped = 0, retries = 0;
   for (const Job& j : jobs) {
     ok += j.status == "ok";
     skipped += j.status == "skipped";
+    retries += j.retries;
   }
   if (args.json) {
     nlohmann::json out;
@@ -433,6 +438,7 @@ absl::Status RunBatch(const BatchArgs& args) {
     out["ok"] = ok;
     out["skipped"] = skipped;
     out["failed"] = failed;
+    out["retries"] = retries;
     out["jobs"] = nlohmann::json::array();
     for (const Job& j : jobs) {
       out["jobs"].push_back({{"index", j.index},
@@ -442,20 +448,22 @@ absl::Status RunBatch(const BatchArgs& args) {
                              {"status", j.status},
                              {"orders", j.orders},
                              {"seconds", j.seconds},
+                             {"retries", j.retries},
                              {"message", j.message}});
     }
     std::printf("%s\n", out.dump(2).c_str());
   } else {
     size_t width = 3;
     for (const Job& j : jobs) width = std::max(width, j.output.size());
-    std::printf("%-3s  %-*s  %-7s  %-7s  %8s  %s\n", "#", static_cast<int>(width), "job", "status",
-                "orders", "seconds", "message");
+    std::printf("%-3s  %-*s  %-7s  %-7s  %8s  %7s  %s\n", "#", static_cast<int>(width), "job",
+                "status", "orders", "seconds", "retries", "message");
     for (const Job& j : jobs) {
-      std::printf("%-3d  %-*s  %-7s  %-7s  %8.2f  %s\n", j.index, static_cast<int>(width),
+      std::printf("%-3d  %-*s  %-7s  %-7s  %8.2f  %7d  %s\n", j.index, static_cast<int>(width),
                   j.output.c_str(), j.status.c_str(), j.orders.empty() ? "-" : j.orders.c_str(),
-                  j.seconds, j.message.c_str());
+                  j.seconds, j.retries, j.message.c_str());
     }
-    std::printf("%zu jobs: %d ok, %d skipped, %d failed\n", jobs.size(), ok, skipped, failed);
+    std::printf("%zu jobs: %d ok, %d skipped, %d failed, %d retries\n", jobs.size(), ok, skipped,
+                failed, retries);
   }
   std::fflush(stdout);
   if (failed > 0)

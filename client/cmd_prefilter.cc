@@ -6,10 +6,12 @@
 #include <string>
 #include <vector>
 
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "absl/time/clock.h"
 #include "client/cli_common.h"
 #include "client/cli_validators.h"
 #include "client/commands.h"
@@ -19,6 +21,7 @@
 #include "core/brdf/brdf.h"
 #include "core/io/atomic_file.h"
 #include "core/io/image.h"
+#include "core/io/sha256.h"
 #include "core/shrm/prefilter.h"
 #include "core/shrm/shrm_file.h"
 #include "core/shrm/shrm_synthesis.h"
@@ -102,14 +105,6 @@ absl::Status RunPrefilterRemote(const PrefilterArgs& a, const PrefilterOptions& 
                         client::ShrmClient::Connect(a.server));
   Progress progress(a.verbose, a.quiet);
   v1::PrefilterRequest req;
-  progress.Begin("upload");
-  SHRM_RETURN_IF_ERROR(RemoteEnvironment(a.env, client.get(), req.mutable_environment()));
-  // table:PATH / merl:PATH: the file travels as a blob; shrm:brdf records the local spec.
-  SHRM_ASSIGN_OR_RETURN(client::RemoteBrdf brdf, client::ResolveRemoteBrdf(a.brdf, client.get()));
-  const double upload_ms = progress.End();
-  req.set_brdf(brdf.spec);
-  req.set_brdf_blob_sha256(brdf.blob_sha256);
-  req.set_brdf_display_spec(brdf.display_spec);
   if (opt.f >= 0) {
     req.mutable_orders()->set_f(opt.f);
     req.mutable_orders()->set_p(opt.p);
@@ -119,16 +114,58 @@ absl::Status RunPrefilterRemote(const PrefilterArgs& a, const PrefilterOptions& 
   req.set_kind(opt.kind == ShrmKind::kLocal ? v1::SHRM_KIND_LOCAL : v1::SHRM_KIND_GLOBAL);
   req.set_face_size(a.size);
   req.set_half(a.half);
-  bool first = true;
-  auto on_progress = [&](const v1::PrefilterProgress& p) {
-    if (!first) progress.End();
-    first = false;
-    progress.Begin("remote " + p.stage());
-  };
-  absl::StatusOr<client::PrefilterOutcome> out = client->Prefilter(req, on_progress);
-  if (!first) progress.End();
+  // The job is idempotent (same request, same bytes), so it is retried whole on transient errors
+  // and when the server lacks an input blob (behind a load balancer the next call may reach a
+  // replica the inputs were never uploaded to): each attempt uploads what is missing, then runs.
+  const int max_attempts = client->options().max_attempts;
+  absl::StatusOr<client::PrefilterOutcome> out = absl::UnknownError("no attempt");
+  double upload_ms = 0;
+  int retries = 0, missing_blob_answers = 0;
+  if (a.env.files.size() == 1) {
+    absl::StatusOr<std::string> key = Sha256OfFile(a.env.files[0]);
+    if (key.ok()) client->set_affinity_key(*key);
+  }
+  for (int attempt = 0;; ++attempt) {
+    if (attempt > 0) absl::SleepFor(client::RetryBackoff(client->options(), attempt));
+    // After k NOT_FOUND answers for a blob, upload k + 1 copies (see set_upload_copies).
+    client->set_upload_copies(missing_blob_answers > 0 ? missing_blob_answers + 1 : 0);
+    progress.Begin("upload");
+    absl::Status uploaded = RemoteEnvironment(a.env, client.get(), req.mutable_environment());
+    // table:PATH / merl:PATH: the file travels as a blob; shrm:brdf records the local spec.
+    absl::StatusOr<client::RemoteBrdf> brdf =
+        uploaded.ok() ? client::ResolveRemoteBrdf(a.brdf, client.get()) : uploaded;
+    upload_ms += progress.End();
+    if (brdf.ok()) {
+      req.set_brdf(brdf->spec);
+      req.set_brdf_blob_sha256(brdf->blob_sha256);
+      req.set_brdf_display_spec(brdf->display_spec);
+      bool first = true;
+      auto on_progress = [&](const v1::PrefilterProgress& p) {
+        if (!first) progress.End();
+        first = false;
+        progress.Begin("remote " + p.stage());
+      };
+      out = client->Prefilter(req, on_progress);
+      if (!first) progress.End();
+    } else {
+      out = brdf.status();
+    }
+    const absl::Status& s = out.status();
+    const bool missing_blob = absl::IsNotFound(s) && absl::StrContains(s.message(), "blob ");
+    if (s.ok() || attempt + 1 >= max_attempts || !(client::IsTransient(s) || missing_blob)) break;
+    ++retries;
+    missing_blob_answers += missing_blob;
+    if (!a.quiet) {
+      std::fprintf(stderr, "shrm: %s: %s; retrying (attempt %d of %d)\n", a.server.c_str(),
+                   std::string(s.message()).c_str(), attempt + 2, max_attempts);
+    }
+  }
+  if (outcome != nullptr) outcome->retries = retries;
   if (!out.ok()) {
-    return absl::Status(out.status().code(), absl::StrCat(a.server, ": ", out.status().message()));
+    return absl::Status(
+        out.status().code(),
+        absl::StrCat(a.server, ": ", out.status().message(),
+                     retries > 0 ? absl::StrCat(" (after ", retries, " retries)") : std::string()));
   }
   OutputTransaction outputs;
   const std::string shrm_tmp = outputs.Temp(a.output);
@@ -142,6 +179,7 @@ absl::Status RunPrefilterRemote(const PrefilterArgs& a, const PrefilterOptions& 
   report["source"] = a.env.files;
   report["server"] = a.server;
   report["timings"]["upload_ms"] = upload_ms;
+  report["retries"] = retries;
   report["timings"]["local_write_ms"] = write_ms;
   if (!a.preview.empty()) {
     progress.Begin("preview");

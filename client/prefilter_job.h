@@ -30,6 +30,7 @@ struct PrefilterArgs {
 
 struct PrefilterJobOutcome {
   int f_b = -1, p_b = -1;  // the orders of the written SHRM
+  int retries = 0;         // remote: attempts beyond the first (transient errors, missing blobs)
 };
 
 // Validates the options, runs the job and writes its outputs (all or none). Unless `quiet`,

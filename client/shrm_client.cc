@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
@@ -22,6 +23,8 @@ namespace v1 = ::shrm::v1;
 
 // Upload chunk size: 1 MiB, a quarter of gRPC's default 4 MiB message limit.
 constexpr size_t kUploadChunkBytes = 1 << 20;
+// Largest up-front reservation for a downloaded SHRM file (larger files still arrive, growing).
+constexpr uint64_t kMaxReserveBytes = uint64_t{256} << 20;
 
 void SetDeadline(grpc::ClientContext* context, absl::Duration d) {
   if (d == absl::InfiniteDuration()) return;
@@ -59,6 +62,24 @@ absl::StatusOr<std::string> ReadToken(const std::string& path) {
 absl::Status FromGrpcStatus(const grpc::Status& status) {
   if (status.ok()) return absl::OkStatus();
   return absl::Status(static_cast<absl::StatusCode>(status.error_code()), status.error_message());
+}
+
+bool IsTransient(const absl::Status& status) {
+  if (absl::IsUnavailable(status)) return true;
+  if (!absl::IsInternal(status) && !absl::IsUnknown(status)) return false;
+  static constexpr absl::string_view kTransportMarks[] = {
+      "RST_STREAM", "Stream removed", "Socket closed", "Connection reset",
+      "GOAWAY",     "status: 502",    "status: 503",   "status: 504"};
+  for (absl::string_view mark : kTransportMarks) {
+    if (absl::StrContains(status.message(), mark)) return true;
+  }
+  return false;
+}
+
+absl::Duration RetryBackoff(const ClientOptions& options, int attempt) {
+  absl::Duration d = options.initial_backoff;
+  for (int i = 1; i < attempt && d < options.max_backoff; ++i) d *= 2;
+  return std::min(d, options.max_backoff);
 }
 
 absl::StatusOr<std::unique_ptr<ShrmClient>> ShrmClient::Connect(const std::string& target,
@@ -113,17 +134,14 @@ ShrmClient::ShrmClient(std::shared_ptr<grpc::Channel> channel, const ClientOptio
 
 void ShrmClient::Authorize(grpc::ClientContext* context) const {
   if (!options_.token.empty()) context->AddMetadata("authorization", "Bearer " + options_.token);
+  if (!affinity_key_.empty()) context->AddMetadata("x-shrm-affinity", affinity_key_);
 }
 
 absl::Status ShrmClient::WithRetries(
     const std::function<grpc::Status(grpc::ClientContext*)>& attempt, absl::Duration deadline) {
-  absl::Duration backoff = options_.initial_backoff;
   grpc::Status status;
   for (int i = 0; i < options_.max_attempts; ++i) {
-    if (i > 0) {
-      absl::SleepFor(backoff);
-      backoff = std::min(backoff * 2, options_.max_backoff);
-    }
+    if (i > 0) absl::SleepFor(RetryBackoff(options_, i));
     grpc::ClientContext context;
     SetDeadline(&context, std::min(deadline, options_.call_timeout));
     Authorize(&context);
@@ -137,7 +155,7 @@ absl::Status ShrmClient::WithRetries(
         last_retry_after_ms_ = ms;
       }
     }
-    if (status.error_code() != grpc::StatusCode::UNAVAILABLE) break;
+    if (!IsTransient(FromGrpcStatus(status))) break;
   }
   return FromGrpcStatus(status);
 }
@@ -220,21 +238,26 @@ absl::StatusOr<RemoteBrdf> ResolveRemoteBrdf(const std::string& spec, ShrmClient
 absl::StatusOr<std::string> ShrmClient::UploadIfMissing(const std::string& path) {
   absl::StatusOr<std::string> sha = Sha256OfFile(path);
   if (!sha.ok()) return sha.status();
-  absl::StatusOr<v1::HasBlobResponse> has = HasBlob(*sha);
-  if (!has.ok()) return has.status();
-  if (has->present()) return *sha;
+  if (upload_copies_ <= 0) {
+    absl::StatusOr<v1::HasBlobResponse> has = HasBlob(*sha);
+    if (!has.ok()) return has.status();
+    if (has->present()) return *sha;
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) return absl::NotFoundError(absl::StrCat(path, ": cannot open"));
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  absl::StatusOr<std::string> up = UploadBytes(bytes);
-  if (!up.ok()) return up.status();
-  if (*up != *sha) return absl::DataLossError(absl::StrCat(path, ": changed while uploading"));
+  for (int copy = 0; copy < std::max(1, upload_copies_); ++copy) {
+    absl::StatusOr<std::string> up = UploadBytes(bytes);
+    if (!up.ok()) return up.status();
+    if (*up != *sha) return absl::DataLossError(absl::StrCat(path, ": changed while uploading"));
+  }
   return *sha;
 }
 
 absl::StatusOr<PrefilterOutcome> ShrmClient::Prefilter(const v1::PrefilterRequest& request,
                                                        const ProgressCallback& progress,
-                                                       absl::Duration deadline) {
+                                                       absl::Duration deadline,
+                                                       const std::atomic<bool>* cancel) {
   grpc::ClientContext context;
   SetDeadline(&context, deadline);
   Authorize(&context);
@@ -244,7 +267,9 @@ absl::StatusOr<PrefilterOutcome> ShrmClient::Prefilter(const v1::PrefilterReques
   v1::PrefilterEvent ev;
   bool have_last = false, have_report = false;
   std::string expected_sha;
+  Sha256Stream received_sha;  // hashed as the chunks arrive
   while (reader->Read(&ev)) {
+    if (cancel != nullptr && cancel->load()) context.TryCancel();
     switch (ev.event_case()) {
       case v1::PrefilterEvent::kProgress:
         if (progress) progress(ev.progress());
@@ -258,7 +283,12 @@ absl::StatusOr<PrefilterOutcome> ShrmClient::Prefilter(const v1::PrefilterReques
           context.TryCancel();
           return absl::DataLossError("SHRM file chunks out of order");
         }
+        if (ev.shrm_file().offset() == 0 && ev.shrm_file().total_size() > 0) {
+          // A hint from the server: capped, so a bad value cannot exhaust memory up front.
+          out.shrm_file.reserve(std::min<uint64_t>(ev.shrm_file().total_size(), kMaxReserveBytes));
+        }
         out.shrm_file += ev.shrm_file().data();
+        received_sha.Update(ev.shrm_file().data());
         if (ev.shrm_file().last()) {
           have_last = true;
           expected_sha = ev.shrm_file().sha256();
@@ -285,7 +315,7 @@ absl::StatusOr<PrefilterOutcome> ShrmClient::Prefilter(const v1::PrefilterReques
   if (!have_report) return absl::DataLossError("the server sent no report");
   if (want_file) {
     if (!have_last) return absl::DataLossError("the SHRM file transfer was incomplete");
-    out.shrm_sha256 = Sha256Hex(out.shrm_file);
+    out.shrm_sha256 = received_sha.Hex();
     if (out.shrm_sha256 != expected_sha) {
       return absl::DataLossError(absl::StrCat("SHRM file SHA-256 mismatch: got ", out.shrm_sha256,
                                               ", server said ", expected_sha));

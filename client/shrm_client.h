@@ -1,9 +1,12 @@
 // Client library of the shrm service (shrm.v1.Shrm, docs/server.md): typed calls returning
 // absl::StatusOr. Idempotent calls (HasBlob, UploadBlob, Analyze, ListBrdfModels) are retried on
-// UNAVAILABLE with exponential backoff; Prefilter is not (it is a long streamed job).
+// transient errors (IsTransient) with exponential backoff. Prefilter is one attempt: a retry may
+// need the inputs uploaded again (another replica), so callers retry the whole job
+// (client/cmd_prefilter.cc), which is idempotent (the same request gives the same bytes).
 #ifndef SHRM_CLIENT_SHRM_CLIENT_H_
 #define SHRM_CLIENT_SHRM_CLIENT_H_
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -18,7 +21,7 @@
 namespace shrm::client {
 
 struct ClientOptions {
-  int max_attempts = 4;  // per idempotent call, including the first
+  int max_attempts = 6;  // per idempotent call (and per remote job), including the first
   absl::Duration initial_backoff = absl::Milliseconds(100);
   absl::Duration max_backoff = absl::Seconds(2);
   // Deadline of each idempotent call attempt (uploads: per attempt of the whole blob).
@@ -56,16 +59,32 @@ class ShrmClient {
   absl::StatusOr<shrm::v1::HasBlobResponse> HasBlob(const std::string& sha256);
   // Streams `bytes` (1 MiB chunks) under its SHA-256; returns the hash the server verified.
   absl::StatusOr<std::string> UploadBytes(std::string_view bytes);
-  // The file's SHA-256; uploads it only when the server does not have it.
+  // The file's SHA-256; uploads it only when the server does not have it. With
+  // set_upload_copies(k), k > 0, it skips the question and uploads k times in a row instead.
   absl::StatusOr<std::string> UploadIfMissing(const std::string& path);
+
+  // Routing hints for jobs behind a load balancer (docs/deploy.md):
+  // - the affinity key (the SHA-256 of the job's map) goes with every call as metadata
+  //   `x-shrm-affinity`, so a proxy hashing on it (nginx `hash $http_x_shrm_affinity`) sends the
+  //   uploads and the job of one map to the same replica, whose caches then hit;
+  // - upload copies: after a replica answered NOT_FOUND for a blob, uploading k times in a row
+  //   puts the blob on k replicas of a round-robin channel (consecutive calls go to distinct
+  //   replicas), so the retried job finds it wherever it lands.
+  void set_affinity_key(std::string key) { affinity_key_ = std::move(key); }
+  void set_upload_copies(int copies) { upload_copies_ = copies; }
   // Runs the job; `deadline` is relative (absl::InfiniteDuration() for none). The file is
   // checked against the SHA-256 of the last chunk (DataLoss on a mismatch).
+  // `cancel` (optional) is read after every event: once true, the call is cancelled (the server
+  // stops the job before its next stage) and Prefilter returns CANCELLED.
   absl::StatusOr<PrefilterOutcome> Prefilter(const shrm::v1::PrefilterRequest& request,
                                              const ProgressCallback& progress = nullptr,
-                                             absl::Duration deadline = absl::InfiniteDuration());
+                                             absl::Duration deadline = absl::InfiniteDuration(),
+                                             const std::atomic<bool>* cancel = nullptr);
   absl::StatusOr<shrm::v1::AnalyzeResponse> Analyze(
       const shrm::v1::AnalyzeRequest& request, absl::Duration deadline = absl::InfiniteDuration());
   absl::StatusOr<shrm::v1::ListBrdfModelsResponse> ListBrdfModels();
+
+  const ClientOptions& options() const { return options_; }
 
   // Trailing metadata "retry-after-ms" of the last RESOURCE_EXHAUSTED answer (0 when none).
   int64_t last_retry_after_ms() const { return last_retry_after_ms_; }
@@ -84,6 +103,8 @@ class ShrmClient {
   std::unique_ptr<shrm::v1::Shrm::Stub> stub_;
   ClientOptions options_;
   int64_t last_retry_after_ms_ = 0;
+  std::string affinity_key_;
+  int upload_copies_ = 0;
 };
 
 // The BRDF fields of a request for a CLI --brdf spec. "table:PATH" and "merl:PATH" upload the
@@ -99,6 +120,16 @@ absl::StatusOr<RemoteBrdf> ResolveRemoteBrdf(const std::string& spec, ShrmClient
 
 // grpc::Status -> absl::Status (same codes; the message kept).
 absl::Status FromGrpcStatus(const grpc::Status& status);
+
+// Whether an idempotent call that failed with `status` may succeed when sent again: UNAVAILABLE
+// (server draining or unreachable, proxy without upstream), and the transport failures a proxy
+// reports when a replica dies mid-call (INTERNAL or UNKNOWN "RST_STREAM", "Stream removed",
+// "Socket closed", HTTP 502/503/504). Never DEADLINE_EXCEEDED, CANCELLED or an answer about the
+// request itself.
+bool IsTransient(const absl::Status& status);
+
+// The backoff before attempt `attempt` (1 = the first retry): initial * 2^(attempt - 1), capped.
+absl::Duration RetryBackoff(const ClientOptions& options, int attempt);
 
 }  // namespace shrm::client
 

@@ -96,6 +96,18 @@ void Metrics::RecordRejected(const std::string& reason) {
   ++rejected_[reason];
 }
 
+void Metrics::RecordAbandoned(const std::string& reason, const std::string& stage) {
+  std::lock_guard<std::mutex> lock(mu_);
+  ++abandoned_[{reason, stage}];
+}
+
+uint64_t Metrics::AbandonedCount(const std::string& reason) const {
+  std::lock_guard<std::mutex> lock(mu_);
+  uint64_t n = 0;
+  for (const auto& [k, v] : abandoned_) n += k.first == reason ? v : 0;
+  return n;
+}
+
 std::string Metrics::Render() const {
   std::lock_guard<std::mutex> lock(mu_);
   std::string out;
@@ -135,6 +147,14 @@ std::string Metrics::Render() const {
                   "# TYPE shrm_rejected_total counter\n");
   for (const auto& [k, v] : rejected_) {
     absl::StrAppend(&out, "shrm_rejected_total{reason=\"", Escape(k), "\"} ", v, "\n");
+  }
+  absl::StrAppend(&out,
+                  "# HELP shrm_jobs_abandoned_total Jobs stopped between stages (deadline passed "
+                  "or client cancelled), by reason and the stage not started.\n",
+                  "# TYPE shrm_jobs_abandoned_total counter\n");
+  for (const auto& [k, v] : abandoned_) {
+    absl::StrAppend(&out, "shrm_jobs_abandoned_total{reason=\"", Escape(k.first), "\",stage=\"",
+                    Escape(k.second), "\"} ", v, "\n");
   }
   return out;
 }

@@ -34,6 +34,11 @@ class Metrics {
   void RecordCache(const std::string& cache, bool hit);
   // A refused input or request, by reason (the gRPC code name in lower case).
   void RecordRejected(const std::string& reason);
+  // A job stopped before its end because its deadline passed or its client cancelled:
+  // `reason` "deadline" or "cancelled", `stage` the stage it was stopped before.
+  void RecordAbandoned(const std::string& reason, const std::string& stage);
+  // The number of abandoned jobs with `reason`, over all stages (tests, logs).
+  uint64_t AbandonedCount(const std::string& reason) const;
 
   // All metrics in the Prometheus text format.
   std::string Render() const;
@@ -49,6 +54,7 @@ class Metrics {
   std::map<std::string, Histogram> latency_;                          // per method
   std::map<std::pair<std::string, bool>, uint64_t> cache_;            // (cache, hit)
   std::map<std::string, uint64_t> rejected_;
+  std::map<std::pair<std::string, std::string>, uint64_t> abandoned_;  // (reason, stage)
   std::atomic<int64_t> jobs_in_flight_{0};
 };
 

@@ -262,11 +262,14 @@ absl::Status CheckContext(grpc::ServerContext* context) {
   return absl::CancelledError("cancelled by the client; the job was stopped between stages");
 }
 
-absl::StatusOr<std::string> ReadWholeFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return absl::UnavailableError("cannot read the output back from the spool");
-  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  return bytes;
+// CheckContext before `stage`; a stop is counted in shrm_jobs_abandoned_total.
+absl::Status CheckStage(grpc::ServerContext* context, std::string_view stage) {
+  absl::Status s = CheckContext(context);
+  if (!s.ok()) {
+    Metrics::Global().RecordAbandoned(absl::IsDeadlineExceeded(s) ? "deadline" : "cancelled",
+                                      std::string(stage));
+  }
+  return s;
 }
 
 void FillReport(const ShrmAnalysis& an, v1::PrefilterReport* rep) {
@@ -466,13 +469,13 @@ grpc::Status ShrmServiceImpl::Prefilter(grpc::ServerContext* context,
   constexpr double kStages = 6;  // brdf, decode, lighting, analysis, synthesis, write
   int stage_index = 0;
   StageHook hook = [&](std::string_view stage) -> absl::Status {
-    SHRM_RETURN_IF_ERROR(CheckContext(context));
+    SHRM_RETURN_IF_ERROR(CheckStage(context, stage));
     if (options_.test_stage_delay > absl::ZeroDuration()) absl::SleepFor(options_.test_stage_delay);
     v1::PrefilterEvent ev;
     ev.mutable_progress()->set_stage(std::string(stage));
     ev.mutable_progress()->set_fraction(std::min(stage_index++, 5) / kStages);
     writer->Write(ev);
-    return CheckContext(context);
+    return CheckStage(context, stage);
   };
   absl::StatusOr<CachedPrefilterResult> res = CachedPrefilter(in, &caches_, hook);
   if (!res.ok()) return fail(res.status());
@@ -499,11 +502,8 @@ grpc::Status ShrmServiceImpl::Prefilter(grpc::ServerContext* context,
   if (!env->rotate_attr.empty()) attrs["shrm:rotate_ypr_deg"] = env->rotate_attr;
   std::string file;
   if (want_file) {
-    const std::string tmp = blobs_->TempPath(".shrm.exr");
-    absl::Status ws = WriteShrmFile(tmp, res->result.cube, attrs, request->half());
     absl::StatusOr<std::string> bytes =
-        ws.ok() ? ReadWholeFile(tmp) : absl::StatusOr<std::string>(ws);
-    ::unlink(tmp.c_str());
+        EncodeShrmFile("the SHRM file", res->result.cube, attrs, request->half());
     if (!bytes.ok())
       return fail(absl::InternalError(
           absl::StrCat("writing the SHRM file failed: ", bytes.status().message())));
@@ -555,19 +555,20 @@ grpc::Status ShrmServiceImpl::Prefilter(grpc::ServerContext* context,
     return fail(CheckContext(context).ok() ? absl::UnavailableError("client went away")
                                            : CheckContext(context));
   if (want_file) {
-    const std::string sha = Sha256Hex(file);
+    Sha256Stream sha;  // hashed chunk by chunk, while the client receives the previous one
     size_t offset = 0;
     do {
       const size_t n = std::min(kFileChunkBytes, file.size() - offset);
       v1::PrefilterEvent chunk_ev;
       v1::FileChunk* chunk = chunk_ev.mutable_shrm_file();
       chunk->set_offset(offset);
+      chunk->set_total_size(file.size());
       chunk->set_data(file.data() + offset, n);
+      sha.Update(std::string_view(file.data() + offset, n));
       offset += n;
       if (offset == file.size()) {
         chunk->set_last(true);
-        chunk->set_sha256(sha);
-        chunk->set_total_size(file.size());
+        chunk->set_sha256(sha.Hex());
       }
       log.AddBytesOut(n);
       if (!writer->Write(chunk_ev)) {
@@ -631,7 +632,7 @@ grpc::Status ShrmServiceImpl::Analyze(grpc::ServerContext* context,
     in.options.rotation = env->rotation;
     in.options.threads = options_.job_threads;
     in.options.synthesize = false;
-    StageHook hook = [&](std::string_view) { return CheckContext(context); };
+    StageHook hook = [&](std::string_view stage) { return CheckStage(context, stage); };
     absl::StatusOr<CachedPrefilterResult> res = CachedPrefilter(in, &caches_, hook);
     if (!res.ok()) return fail(res.status());
     v1::AnalyzeResult* r = response->add_results();

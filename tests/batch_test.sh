@@ -92,7 +92,7 @@ manifest batch2.json 0.2
 [ "$(count ok run5.json)" -eq 4 ] || fail "--force: expected 4 recomputed: $(cat run5.json)"
 # The text summary.
 "$SHRM" batch batch2.json >run6.txt 2>&1 || fail "run 6 exit $?"
-grep -q "4 jobs: 0 ok, 4 skipped, 0 failed" run6.txt || fail "summary line: $(cat run6.txt)"
+grep -q "4 jobs: 0 ok, 4 skipped, 0 failed, 0 retries" run6.txt || fail "summary line: $(cat run6.txt)"
 
 # --- 4. bad manifests are rejected up front -------------------------------------------------
 echo "== bad manifests rejected before any job"

@@ -47,7 +47,8 @@ TEST(CubeExrTest, HalfRoundTripIsClose) {
   CubeExr c = MakeCube(3, 2);
   c.half = true;
   const std::string path = Temp("half.exr");
-  ASSERT_TRUE(WriteCubeExr(path, c).ok());
+  const absl::Status written = WriteCubeExr(path, c);
+  ASSERT_TRUE(written.ok()) << written;
   auto back = ReadCubeExr(path);
   ASSERT_TRUE(back.ok()) << back.status();
   for (size_t i = 0; i < c.data.size(); ++i)

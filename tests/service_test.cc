@@ -4,11 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <memory>
 #include <random>
@@ -17,6 +19,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
 #include "client/shrm_client.h"
 #include "core/brdf/brdf.h"
 #include "core/brdf/brdf_table.h"
@@ -24,6 +27,8 @@
 #include "core/io/sha256.h"
 #include "core/shrm/prefilter.h"
 #include "core/shrm/shrm_file.h"
+#include "nlohmann/json.hpp"
+#include "server/metrics.h"
 #include "server/server.h"
 #include "tests/test_paths.h"
 
@@ -48,8 +53,11 @@ constexpr uint64_t kSmallBlobLimit = 64 << 10;
 constexpr absl::Duration kSlowStage = absl::Milliseconds(200);
 // A refused job must come back long before an accepted one finishes (~1.2 s): "quickly".
 constexpr auto kQuickRejection = std::chrono::milliseconds(500);
-// Far shorter than a slow job.
-constexpr absl::Duration kShortDeadline = absl::Milliseconds(300);
+// The deadline: far shorter than a slow job (~1.2 s).
+constexpr absl::Duration kShortDeadline = absl::Milliseconds(200);
+// How long the server may take to notice a deadline or a cancellation and stop the job: it checks
+// between stages, so at most one slow stage (200 ms) plus scheduling on a loaded 2-core machine.
+constexpr absl::Duration kAbandonWithin = absl::Seconds(3);
 constexpr int kConcurrentJobs = 3;
 // The tabulated BRDF of the blob tests: GGX sampled on a small grid (smooth enough for F = 8).
 constexpr char kTableSource[] = "ggx:alpha=0.5,f0=1";
@@ -316,15 +324,90 @@ TEST_F(ServiceTest, AdmissionControlRefusesExcessJobsQuickly) {
   EXPECT_GE(refused, 1);
 }
 
-TEST_F(ServiceTest, ShortDeadlineGivesDeadlineExceeded) {
+// Polls `count` until it exceeds `before` or kAbandonWithin passes; returns the last value.
+uint64_t WaitForIncrease(const std::function<uint64_t()>& count, uint64_t before) {
+  const absl::Time end = absl::Now() + kAbandonWithin;
+  uint64_t n = count();
+  while (n <= before && absl::Now() < end) {
+    absl::SleepFor(absl::Milliseconds(20));
+    n = count();
+  }
+  return n;
+}
+
+TEST_F(ServiceTest, ShortDeadlineGivesDeadlineExceededAndTheServerAbandonsTheJob) {
   ServerOptions opt;
   opt.service.test_stage_delay = kSlowStage;
   auto c = StartServer(opt);
   absl::StatusOr<std::string> sha = c->UploadIfMissing(MapPath("interior.exr"));
   ASSERT_TRUE(sha.ok());
+  auto abandoned = [] { return server::Metrics::Global().AbandonedCount("deadline"); };
+  const uint64_t before = abandoned();
   absl::StatusOr<client::PrefilterOutcome> r =
       c->Prefilter(Request(*sha, "phong:s=32"), nullptr, kShortDeadline);
   EXPECT_EQ(r.status().code(), absl::StatusCode::kDeadlineExceeded) << r.status();
+  // The server stops the job at its next stage boundary, counted in /metrics.
+  EXPECT_EQ(WaitForIncrease(abandoned, before), before + 1);
+  EXPECT_NE(
+      server::Metrics::Global().Render().find("shrm_jobs_abandoned_total{reason=\"deadline\""),
+      std::string::npos);
+}
+
+TEST_F(ServiceTest, ClientCancellationStopsTheJob) {
+  ServerOptions opt;
+  opt.service.test_stage_delay = kSlowStage;
+  auto c = StartServer(opt);
+  absl::StatusOr<std::string> sha = c->UploadIfMissing(MapPath("interior.exr"));
+  ASSERT_TRUE(sha.ok());
+  auto abandoned = [] { return server::Metrics::Global().AbandonedCount("cancelled"); };
+  const uint64_t before = abandoned();
+  std::atomic<bool> cancel{false};
+  int events = 0;
+  // Cancel after the first progress event (the job has ~1 s of stages left).
+  absl::StatusOr<client::PrefilterOutcome> r = c->Prefilter(
+      Request(*sha, "phong:s=32"),
+      [&](const v1::PrefilterProgress&) {
+        ++events;
+        cancel = true;
+      },
+      absl::InfiniteDuration(), &cancel);
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kCancelled) << r.status();
+  EXPECT_GE(events, 1);
+  EXPECT_EQ(WaitForIncrease(abandoned, before), before + 1);
+  // The server is still serving: a normal job succeeds.
+  absl::StatusOr<client::PrefilterOutcome> ok = c->Prefilter(Request(*sha, "phong:s=8"));
+  EXPECT_TRUE(ok.ok()) << ok.status();
+}
+
+// Behind a round-robin target over two replicas with separate spools, the CLI's remote job finds
+// its map wherever the job lands (re-upload after NOT_FOUND) and writes the embedded bytes.
+TEST_F(ServiceTest, CliJobRetriesAcrossReplicasThatLackTheMap) {
+  auto c1 = StartServer();
+  const int port1 = port_;
+  auto c2 = StartServer();
+  const int port2 = port_;
+  const std::string map = MapPath("courtyard.exr");
+  // Only replica 1 has the map at first.
+  ASSERT_TRUE(c1->UploadIfMissing(map).ok());
+  const std::string a = testing::UniqueTempPath("rr_embedded.shrm.exr");
+  for (const char* brdf : {"phong:s=16", "phong:s=32", "microfacet:sigma=0.3", "ward:alpha=0.2"}) {
+    const std::string b = testing::UniqueTempPath("rr_remote.shrm.exr");
+    const std::string rep = testing::UniqueTempPath("rr_remote.json");
+    const std::string args = absl::StrCat(" prefilter --env ", map, " --brdf ", brdf,
+                                          " --orders 8,2 --size 32 > /dev/null 2>&1");
+    ASSERT_EQ(std::system(absl::StrCat(SHRM_CLI_PATH, args, " -o ", a).c_str()), 0);
+    ASSERT_EQ(std::system(absl::StrCat(SHRM_CLI_PATH, args, " -o ", b, " --report ", rep,
+                                       " --server ipv4:127.0.0.1:", port1, ",127.0.0.1:", port2)
+                              .c_str()),
+              0)
+        << brdf;
+    EXPECT_TRUE(ReadFile(a) == ReadFile(b)) << brdf << ": the remote file differs";
+    const nlohmann::json report = nlohmann::json::parse(ReadFile(rep), nullptr, false);
+    ASSERT_TRUE(report.contains("retries")) << ReadFile(rep);
+    // One NOT_FOUND, then two copies uploaded land on both replicas: at most one retry a job.
+    EXPECT_LE(report["retries"].get<int>(), 1) << brdf;
+    for (const auto& f : {a, b, rep}) std::filesystem::remove(f);
+  }
 }
 
 TEST_F(ServiceTest, AnalyzeAndListBrdfModels) {

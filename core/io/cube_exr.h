@@ -32,6 +32,10 @@ struct CubeExr {
   size_t size() const { return size_t{6} * face_size * face_size * group_names.size() * 3; }
 };
 
+// The file's bytes, encoded in memory (`name` only labels error messages). Six scanline parts
+// named after the faces, channels "<group>.R/.G/.B", no compression, the attributes as strings.
+absl::StatusOr<std::string> EncodeCubeExr(const CubeExr& cube, const std::string& name);
+// EncodeCubeExr, then written atomically (temporary file + rename).
 absl::Status WriteCubeExr(const std::string& path, const CubeExr& cube);
 
 // Reads a file written by WriteCubeExr (or any six-part EXR with the same part and channel

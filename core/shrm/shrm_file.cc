@@ -4,6 +4,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
+#include "core/io/atomic_file.h"
 #include "core/io/cube_exr.h"
 
 namespace shrm {
@@ -31,8 +32,9 @@ const std::map<std::string, std::string>& ConventionAttributes() {
 
 std::string ShrmChannelGroup(int p, int q) { return absl::StrCat("Y_", p, "_", q); }
 
-absl::Status WriteShrmFile(const std::string& path, const ShrmCube& cube,
-                           const std::map<std::string, std::string>& extra, bool half) {
+absl::StatusOr<std::string> EncodeShrmFile(const std::string& path, const ShrmCube& cube,
+                                           const std::map<std::string, std::string>& extra,
+                                           bool half) {
   if (cube.face_size < 1 || cube.pmax < 0 || cube.channels != 3 ||
       cube.data.size() != cube.size()) {
     return absl::InvalidArgumentError(
@@ -55,7 +57,13 @@ absl::Status WriteShrmFile(const std::string& path, const ShrmCube& cube,
   exr.attributes["shrm:kind"] = cube.kind == ShrmKind::kLocal ? "local" : "global";
   exr.attributes["shrm:index"] = cube.index == ReparamKind::kTangent ? "tangent" : "reflection";
   exr.attributes["shrm:pmax"] = absl::StrCat(cube.pmax);
-  return WriteCubeExr(path, exr);
+  return EncodeCubeExr(exr, path);
+}
+
+absl::Status WriteShrmFile(const std::string& path, const ShrmCube& cube,
+                           const std::map<std::string, std::string>& extra, bool half) {
+  SHRM_ASSIGN_OR_RETURN(std::string bytes, EncodeShrmFile(path, cube, extra, half));
+  return WriteFileAtomically(path, bytes);
 }
 
 absl::StatusOr<ShrmFile> ReadShrmFile(const std::string& path, const ImageLimits& limits) {

@@ -34,6 +34,10 @@ struct ShrmFile {
   std::map<std::string, std::string> attributes;  // every shrm:* attribute of the header
 };
 
+// The bytes of the SHRM file WriteShrmFile writes (encoded in memory; `path` only labels errors).
+absl::StatusOr<std::string> EncodeShrmFile(const std::string& path, const ShrmCube& cube,
+                                           const std::map<std::string, std::string>& extra = {},
+                                           bool half = false);
 // Writes `cube` with the fixed convention attributes plus `extra` (keys must start with
 // "shrm:"); atomic (temporary file, then rename). Errors name the file.
 absl::Status WriteShrmFile(const std::string& path, const ShrmCube& cube,
