@@ -7,10 +7,12 @@
 #include <filesystem>
 #include <thread>
 
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "absl/time/clock.h"
 #include "core/base/cubemap.h"
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
@@ -83,10 +85,43 @@ absl::StatusOr<std::string> EnvSourceHash(const EnvArgs& args) {
   return Sha256Hex(absl::StrJoin(hashes, ","));
 }
 
+namespace {
+// The security flags of --server (one subcommand runs per process).
+client::ClientOptions& ServerFlags() {
+  static client::ClientOptions options;
+  return options;
+}
+}  // namespace
+
 void AddServerOption(CLI::App* app, std::string* server) {
   app->add_option("--server", *server,
                   "run on an shrmd service at host:port (or dns:///host:port) instead of "
                   "in-process; the map files are uploaded when the server lacks them");
+  client::ClientOptions& o = ServerFlags();
+  app->add_option("--token-file", o.token_file,
+                  "with --server: file whose first line is the bearer token (else "
+                  "$SHRM_TOKEN_FILE)")
+      ->check(CLI::ExistingFile);
+  app->add_option(
+         "--tls-ca", o.tls_ca_file,
+         "with --server: PEM CA of the server certificate; enables TLS (else $SHRM_TLS_CA)")
+      ->check(CLI::ExistingFile);
+  app->add_option("--tls-cert", o.tls_cert_file,
+                  "with --server: PEM client certificate for mutual TLS (else $SHRM_TLS_CERT)")
+      ->check(CLI::ExistingFile);
+  app->add_option("--tls-key", o.tls_key_file,
+                  "with --server: PEM key of --tls-cert (else $SHRM_TLS_KEY)")
+      ->check(CLI::ExistingFile);
+  app->add_option("--tls-server-name", o.tls_server_name,
+                  "with --server: the name checked against the server certificate");
+}
+
+absl::StatusOr<std::unique_ptr<client::ShrmClient>> ConnectServer(const std::string& server) {
+  const client::ClientOptions& o = ServerFlags();
+  if (!o.tls_cert_file.empty() != !o.tls_key_file.empty()) {
+    return absl::InvalidArgumentError("--tls-cert and --tls-key go together");
+  }
+  return client::ShrmClient::Connect(server, o);
 }
 
 absl::Status RemoteEnvironment(const EnvArgs& args, client::ShrmClient* client,
@@ -127,6 +162,36 @@ absl::Status RemoteEnvironment(const EnvArgs& args, client::ShrmClient* client,
     env->add_source_names(f);
   }
   return absl::OkStatus();
+}
+
+absl::Status RunRemoteJob(client::ShrmClient* client, const EnvArgs& env, const std::string& server,
+                          bool quiet, const std::function<absl::Status()>& attempt, int* retries) {
+  const int max_attempts = client->options().max_attempts;
+  if (env.files.size() == 1) {
+    absl::StatusOr<std::string> key = Sha256OfFile(env.files[0]);
+    if (key.ok()) client->set_affinity_key(*key);
+  }
+  int retried = 0, missing_blob_answers = 0;
+  absl::Status s;
+  for (int i = 0;; ++i) {
+    if (i > 0) absl::SleepFor(client::RetryBackoff(client->options(), i));
+    client->set_upload_copies(missing_blob_answers > 0 ? missing_blob_answers + 1 : 0);
+    s = attempt();
+    const bool missing_blob = absl::IsNotFound(s) && absl::StrContains(s.message(), "blob ");
+    if (s.ok() || i + 1 >= max_attempts || !(client::IsTransient(s) || missing_blob)) break;
+    ++retried;
+    missing_blob_answers += missing_blob;
+    if (!quiet) {
+      std::fprintf(stderr, "shrm: %s: %s; retrying (attempt %d of %d)\n", server.c_str(),
+                   std::string(s.message()).c_str(), i + 2, max_attempts);
+    }
+  }
+  if (retries != nullptr) *retries = retried;
+  if (s.ok()) return s;
+  return absl::Status(
+      s.code(),
+      absl::StrCat(server, ": ", s.message(),
+                   retried > 0 ? absl::StrCat(" (after ", retried, " retries)") : std::string()));
 }
 
 absl::StatusOr<Vec3> ParseDirection(const std::string& text, const char* what) {

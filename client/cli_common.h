@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -41,12 +42,26 @@ absl::StatusOr<Mat3> EnvRotation(const EnvArgs& args);
 // SHA-256 of the input files (one hash, or the hash of the six hashes joined by ',').
 absl::StatusOr<std::string> EnvSourceHash(const EnvArgs& args);
 
-// --server host:port (or dns:///host:port): run the subcommand on an shrmd service.
+// --server host:port (or dns:///host:port): run the subcommand on an shrmd service; also the
+// connection's security flags --token-file, --tls-ca, --tls-cert, --tls-key, --tls-server-name
+// (they override SHRM_TOKEN_FILE, SHRM_TLS_CA, SHRM_TLS_CERT, SHRM_TLS_KEY; docs/server.md).
 void AddServerOption(CLI::App* app, std::string* server);
+// A client for --server with the security flags given to this process.
+absl::StatusOr<std::unique_ptr<client::ShrmClient>> ConnectServer(const std::string& server);
 // Uploads the --env files the server lacks and describes them for a request (docs/server.md).
 // Options a server cannot honour (--ocio-config) are refused.
 absl::Status RemoteEnvironment(const EnvArgs& args, client::ShrmClient* client,
                                shrm::v1::Environment* env);
+
+// Runs one idempotent remote job: `attempt` uploads what the server lacks (RemoteEnvironment,
+// ResolveRemoteBrdf), then calls it. Retried whole, with backoff, on transient errors and on
+// NOT_FOUND for a blob (behind a load balancer the call may reach a replica the inputs were never
+// uploaded to; after k such answers k + 1 copies are uploaded). The map's SHA-256 (one --env
+// file) is the call's affinity key. `retries` (optional) gets the attempts beyond the first;
+// unless `quiet`, each retry is reported on stderr. Errors are prefixed with the server.
+absl::Status RunRemoteJob(client::ShrmClient* client, const EnvArgs& env, const std::string& server,
+                          bool quiet, const std::function<absl::Status()>& attempt,
+                          int* retries = nullptr);
 
 // Parses "x,y,z" into a unit vector; errors name `what` (e.g. "--normal").
 absl::StatusOr<Vec3> ParseDirection(const std::string& text, const char* what);

@@ -208,8 +208,7 @@ absl::Status AnalyzeRemote(const AnalyzeArgs& a) {
         "--server needs --brdf (lighting-only analysis runs "
         "in-process only)");
   }
-  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> client,
-                        client::ShrmClient::Connect(a.server));
+  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> client, ConnectServer(a.server));
   shrm::v1::AnalyzeRequest req;
   SHRM_ASSIGN_OR_RETURN(client::RemoteBrdf brdf, client::ResolveRemoteBrdf(a.brdf, client.get()));
   req.set_brdf(brdf.spec);

@@ -329,8 +329,7 @@ absl::Status RunBatch(const BatchArgs& args) {
   if (!args.server.empty()) {
     // Upload each map once, before the jobs (which then find it by hash); a failure here is
     // left to the jobs to report.
-    absl::StatusOr<std::unique_ptr<client::ShrmClient>> c =
-        client::ShrmClient::Connect(args.server);
+    absl::StatusOr<std::unique_ptr<client::ShrmClient>> c = ConnectServer(args.server);
     std::set<std::string> uploaded;
     for (const Job& job : jobs) {
       if (c.ok() && uploaded.insert(job.map).second) (void)(*c)->UploadIfMissing(job.map);

@@ -10,6 +10,7 @@
 #include "client/cli_validators.h"
 #include "client/commands.h"
 #include "client/report.h"
+#include "client/shrm_client.h"
 #include "core/base/status_macros.h"
 #include "core/brdf/brdf.h"
 #include "core/envmap/lighting.h"
@@ -20,6 +21,8 @@
 namespace shrm::cli {
 namespace {
 
+namespace v1 = ::shrm::v1;
+
 struct PointArgs {
   std::string shrm;
   EnvArgs env;
@@ -27,6 +30,7 @@ struct PointArgs {
   std::string normal, view, tangent;
   int threads = 0;
   bool json = false;
+  std::string server;
 };
 
 void PrintRgb(const std::array<double, 3>& rgb, bool json) {
@@ -66,16 +70,32 @@ absl::Status RunReference(const PointArgs& a) {
   Vec3 index, v;
   SHRM_RETURN_IF_ERROR(ParseGeometry(a, brdf->reparam() == ReparamKind::kTangent, &index, &v));
   SHRM_ASSIGN_OR_RETURN(Mat3 rot, EnvRotation(a.env));
+  if (!a.server.empty()) {
+    // The same sum on shrmd (the map and a BRDF file uploaded when it lacks them).
+    SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> c, ConnectServer(a.server));
+    v1::ReferenceRequest req;
+    auto set = [](const Vec3& d, v1::Direction* out) {
+      out->set_x(d.x);
+      out->set_y(d.y);
+      out->set_z(d.z);
+    };
+    set(index, req.mutable_index());
+    set(v, req.mutable_view());
+    v1::ReferenceResponse resp;
+    SHRM_RETURN_IF_ERROR(RunRemoteJob(c.get(), a.env, a.server, /*quiet=*/false, [&] {
+      SHRM_RETURN_IF_ERROR(RemoteEnvironment(a.env, c.get(), req.mutable_environment()));
+      SHRM_ASSIGN_OR_RETURN(client::RemoteBrdf b, client::ResolveRemoteBrdf(a.brdf, c.get()));
+      req.set_brdf(b.spec);
+      req.set_brdf_blob_sha256(b.blob_sha256);
+      SHRM_ASSIGN_OR_RETURN(resp, c->Reference(req));
+      return absl::OkStatus();
+    }));
+    if (resp.rgb_size() != 3) return absl::DataLossError("the server's answer lacks 3 values");
+    PrintRgb({resp.rgb(0), resp.rgb(1), resp.rgb(2)}, a.json);
+    return absl::OkStatus();
+  }
   SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(a.env));
-  // A rotated environment L'(w) = L(R^-1 w): rotate the geometry instead of the samples.
-  const Mat3 inv = rot.Transposed();
-  const Vec3 index_l = inv * index, v_l = inv * v;
-  const Brdf& b = *brdf;
-  const int bc = b.channels();
-  TransferFunction transfer = [&b, bc](const Vec3& n, const Vec3& vv, const Vec3& w, int c) {
-    return b.Transfer(n, vv, w, bc == 1 ? 0 : c);
-  };
-  PrintRgb(ReferenceRadiance(env.samples(), transfer, index_l, v_l), a.json);
+  PrintRgb(BrdfReferenceRadiance(env.samples(), *brdf, rot, index, v), a.json);
   return absl::OkStatus();
 }
 
@@ -137,6 +157,7 @@ void RegisterReference(CLI::App& app, absl::Status* status) {
       ->required()
       ->check(kDirection);
   sub->add_flag("--json", args->json, "print {\"rgb\": [r, g, b]}");
+  AddServerOption(sub, &args->server);
   sub->callback([args, status] { *status = RunReference(*args); });
 }
 

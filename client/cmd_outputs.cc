@@ -10,6 +10,7 @@
 #include "client/cli_validators.h"
 #include "client/commands.h"
 #include "client/report.h"
+#include "client/shrm_client.h"
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
 #include "core/sh/sh.h"
@@ -18,6 +19,8 @@
 
 namespace shrm::cli {
 namespace {
+
+namespace v1 = ::shrm::v1;
 
 struct OutputArgs {
   std::string shrm;
@@ -29,6 +32,7 @@ struct OutputArgs {
   std::string output;
   int threads = 0;
   bool json = false;
+  std::string server;
 };
 
 absl::Status RunRender(const OutputArgs& a) {
@@ -75,10 +79,29 @@ absl::Status RunIrradiance(const OutputArgs& a) {
   if (a.size < 1) return absl::InvalidArgumentError("--size must be >= 1");
   SHRM_RETURN_IF_ERROR(CheckOutputPath(a.output, "--output"));
   SHRM_ASSIGN_OR_RETURN(Mat3 rot, EnvRotation(a.env));
-  SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(a.env));
-  SHRM_ASSIGN_OR_RETURN(std::vector<double> light,
-                        LightingCoefficients(env, 2, rot, ResolveThreads(a.threads)));
-  SHRM_ASSIGN_OR_RETURN(std::vector<double> e9, IrradianceCoefficients(2, 3, light));
+  std::vector<double> e9;
+  if (!a.server.empty()) {
+    // The coefficients from shrmd (decode + transform there); the cube is built here from them,
+    // so the files equal the embedded run's.
+    SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> c, ConnectServer(a.server));
+    v1::IrradianceRequest req;
+    v1::IrradianceResponse resp;
+    SHRM_RETURN_IF_ERROR(RunRemoteJob(c.get(), a.env, a.server, /*quiet=*/false, [&] {
+      SHRM_RETURN_IF_ERROR(RemoteEnvironment(a.env, c.get(), req.mutable_environment()));
+      SHRM_ASSIGN_OR_RETURN(resp, c->Irradiance(req));
+      return absl::OkStatus();
+    }));
+    if (resp.coefficients_size() != 27) {
+      return absl::DataLossError(absl::StrCat("the server sent ", resp.coefficients_size(),
+                                              " irradiance values, expected 27"));
+    }
+    e9.assign(resp.coefficients().begin(), resp.coefficients().end());
+  } else {
+    SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(a.env));
+    SHRM_ASSIGN_OR_RETURN(std::vector<double> light,
+                          LightingCoefficients(env, 2, rot, ResolveThreads(a.threads)));
+    SHRM_ASSIGN_OR_RETURN(e9, IrradianceCoefficients(2, 3, light));
+  }
   if (!a.output.empty()) {
     SHRM_ASSIGN_OR_RETURN(RadianceCube cube, IrradianceCube(e9, 3, a.size));
     SHRM_RETURN_IF_ERROR(WriteRadianceCross(a.output, cube));
@@ -152,6 +175,7 @@ void RegisterIrradiance(CLI::App& app, absl::Status* status) {
   sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
       ->check(CLI::NonNegativeNumber);
   sub->add_flag("--json", args->json, "machine-readable output");
+  AddServerOption(sub, &args->server);
   sub->callback([args, status] { *status = RunIrradiance(*args); });
 }
 

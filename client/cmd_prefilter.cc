@@ -101,8 +101,7 @@ void PrintSummary(const PrefilterArgs& a, const std::string& brdf_spec, int face
 // run's (tests/service_test.cc).
 absl::Status RunPrefilterRemote(const PrefilterArgs& a, const PrefilterOptions& opt,
                                 PrefilterJobOutcome* outcome) {
-  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> client,
-                        client::ShrmClient::Connect(a.server));
+  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> client, ConnectServer(a.server));
   Progress progress(a.verbose, a.quiet);
   v1::PrefilterRequest req;
   if (opt.f >= 0) {
@@ -114,65 +113,44 @@ absl::Status RunPrefilterRemote(const PrefilterArgs& a, const PrefilterOptions& 
   req.set_kind(opt.kind == ShrmKind::kLocal ? v1::SHRM_KIND_LOCAL : v1::SHRM_KIND_GLOBAL);
   req.set_face_size(a.size);
   req.set_half(a.half);
-  // The job is idempotent (same request, same bytes), so it is retried whole on transient errors
-  // and when the server lacks an input blob (behind a load balancer the next call may reach a
-  // replica the inputs were never uploaded to): each attempt uploads what is missing, then runs.
-  const int max_attempts = client->options().max_attempts;
-  absl::StatusOr<client::PrefilterOutcome> out = absl::UnknownError("no attempt");
+  // The job is idempotent (same request, same bytes): RunRemoteJob retries it whole.
+  client::PrefilterOutcome out;
   double upload_ms = 0;
-  int retries = 0, missing_blob_answers = 0;
-  if (a.env.files.size() == 1) {
-    absl::StatusOr<std::string> key = Sha256OfFile(a.env.files[0]);
-    if (key.ok()) client->set_affinity_key(*key);
-  }
-  for (int attempt = 0;; ++attempt) {
-    if (attempt > 0) absl::SleepFor(client::RetryBackoff(client->options(), attempt));
-    // After k NOT_FOUND answers for a blob, upload k + 1 copies (see set_upload_copies).
-    client->set_upload_copies(missing_blob_answers > 0 ? missing_blob_answers + 1 : 0);
-    progress.Begin("upload");
-    absl::Status uploaded = RemoteEnvironment(a.env, client.get(), req.mutable_environment());
-    // table:PATH / merl:PATH: the file travels as a blob; shrm:brdf records the local spec.
-    absl::StatusOr<client::RemoteBrdf> brdf =
-        uploaded.ok() ? client::ResolveRemoteBrdf(a.brdf, client.get()) : uploaded;
-    upload_ms += progress.End();
-    if (brdf.ok()) {
-      req.set_brdf(brdf->spec);
-      req.set_brdf_blob_sha256(brdf->blob_sha256);
-      req.set_brdf_display_spec(brdf->display_spec);
-      bool first = true;
-      auto on_progress = [&](const v1::PrefilterProgress& p) {
+  int retries = 0;
+  const absl::Status job = RunRemoteJob(
+      client.get(), a.env, a.server, a.quiet,
+      [&]() -> absl::Status {
+        progress.Begin("upload");
+        absl::Status uploaded = RemoteEnvironment(a.env, client.get(), req.mutable_environment());
+        // table:PATH / merl:PATH: the file travels as a blob; shrm:brdf records the local spec.
+        absl::StatusOr<client::RemoteBrdf> brdf =
+            uploaded.ok() ? client::ResolveRemoteBrdf(a.brdf, client.get()) : uploaded;
+        upload_ms += progress.End();
+        if (!brdf.ok()) return brdf.status();
+        req.set_brdf(brdf->spec);
+        req.set_brdf_blob_sha256(brdf->blob_sha256);
+        req.set_brdf_display_spec(brdf->display_spec);
+        bool first = true;
+        auto on_progress = [&](const v1::PrefilterProgress& p) {
+          if (!first) progress.End();
+          first = false;
+          progress.Begin("remote " + p.stage());
+        };
+        absl::StatusOr<client::PrefilterOutcome> r = client->Prefilter(req, on_progress);
         if (!first) progress.End();
-        first = false;
-        progress.Begin("remote " + p.stage());
-      };
-      out = client->Prefilter(req, on_progress);
-      if (!first) progress.End();
-    } else {
-      out = brdf.status();
-    }
-    const absl::Status& s = out.status();
-    const bool missing_blob = absl::IsNotFound(s) && absl::StrContains(s.message(), "blob ");
-    if (s.ok() || attempt + 1 >= max_attempts || !(client::IsTransient(s) || missing_blob)) break;
-    ++retries;
-    missing_blob_answers += missing_blob;
-    if (!a.quiet) {
-      std::fprintf(stderr, "shrm: %s: %s; retrying (attempt %d of %d)\n", a.server.c_str(),
-                   std::string(s.message()).c_str(), attempt + 2, max_attempts);
-    }
-  }
+        if (!r.ok()) return r.status();
+        out = std::move(*r);
+        return absl::OkStatus();
+      },
+      &retries);
   if (outcome != nullptr) outcome->retries = retries;
-  if (!out.ok()) {
-    return absl::Status(
-        out.status().code(),
-        absl::StrCat(a.server, ": ", out.status().message(),
-                     retries > 0 ? absl::StrCat(" (after ", retries, " retries)") : std::string()));
-  }
+  SHRM_RETURN_IF_ERROR(job);
   OutputTransaction outputs;
   const std::string shrm_tmp = outputs.Temp(a.output);
   progress.Begin("write");
-  SHRM_RETURN_IF_ERROR(WriteFileAtomically(shrm_tmp, out->shrm_file));
+  SHRM_RETURN_IF_ERROR(WriteFileAtomically(shrm_tmp, out.shrm_file));
   const double write_ms = progress.End();
-  const v1::PrefilterReport& rep = out->report;
+  const v1::PrefilterReport& rep = out.report;
   nlohmann::json report = nlohmann::json::parse(rep.report_json(), nullptr, false);
   if (report.is_discarded()) return absl::DataLossError("the server's report is not JSON");
   report["output"] = a.output;

@@ -337,6 +337,32 @@ absl::StatusOr<v1::AnalyzeResponse> ShrmClient::Analyze(const v1::AnalyzeRequest
   return resp;
 }
 
+absl::StatusOr<v1::ReferenceResponse> ShrmClient::Reference(const v1::ReferenceRequest& request,
+                                                            absl::Duration deadline) {
+  v1::ReferenceResponse resp;
+  absl::Status s = WithRetries(
+      [&](grpc::ClientContext* c) {
+        resp.Clear();
+        return stub_->Reference(c, request, &resp);
+      },
+      deadline);
+  if (!s.ok()) return s;
+  return resp;
+}
+
+absl::StatusOr<v1::IrradianceResponse> ShrmClient::Irradiance(const v1::IrradianceRequest& request,
+                                                              absl::Duration deadline) {
+  v1::IrradianceResponse resp;
+  absl::Status s = WithRetries(
+      [&](grpc::ClientContext* c) {
+        resp.Clear();
+        return stub_->Irradiance(c, request, &resp);
+      },
+      deadline);
+  if (!s.ok()) return s;
+  return resp;
+}
+
 absl::StatusOr<v1::ListBrdfModelsResponse> ShrmClient::ListBrdfModels() {
   v1::ListBrdfModelsResponse resp;
   absl::Status s = WithRetries(

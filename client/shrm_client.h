@@ -1,5 +1,6 @@
 // Client library of the shrm service (shrm.v1.Shrm, docs/server.md): typed calls returning
-// absl::StatusOr. Idempotent calls (HasBlob, UploadBlob, Analyze, ListBrdfModels) are retried on
+// absl::StatusOr. Idempotent calls (HasBlob, UploadBlob, Analyze, ListBrdfModels, Reference,
+// Irradiance) are retried on
 // transient errors (IsTransient) with exponential backoff. Prefilter is one attempt: a retry may
 // need the inputs uploaded again (another replica), so callers retry the whole job
 // (client/cmd_prefilter.cc), which is idempotent (the same request gives the same bytes).
@@ -83,6 +84,13 @@ class ShrmClient {
   absl::StatusOr<shrm::v1::AnalyzeResponse> Analyze(
       const shrm::v1::AnalyzeRequest& request, absl::Duration deadline = absl::InfiniteDuration());
   absl::StatusOr<shrm::v1::ListBrdfModelsResponse> ListBrdfModels();
+  // `shrm reference` and `shrm irradiance` on the server (retried on transient errors).
+  absl::StatusOr<shrm::v1::ReferenceResponse> Reference(
+      const shrm::v1::ReferenceRequest& request,
+      absl::Duration deadline = absl::InfiniteDuration());
+  absl::StatusOr<shrm::v1::IrradianceResponse> Irradiance(
+      const shrm::v1::IrradianceRequest& request,
+      absl::Duration deadline = absl::InfiniteDuration());
 
   const ClientOptions& options() const { return options_; }
 

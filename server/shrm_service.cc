@@ -3,7 +3,9 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
+#include <cmath>
 #include <fstream>
 #include <iterator>
 #include <map>
@@ -27,7 +29,9 @@
 #include "core/envmap/envmap.h"
 #include "core/envmap/lighting.h"
 #include "core/io/sha256.h"
+#include "core/shrm/shrm_explicit.h"
 #include "core/shrm/shrm_file.h"
+#include "core/shrm/shrm_reference.h"
 #include "server/metrics.h"
 #include "server/request_log.h"
 #include "server/status_mapping.h"
@@ -665,6 +669,94 @@ grpc::Status ShrmServiceImpl::ListBrdfModels(grpc::ServerContext* context,
       pp->set_description(p.description);
     }
   }
+  return log.Finish(grpc::Status::OK);
+}
+
+namespace {
+
+// |length - 1| below which a request direction counts as unit (a few ulps of rounding).
+constexpr double kUnitTolerance = 1e-14;
+
+// A request direction as a unit vector; InvalidArgument for a missing, zero or non-finite one.
+absl::StatusOr<Vec3> UnitDirection(const v1::ReferenceRequest& request, bool view) {
+  const char* name = view ? "view" : "index";
+  if (!(view ? request.has_view() : request.has_index())) {
+    return absl::InvalidArgumentError(absl::StrCat(name, ": required"));
+  }
+  const v1::Direction& d = view ? request.view() : request.index();
+  const Vec3 v{d.x(), d.y(), d.z()};
+  const double len = v.Norm();
+  if (!std::isfinite(len) || len < 1e-12) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(name, ": (", d.x(), ", ", d.y(), ", ", d.z(), ") is not a direction"));
+  }
+  // Unit vectors (what the CLI sends) are used as they are, so the sum is the embedded run's
+  // bit for bit; others are normalized.
+  if (std::abs(len - 1) <= kUnitTolerance) return v;
+  return v * (1.0 / len);
+}
+
+// Decodes a pinned map between stage checks (before decoding and before `next_stage`).
+absl::StatusOr<EnvMap> DecodeForStage(grpc::ServerContext* context, const PinnedEnv& env,
+                                      std::string_view next_stage) {
+  SHRM_RETURN_IF_ERROR(CheckStage(context, "decode"));
+  SHRM_ASSIGN_OR_RETURN(EnvMap map, EnvMap::Load(env.options));
+  SHRM_RETURN_IF_ERROR(CheckStage(context, next_stage));
+  return map;
+}
+
+}  // namespace
+
+grpc::Status ShrmServiceImpl::Reference(grpc::ServerContext* context,
+                                        const v1::ReferenceRequest* request,
+                                        v1::ReferenceResponse* response) {
+  RequestLog log(context, "Reference");
+  const PinnedEnv* pinned_for_messages = nullptr;
+  auto fail = [&](const absl::Status& s) {
+    return log.Finish(ToGrpcStatus(HideSpoolPaths(s, pinned_for_messages)));
+  };
+  absl::StatusOr<std::unique_ptr<JobSlot>> slot = Admit(context);
+  if (!slot.ok()) return fail(slot.status());
+  absl::StatusOr<RequestBrdf> brdf =
+      ParseRequestBrdf(request->brdf(), request->brdf_blob_sha256(), "", blobs_.get());
+  if (!brdf.ok()) return fail(brdf.status());
+  absl::StatusOr<Vec3> index = UnitDirection(*request, /*view=*/false);
+  if (!index.ok()) return fail(index.status());
+  absl::StatusOr<Vec3> view = UnitDirection(*request, /*view=*/true);
+  if (!view.ok()) return fail(view.status());
+  absl::StatusOr<PinnedEnv> env = PinEnvironment(request->environment(), blobs_.get());
+  if (!env.ok()) return fail(env.status());
+  pinned_for_messages = &*env;
+  absl::StatusOr<EnvMap> map = DecodeForStage(context, *env, "reference");
+  if (!map.ok()) return fail(map.status());
+  const std::array<double, 3> rgb =
+      BrdfReferenceRadiance(map->samples(), *brdf->brdf, env->rotation, *index, *view);
+  for (double c : rgb) response->add_rgb(c);
+  return log.Finish(grpc::Status::OK);
+}
+
+grpc::Status ShrmServiceImpl::Irradiance(grpc::ServerContext* context,
+                                         const v1::IrradianceRequest* request,
+                                         v1::IrradianceResponse* response) {
+  RequestLog log(context, "Irradiance");
+  const PinnedEnv* pinned_for_messages = nullptr;
+  auto fail = [&](const absl::Status& s) {
+    return log.Finish(ToGrpcStatus(HideSpoolPaths(s, pinned_for_messages)));
+  };
+  absl::StatusOr<std::unique_ptr<JobSlot>> slot = Admit(context);
+  if (!slot.ok()) return fail(slot.status());
+  absl::StatusOr<PinnedEnv> env = PinEnvironment(request->environment(), blobs_.get());
+  if (!env.ok()) return fail(env.status());
+  pinned_for_messages = &*env;
+  absl::StatusOr<EnvMap> map = DecodeForStage(context, *env, "lighting");
+  if (!map.ok()) return fail(map.status());
+  // The CLI's computation (client/cmd_outputs.cc): L_lm to l = 2, then A_l.
+  absl::StatusOr<std::vector<double>> light =
+      LightingCoefficients(*map, 2, env->rotation, options_.job_threads);
+  if (!light.ok()) return fail(light.status());
+  absl::StatusOr<std::vector<double>> e9 = IrradianceCoefficients(2, 3, *light);
+  if (!e9.ok()) return fail(e9.status());
+  for (double c : *e9) response->add_coefficients(c);
   return log.Finish(grpc::Status::OK);
 }
 

@@ -47,6 +47,10 @@ class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
   grpc::Status ListBrdfModels(grpc::ServerContext* context,
                               const shrm::v1::ListBrdfModelsRequest* request,
                               shrm::v1::ListBrdfModelsResponse* response) override;
+  grpc::Status Reference(grpc::ServerContext* context, const shrm::v1::ReferenceRequest* request,
+                         shrm::v1::ReferenceResponse* response) override;
+  grpc::Status Irradiance(grpc::ServerContext* context, const shrm::v1::IrradianceRequest* request,
+                          shrm::v1::IrradianceResponse* response) override;
 
  private:
   class JobSlot;

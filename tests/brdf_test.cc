@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/brdf/brdf_models.h"
+#include "core/brdf/brdf_projection.h"
 #include "core/sh/quadrature.h"
 
 namespace shrm {
@@ -60,6 +61,9 @@ TEST(BrdfSpecTest, CanonicalSpecsRoundTrip) {
       {"microfacet:sigma=0.2", "microfacet:sigma=0.2"},
       {"ward", "ward:alpha=0.2,rho_s=0.1,rho_d=0"},
       {"ward:rho_d=0.3,alpha=0.15", "ward:alpha=0.15,rho_s=0.1,rho_d=0.3"},
+      {"ward:alpha_x=0.2,alpha_y=0.5,rho_s=1", "ward:alpha_x=0.2,alpha_y=0.5,rho_s=1,rho_d=0"},
+      {"ward:alpha_y=0.4", "ward:alpha_x=0.2,alpha_y=0.4,rho_s=0.1,rho_d=0"},  // alpha_x = alpha
+      {"ward:alpha_x=0.3,alpha_y=0.3", "ward:alpha=0.3,rho_s=0.1,rho_d=0"},
       {"ggx", "ggx:alpha=0.3,f0=0.04"},
       {"ggx:f0=1,alpha=0.1", "ggx:alpha=0.1,f0=1"},
       {"kajiya-kay:s=32", "kajiya-kay:s=32"},
@@ -103,6 +107,8 @@ TEST(BrdfSpecTest, BadSpecsNameTheProblem) {
       {"ggx:f0=-0.1", {"'f0'", "[0, 1]"}},
       {"ward:alpha=0", {"'alpha'", "(0, 1]"}},
       {"ward:rho_s=2", {"'rho_s'", "[0, 1]"}},
+      {"ward:alpha_x=0", {"'alpha_x'", "(0, 1]"}},
+      {"ward:alpha_y=1.5", {"'alpha_y'", "(0, 1]"}},
       {"lambert:albedo=1.5", {"'albedo'", "[0, 1]"}},
       {"kajiya-kay:s=0", {"'s'", "(0, 100000]"}},
       {"lafortune:cx=-1,cy=-0.5,cz=1,n=10", {"'cx'", "'cy'", "isotropic"}},
@@ -211,6 +217,23 @@ double WardTwin(double alpha, double rho_s, double rho_d, const Config& c) {
   return f * std::cos(ti);
 }
 
+// Anisotropic Ward in angles, in the documented frame: t = +x projected onto the plane normal
+// to n, b = n x t, phi_h the half vector's azimuth from t towards b.
+double AnisoWardTwin(double ax, double ay, double rho_s, double rho_d, const Config& c) {
+  const double ti = AngleOf(c.n, c.w), to = AngleOf(c.n, c.v);
+  if (ti >= kPi / 2 || to >= kPi / 2) return 0.0;
+  const Vec3 x{1, 0, 0};
+  const Vec3 t = (x - c.n * c.n.Dot(x)).Normalized();
+  const Vec3 b = c.n.Cross(t);
+  const Vec3 h = (c.v + c.w).Normalized();
+  const double th = AngleOf(c.n, h), ph = std::atan2(h.Dot(b), h.Dot(t));
+  const double e =
+      std::pow(std::tan(th), 2) * (std::pow(std::cos(ph) / ax, 2) + std::pow(std::sin(ph) / ay, 2));
+  const double f = rho_d / kPi + rho_s * std::exp(-e) /
+                                     (4 * kPi * ax * ay * std::sqrt(std::cos(ti) * std::cos(to)));
+  return f * std::cos(ti);
+}
+
 double LafortuneTwin(const std::vector<LafortuneLobe>& lobes, double rho_d, const Config& c) {
   if (c.n.Dot(c.w) <= 0 || c.n.Dot(c.v) <= 0) return 0.0;
   // Explicit tangent frame by Gram-Schmidt.
@@ -263,6 +286,42 @@ TEST(BrdfModelTest, TransferMatchesClosedForms) {
     check(kk, KajiyaKayTwin(17, c.n, c.v, c.w));
   }
   EXPECT_GT(above, 100);  // both sides of the horizon were exercised
+}
+
+TEST(BrdfModelTest, AnisotropicWardMatchesClosedFormAndIsRejectedBySHRM) {
+  const std::vector<Config> configs = RandomConfigs(400, 13);
+  const std::unique_ptr<Brdf> aniso = Parse("ward:alpha_x=0.15,alpha_y=0.45,rho_s=0.8,rho_d=0.1");
+  const std::unique_ptr<Brdf> iso = Parse("ward:alpha_x=0.25,alpha_y=0.25,rho_s=0.8,rho_d=0.1");
+  for (const Config& c : configs) {
+    const double want = AnisoWardTwin(0.15, 0.45, 0.8, 0.1, c);
+    EXPECT_NEAR(aniso->Transfer(c.n, c.v, c.w, 0), want, kClosedFormTol * std::max(1.0, want));
+    // alpha_x = alpha_y is the isotropic model.
+    const double want_iso = WardTwin(0.25, 0.8, 0.1, c);
+    EXPECT_NEAR(iso->Transfer(c.n, c.v, c.w, 0), want_iso,
+                kClosedFormTol * std::max(1.0, want_iso));
+    // Reciprocity: f_r is symmetric in (v, w).
+    if (c.n.Dot(c.w) > 0.02) {
+      const double a = aniso->Transfer(c.n, c.v, c.w, 0) / c.n.Dot(c.w);
+      const double b = aniso->Transfer(c.n, c.w, c.v, 0) / c.n.Dot(c.v);
+      EXPECT_NEAR(a, b, kReciprocityTol * std::max(1.0, std::abs(a)));
+    }
+  }
+  // Local frame n = +z: swapping alpha_x and alpha_y equals turning (v, w) by 90 deg about n.
+  const std::unique_ptr<Brdf> swapped = Parse("ward:alpha_x=0.45,alpha_y=0.15,rho_s=0.8,rho_d=0.1");
+  const Mat3 quarter = RotationZ(kPi / 2);
+  for (const Config& c : RandomConfigs(100, 17)) {
+    const Vec3 n{0, 0, 1};
+    const Vec3 v{c.v.x, c.v.y, std::abs(c.v.z) + 0.05}, w = c.w;
+    const Vec3 vn = v.Normalized();
+    EXPECT_NEAR(aniso->Transfer(n, quarter * vn, quarter * w, 0), swapped->Transfer(n, vn, w, 0),
+                kClosedFormTol * std::max(1.0, swapped->Transfer(n, vn, w, 0)));
+  }
+  // The SHRM reparameterization assumes isotropy: anisotropic Ward is refused there.
+  const auto coeffs = ComputeBrdfCoefficients(*aniso, 8, 2);
+  ASSERT_FALSE(coeffs.ok());
+  EXPECT_EQ(coeffs.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(coeffs.status().message().find("anisotropic"), std::string::npos) << coeffs.status();
+  EXPECT_TRUE(ComputeBrdfCoefficients(*iso, 8, 2).ok());
 }
 
 TEST(BrdfModelTest, Reciprocity) {

@@ -208,6 +208,76 @@ TEST_F(ServiceTest, CliServerOutputIsByteIdenticalToEmbedded) {
             0);
 }
 
+// Runs `command` through the shell; returns its stdout ("" and a failure when it exits non-zero).
+std::string CliOutput(const std::string& command) {
+  const std::string out = testing::UniqueTempPath("cli_stdout.txt");
+  const int rc = std::system(absl::StrCat(command, " > ", out, " 2>/dev/null").c_str());
+  EXPECT_EQ(rc, 0) << command;
+  std::string text = ReadFile(out);
+  std::filesystem::remove(out);
+  return text;
+}
+
+TEST_F(ServiceTest, CliReferenceAndIrradianceRunRemotelyWithTheEmbeddedResults) {
+  auto c = StartServer();
+  const std::string map = MapPath("forest.exr");
+  const std::string server = absl::StrCat(" --server 127.0.0.1:", port_);
+  // reference: the same brute-force sum, printed with 9 digits (the values are equal doubles).
+  const std::string ref = absl::StrCat(SHRM_CLI_PATH, " reference --env ", map,
+                                       " --brdf phong:s=16 --normal 0,1,0 --view 0.3,0.8,0.2 "
+                                       "--rotate 40,0,0 --json");
+  const std::string embedded_ref = CliOutput(ref);
+  EXPECT_NE(embedded_ref.find("rgb"), std::string::npos);
+  EXPECT_EQ(CliOutput(ref + server), embedded_ref);
+  // irradiance: coefficients from the server, the cube built locally: equal files.
+  const std::string a = testing::UniqueTempPath("irr_embedded.exr");
+  const std::string b = testing::UniqueTempPath("irr_remote.exr");
+  const std::string irr =
+      absl::StrCat(SHRM_CLI_PATH, " irradiance --env ", map, " --size 16 --json --rotate 0,20,0");
+  const std::string embedded_irr = CliOutput(absl::StrCat(irr, " -o ", a));
+  const std::string remote_irr = CliOutput(absl::StrCat(irr, " -o ", b, server));
+  EXPECT_EQ(remote_irr.substr(0, remote_irr.find("\"output\"")),
+            embedded_irr.substr(0, embedded_irr.find("\"output\"")));
+  EXPECT_FALSE(ReadFile(a).empty());
+  EXPECT_TRUE(ReadFile(a) == ReadFile(b)) << "remote irradiance cube differs";
+  for (const auto& f : {a, b}) std::filesystem::remove(f);
+
+  // Bad directions and a missing map are refused with the right codes.
+  absl::StatusOr<std::string> sha = c->UploadIfMissing(map);
+  ASSERT_TRUE(sha.ok());
+  v1::ReferenceRequest req;
+  req.mutable_environment()->add_sha256(*sha);
+  req.set_brdf("phong:s=16");
+  req.mutable_index()->set_y(1);
+  absl::StatusOr<v1::ReferenceResponse> r = c->Reference(req);  // no view
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument) << r.status();
+  EXPECT_NE(r.status().message().find("view"), absl::string_view::npos) << r.status();
+  req.mutable_view()->set_x(0);  // present but zero
+  r = c->Reference(req);
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument) << r.status();
+  v1::IrradianceRequest ir;
+  ir.mutable_environment()->add_sha256(std::string(64, 'a'));
+  absl::StatusOr<v1::IrradianceResponse> e = c->Irradiance(ir);
+  EXPECT_EQ(e.status().code(), absl::StatusCode::kNotFound) << e.status();
+}
+
+TEST_F(ServiceTest, CliTokenFileFlagAuthenticates) {
+  const std::string tokens = testing::UniqueTempPath("tokens.txt");
+  {
+    std::ofstream out(tokens);
+    out << "# test token\ncli-flag-token\n";
+  }
+  ServerOptions opt;
+  opt.security.token_file = tokens;
+  auto c = StartServer(opt);
+  const std::string analyze = absl::StrCat(
+      SHRM_CLI_PATH, " analyze --brdf phong:s=32 --epsilon 0.1 --server 127.0.0.1:", port_,
+      " > /dev/null 2>&1");
+  EXPECT_NE(std::system(analyze.c_str()), 0) << "no token must be refused";
+  EXPECT_EQ(std::system(absl::StrCat(analyze, " --token-file ", tokens).c_str()), 0);
+  std::filesystem::remove(tokens);
+}
+
 TEST_F(ServiceTest, UploadOverLimitIsRefused) {
   ServerOptions opt;
   opt.service.max_blob_bytes = kSmallBlobLimit;

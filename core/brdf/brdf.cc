@@ -163,10 +163,12 @@ const std::vector<ParamSpec>& MicrofacetParams() {
   return *p;
 }
 const std::vector<ParamSpec>& WardParams() {
-  static const auto* p =
-      new std::vector<ParamSpec>{{"alpha", 0.2, 0.0, 1.0, true, false, "roughness (RMS slope)"},
-                                 {"rho_s", 0.1, 0.0, 1.0, false, false, "specular albedo"},
-                                 {"rho_d", 0.0, 0.0, 1.0, false, false, "diffuse albedo"}};
+  static const auto* p = new std::vector<ParamSpec>{
+      {"alpha", 0.2, 0.0, 1.0, true, false, "roughness (RMS slope)"},
+      {"alpha_x", 0.2, 0.0, 1.0, true, false, "roughness along the tangent (defaults to alpha)"},
+      {"alpha_y", 0.2, 0.0, 1.0, true, false, "roughness along the bitangent (defaults to alpha)"},
+      {"rho_s", 0.1, 0.0, 1.0, false, false, "specular albedo"},
+      {"rho_d", 0.0, 0.0, 1.0, false, false, "diffuse albedo"}};
   return *p;
 }
 const std::vector<ParamSpec>& GgxParams() {
@@ -265,7 +267,9 @@ absl::StatusOr<std::unique_ptr<Brdf>> ParseBrdfSpec(std::string_view spec_in) {
   }
   if (name == "ward") {
     SHRM_ASSIGN_OR_RETURN(auto v, ParseParams(name, rest, WardParams()));
-    return std::unique_ptr<Brdf>(new WardBrdf(v["alpha"], v["rho_s"], v["rho_d"]));
+    if (!absl::StrContains(rest, "alpha_x")) v["alpha_x"] = v["alpha"];
+    if (!absl::StrContains(rest, "alpha_y")) v["alpha_y"] = v["alpha"];
+    return std::unique_ptr<Brdf>(new WardBrdf(v["alpha_x"], v["alpha_y"], v["rho_s"], v["rho_d"]));
   }
   if (name == "ggx") {
     SHRM_ASSIGN_OR_RETURN(auto v, ParseParams(name, rest, GgxParams()));
@@ -313,8 +317,9 @@ const std::vector<BrdfModelInfo>& ListBrdfModels() {
     lafortune.params.push_back({"rho_d", "0", "[0, 1]", "diffuse albedo (a group of its own)"});
     m->push_back(std::move(lafortune));
     m->push_back(MakeInfo("ward", "ward:alpha=0.2,rho_s=0.1,rho_d=0", WardParams(),
-                          "isotropic Ward 1992: rho_d/pi + rho_s exp(-tan^2 theta_h/alpha^2) / "
-                          "(4 pi alpha^2 sqrt(cos theta_i cos theta_o))"));
+                          "Ward 1992: rho_d/pi + rho_s exp(-tan^2 theta_h/alpha^2) / "
+                          "(4 pi alpha^2 sqrt(cos theta_i cos theta_o)); anisotropic with "
+                          "alpha_x != alpha_y (tangent = +x projected; outgoing tables only)"));
     m->push_back(MakeInfo("ggx", "ggx:alpha=0.3,f0=0.04", GgxParams(),
                           "GGX / Trowbridge-Reitz D, height-correlated Smith G, Schlick F"));
     m->push_back(MakeInfo("kajiya-kay", "kajiya-kay:s=32", KajiyaKayParams(),

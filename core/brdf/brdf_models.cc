@@ -166,21 +166,36 @@ double LafortuneBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int)
 // ----- Ward -----
 
 std::string WardBrdf::spec() const {
-  return absl::StrCat("ward:alpha=", FormatSpecNumber(alpha_), ",rho_s=", FormatSpecNumber(rho_s_),
+  const std::string alpha = isotropic() ? absl::StrCat("alpha=", FormatSpecNumber(alpha_x_))
+                                        : absl::StrCat("alpha_x=", FormatSpecNumber(alpha_x_),
+                                                       ",alpha_y=", FormatSpecNumber(alpha_y_));
+  return absl::StrCat("ward:", alpha, ",rho_s=", FormatSpecNumber(rho_s_),
                       ",rho_d=", FormatSpecNumber(rho_d_));
 }
 
-BrdfBandwidthHint WardBrdf::bandwidth_hint() const { return {CeilInt(3.5 / alpha_) + 8, 6}; }
+BrdfBandwidthHint WardBrdf::bandwidth_hint() const {
+  return {CeilInt(3.5 / std::min(alpha_x_, alpha_y_)) + 8, 6};
+}
 
 double WardBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int) const {
   const double nw = n.Dot(w), nv = n.Dot(v);
   if (nw <= 0 || nv <= 0) return 0.0;
   const Vec3 h_sum = v + w;
-  const double nh2 = n.Dot(h_sum) * n.Dot(h_sum) / h_sum.Dot(h_sum);
-  const double tan2 = (1.0 - nh2) / nh2;
-  const double a2 = alpha_ * alpha_;
-  const double f =
-      rho_d_ / kPi + rho_s_ * std::exp(-tan2 / a2) / (4.0 * kPi * a2 * std::sqrt(nw * nv));
+  const double nh = n.Dot(h_sum);
+  const double nh2 = nh * nh / h_sum.Dot(h_sum);
+  double exponent;
+  if (isotropic()) {
+    exponent = (1.0 - nh2) / nh2 / (alpha_x_ * alpha_x_);
+  } else {
+    // tan^2 theta_h cos^2 phi_h = (h.t / h.n)^2, tan^2 theta_h sin^2 phi_h = (h.b / h.n)^2.
+    const Vec3 axis = std::abs(n.x) < 1.0 - 1e-6 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
+    const Vec3 t = (axis - n * n.Dot(axis)).Normalized();
+    const Vec3 b = n.Cross(t);
+    const double ht = h_sum.Dot(t) / (nh * alpha_x_), hb = h_sum.Dot(b) / (nh * alpha_y_);
+    exponent = ht * ht + hb * hb;
+  }
+  const double f = rho_d_ / kPi + rho_s_ * std::exp(-exponent) /
+                                      (4.0 * kPi * alpha_x_ * alpha_y_ * std::sqrt(nw * nv));
   return f * nw;
 }
 

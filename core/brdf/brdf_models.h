@@ -7,8 +7,9 @@
 //    and the order estimate eq. 5.28 F ~ sqrt(-s log epsilon).
 //  - Simplified microfacet, eq. 5.34: rho-hat = exp(-(theta_h / sigma)^2) / (4 pi sigma^2),
 //    zero where N.w <= 0.
-//  - Lafortune et al. 1997 (isotropic, C_x = C_y), Ward 1992 (isotropic), GGX / Trowbridge-Reitz
-//    with the height-correlated Smith G and Schlick's Fresnel: rho-hat = f_r max(N.w, 0).
+//  - Lafortune et al. 1997 (isotropic, C_x = C_y), Ward 1992 (also anisotropic), GGX /
+//    Trowbridge-Reitz with the height-correlated Smith G and Schlick's Fresnel: rho-hat = f_r
+//    max(N.w, 0).
 //  - Kajiya-Kay, sec. 5.3.1 / 5.7.1: reparameterized by the tangent T,
 //    rho-hat = c_s max(cos(theta_i' - theta_o'), 0)^s, c_s normalizing the white furnace to 1
 //    for a view perpendicular to T.
@@ -85,19 +86,29 @@ class LafortuneBrdf final : public Brdf {
   double rho_d_;
 };
 
-// Isotropic Ward: f_r = rho_d / pi + rho_s exp(-tan^2 theta_h / alpha^2) /
-// (4 pi alpha^2 sqrt(cos theta_i cos theta_o)).
+// Ward 1992: f_r = rho_d / pi + rho_s exp(-tan^2 theta_h (cos^2 phi_h / alpha_x^2 +
+// sin^2 phi_h / alpha_y^2)) / (4 pi alpha_x alpha_y sqrt(cos theta_i cos theta_o)); isotropic
+// when alpha_x = alpha_y = alpha. The anisotropic axes: t = the projection of the frame's +x
+// axis onto the plane normal to n (of +y if n is within 1e-6 of +-x), b = n x t; phi_h is the
+// azimuth of the half vector from t towards b. The SHRM pipeline (reparameterization by R,
+// sec. 5.3.1) assumes isotropy: ComputeBrdfCoefficients rejects alpha_x != alpha_y; the
+// per-outgoing-direction tables (outgoing_table.h, normal = +z, t = +x) support both.
 class WardBrdf final : public Brdf {
  public:
-  WardBrdf(double alpha, double rho_s, double rho_d)
-      : alpha_(alpha), rho_s_(rho_s), rho_d_(rho_d) {}
+  WardBrdf(double alpha, double rho_s, double rho_d) : WardBrdf(alpha, alpha, rho_s, rho_d) {}
+  WardBrdf(double alpha_x, double alpha_y, double rho_s, double rho_d)
+      : alpha_x_(alpha_x), alpha_y_(alpha_y), rho_s_(rho_s), rho_d_(rho_d) {}
+  bool isotropic() const { return alpha_x_ == alpha_y_; }
+  double alpha_x() const { return alpha_x_; }
+  double alpha_y() const { return alpha_y_; }
+  // "ward:alpha=..,rho_s=..,rho_d=.." when isotropic, else "ward:alpha_x=..,alpha_y=..,...".
   std::string spec() const override;
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
 
  private:
-  double alpha_, rho_s_, rho_d_;
+  double alpha_x_, alpha_y_, rho_s_, rho_d_;
 };
 
 // GGX (Trowbridge-Reitz): f_r = F(V.H) D(N.H) G2 / (4 (N.w)(N.V)) with

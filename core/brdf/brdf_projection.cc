@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "core/brdf/brdf_models.h"
 #include "core/sh/quadrature.h"
 #include "core/sh/sh.h"
 
@@ -314,6 +315,12 @@ absl::StatusOr<BrdfCoefficients> ComputeBrdfCoefficients(const Brdf& brdf, int l
         absl::StrCat("brdf coefficients: pmax = ", pmax, " out of range [0, ", kMaxBrdfPmax, "]"));
   }
   if (absl::Status st = CheckSampling(sampling); !st.ok()) return st;
+  if (const auto* ward = dynamic_cast<const WardBrdf*>(&brdf); ward && !ward->isotropic()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("brdf '", brdf.spec(),
+                     "' is anisotropic; SHRM coefficients (sec. 5.3.1) need an "
+                     "isotropic BRDF (use alpha, or equal alpha_x and alpha_y)"));
+  }
   BrdfCoefficients out;
   out.lmax = lmax;
   out.pmax = pmax;

@@ -47,7 +47,8 @@ struct BrdfSampling {
 
 // Coefficients for l <= lmax, p <= pmax (0 <= lmax <= kMaxBrdfLmax, 0 <= pmax <= kMaxBrdfPmax),
 // all channels, with total_energy filled by the independent angular-domain integral of
-// rho-hat^2. Errors: InvalidArgument for out-of-range orders or sampling sizes.
+// rho-hat^2. Errors: InvalidArgument for out-of-range orders or sampling sizes, and for an
+// anisotropic Ward (alpha_x != alpha_y: the reparameterization of sec. 5.3.1 needs isotropy).
 absl::StatusOr<BrdfCoefficients> ComputeBrdfCoefficients(const Brdf& brdf, int lmax, int pmax,
                                                          const BrdfSampling& sampling = {});
 

@@ -44,6 +44,18 @@ std::array<double, 3> ReferenceRadiance(std::span<const EnvSample> samples,
   return out;
 }
 
+std::array<double, 3> BrdfReferenceRadiance(std::span<const EnvSample> samples, const Brdf& brdf,
+                                            const Mat3& rotation, const Vec3& index,
+                                            const Vec3& view) {
+  const Mat3 inv = rotation.Transposed();
+  const int channels = brdf.channels();
+  TransferFunction transfer = [&brdf, channels](const Vec3& n, const Vec3& v, const Vec3& w,
+                                                int c) {
+    return brdf.Transfer(n, v, w, channels == 1 ? 0 : c);
+  };
+  return ReferenceRadiance(samples, transfer, inv * index, inv * view);
+}
+
 absl::StatusOr<ReferenceIntegrator> ReferenceIntegrator::Create(
     std::span<const EnvSample> samples) {
   if (samples.empty()) return absl::InvalidArgumentError("reference: no environment samples");

@@ -16,6 +16,7 @@
 
 #include "absl/status/statusor.h"
 #include "core/base/geometry.h"
+#include "core/brdf/brdf.h"
 #include "core/envmap/envmap.h"
 #include "core/shrm/radiance_cube.h"
 
@@ -43,6 +44,14 @@ double PhongConeAngle(double exponent, double eps);
 std::array<double, 3> ReferenceRadiance(std::span<const EnvSample> samples,
                                         const TransferFunction& transfer, const Vec3& n,
                                         const Vec3& v);
+
+// `shrm reference` and the service's Reference call: ReferenceRadiance for `brdf` (its channel 0
+// for all three colours when it is grey) at (index = N, or T for tangent-indexed models, V) in an
+// environment rotated by `rotation`, L'(w) = L(R^-1 w): the geometry is rotated by R^-1 instead
+// of the samples.
+std::array<double, 3> BrdfReferenceRadiance(std::span<const EnvSample> samples, const Brdf& brdf,
+                                            const Mat3& rotation, const Vec3& index,
+                                            const Vec3& view);
 
 // Samples binned by direction (cube faces of 8 x 8 buckets) so a truncated query visits only the
 // buckets that can intersect its cone: O(W S_L^2 + 384) per output value.
