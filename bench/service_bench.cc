@@ -84,8 +84,11 @@ Server StartServer(size_t cache_bytes, int threads, const std::string& tag) {
   return out;
 }
 
+// Every client on its own TCP connection, as separate client processes would be.
 std::unique_ptr<shrm::client::ShrmClient> Connect(const std::string& target) {
-  auto c = shrm::client::ShrmClient::Connect(target);
+  shrm::client::ClientOptions options;
+  options.own_connection = true;
+  auto c = shrm::client::ShrmClient::Connect(target, options);
   if (!c.ok()) Die(c.status(), "connect");
   return std::move(*c);
 }

@@ -101,6 +101,7 @@ absl::StatusOr<std::unique_ptr<ShrmClient>> ShrmClient::Connect(const std::strin
   }
   grpc::ChannelArguments args;
   args.SetLoadBalancingPolicyName("round_robin");
+  if (opt.own_connection) args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
   std::shared_ptr<grpc::ChannelCredentials> creds;
   if (!opt.tls_ca_file.empty() || !opt.tls_cert_file.empty()) {
     grpc::SslCredentialsOptions ssl;

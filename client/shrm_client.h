@@ -27,6 +27,9 @@ struct ClientOptions {
   absl::Duration max_backoff = absl::Seconds(2);
   // Deadline of each idempotent call attempt (uploads: per attempt of the whole blob).
   absl::Duration call_timeout = absl::Minutes(5);
+  // Open this client's own TCP connection(s) instead of sharing gRPC's process-wide pool with
+  // other clients of the same target (load tests: N clients = N connections).
+  bool own_connection = false;
 
   // Security (docs/server.md, "Security"). Empty fields fall back to the environment variables
   // SHRM_TOKEN_FILE, SHRM_TLS_CA, SHRM_TLS_CERT, SHRM_TLS_KEY (so `shrm --server` picks them up).

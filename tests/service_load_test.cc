@@ -87,9 +87,12 @@ class ServiceLoadTest : public ::testing::Test {
     return Connect();
   }
 
+  // Each client has its own TCP connection, as separate client processes would.
   std::unique_ptr<ShrmClient> Connect() const {
+    client::ClientOptions options;
+    options.own_connection = true;
     absl::StatusOr<std::unique_ptr<ShrmClient>> c =
-        ShrmClient::Connect(absl::StrCat("127.0.0.1:", port_));
+        ShrmClient::Connect(absl::StrCat("127.0.0.1:", port_), options);
     EXPECT_TRUE(c.ok()) << c.status();
     return c.ok() ? std::move(*c) : nullptr;
   }
