@@ -92,5 +92,13 @@ TEST(CubeExrTest, TruncatedFileFailsCleanly) {
   fs::remove(path);
 }
 
+TEST(CubeExrTest, AttributesTheWriterOwnsAreRefused) {
+  CubeExr c = MakeCube(2, 1);
+  c.attributes["name"] = "not a face";
+  const absl::StatusOr<std::string> bytes = EncodeCubeExr(c, "cube.exr");
+  EXPECT_EQ(bytes.status().code(), absl::StatusCode::kInvalidArgument) << bytes.status();
+  EXPECT_NE(bytes.status().message().find("'name'"), absl::string_view::npos) << bytes.status();
+}
+
 }  // namespace
 }  // namespace shrm
