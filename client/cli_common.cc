@@ -178,7 +178,14 @@ absl::Status RunRemoteJob(client::ShrmClient* client, const EnvArgs& env, const 
     client->set_upload_copies(missing_blob_answers > 0 ? missing_blob_answers + 1 : 0);
     s = attempt();
     const bool missing_blob = absl::IsNotFound(s) && absl::StrContains(s.message(), "blob ");
-    if (s.ok() || i + 1 >= max_attempts || !(client::IsTransient(s) || missing_blob)) break;
+    // A full server (every job slot busy) says when to come back; an oversized input does not.
+    const int64_t retry_after_ms =
+        absl::IsResourceExhausted(s) ? client->last_retry_after_ms() : int64_t{0};
+    if (s.ok() || i + 1 >= max_attempts ||
+        !(client::IsTransient(s) || missing_blob || retry_after_ms > 0)) {
+      break;
+    }
+    if (retry_after_ms > 0) absl::SleepFor(absl::Milliseconds(retry_after_ms));
     ++retried;
     missing_blob_answers += missing_blob;
     if (!quiet) {

@@ -54,7 +54,8 @@ absl::Status RemoteEnvironment(const EnvArgs& args, client::ShrmClient* client,
                                shrm::v1::Environment* env);
 
 // Runs one idempotent remote job: `attempt` uploads what the server lacks (RemoteEnvironment,
-// ResolveRemoteBrdf), then calls it. Retried whole, with backoff, on transient errors and on
+// ResolveRemoteBrdf), then calls it. Retried whole, with backoff, on transient errors, on
+// RESOURCE_EXHAUSTED with a retry-after-ms hint (every job slot busy; waits the hint too) and on
 // NOT_FOUND for a blob (behind a load balancer the call may reach a replica the inputs were never
 // uploaded to; after k such answers k + 1 copies are uploaded). The map's SHA-256 (one --env
 // file) is the call's affinity key. `retries` (optional) gets the attempts beyond the first;

@@ -20,7 +20,17 @@ PACKAGES=(
   libcli11-dev libspdlog-dev nlohmann-json3-dev
   # viewer and headless rendering
   libglfw3-dev libepoxy-dev xvfb xauth libgl1-mesa-dri
+  # viewer: OBJ meshes
+  libtinyobjloader-dev
+  # deployment test (tests/deploy_test.sh): nginx in front of shrmd replicas, a gRPC probe
+  nginx python3-grpcio
 )
+# The deployment test renders and validates deploy/k8s with node (npm packages pinned in
+# tests/deploy/k8s/package-lock.json). Debian's nodejs + npm unless a node is there already
+# (e.g. NodeSource's nodejs, which bundles npm and conflicts with Debian's npm).
+if ! command -v node >/dev/null 2>&1; then
+  PACKAGES+=(nodejs npm)
+fi
 
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -278,6 +278,39 @@ TEST_F(ServiceTest, CliTokenFileFlagAuthenticates) {
   std::filesystem::remove(tokens);
 }
 
+TEST_F(ServiceTest, CliJobsWaitForAFreeSlotWhenTheServerIsFull) {
+  ServerOptions opt;
+  opt.service.max_jobs = 1;
+  opt.service.test_stage_delay = kSlowStage;  // ~1.2 s a job: the two jobs overlap
+  auto c = StartServer(opt);
+  const std::string map = MapPath("interior.exr");
+  ASSERT_TRUE(c->UploadIfMissing(map).ok());
+  std::vector<std::string> reports;
+  std::vector<std::thread> jobs;
+  for (int i = 0; i < 2; ++i) {
+    reports.push_back(testing::UniqueTempPath(absl::StrCat("full", i, ".json")));
+    const std::string out = testing::UniqueTempPath(absl::StrCat("full", i, ".shrm.exr"));
+    const std::string cmd =
+        absl::StrCat(SHRM_CLI_PATH, " prefilter --env ", map, " --brdf phong:s=", 8 + i,
+                     " --orders 8,0 --size 16 -o ", out, " --report ", reports.back(),
+                     " --server 127.0.0.1:", port_, " > /dev/null 2>&1");
+    jobs.emplace_back([cmd, out] {
+      EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
+      std::filesystem::remove(out);
+    });
+  }
+  for (std::thread& t : jobs) t.join();
+  // One job found the only slot taken, waited the server's retry-after-ms and ran.
+  int retries = 0;
+  for (const std::string& r : reports) {
+    const nlohmann::json j = nlohmann::json::parse(ReadFile(r), nullptr, false);
+    ASSERT_TRUE(j.contains("retries")) << r;
+    retries += j["retries"].get<int>();
+    std::filesystem::remove(r);
+  }
+  EXPECT_GE(retries, 1);
+}
+
 TEST_F(ServiceTest, UploadOverLimitIsRefused) {
   ServerOptions opt;
   opt.service.max_blob_bytes = kSmallBlobLimit;

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <span>
 #include <string_view>
 #include <utility>
 
@@ -70,12 +71,15 @@ class ExrWriter {
 
 }  // namespace
 
-absl::StatusOr<std::string> EncodeCubeExr(const CubeExr& cube, const std::string& name) {
+absl::StatusOr<std::string> EncodeCubeExr(const CubeExr& cube, const std::string& name,
+                                          std::span<const float> values) {
+  const std::span<const float> data =
+      cube.data.empty() ? values : std::span<const float>(cube.data);
   if (cube.face_size < 1 || cube.groups() < 1 || cube.groups() > kMaxGroups ||
-      cube.data.size() != cube.size()) {
+      data.size() != cube.size()) {
     return absl::InvalidArgumentError(absl::StrCat(
         name, ": inconsistent cube to write (face size ", cube.face_size, ", ", cube.groups(),
-        " channel groups, ", cube.data.size(), " values, expected ", cube.size(), ")"));
+        " channel groups, ", data.size(), " values, expected ", cube.size(), ")"));
   }
   for (const auto& [k, v] : cube.attributes) {
     if (k.empty() || k.size() > kMaxShortName || k.find('\0') != std::string::npos ||
@@ -165,7 +169,7 @@ absl::StatusOr<std::string> EncodeCubeExr(const CubeExr& cube, const std::string
     for (int y = 0; y < s; ++y) {
       const int32_t head[3] = {f, y, static_cast<int32_t>(line_bytes)};
       put(head, sizeof(head));
-      const float* row = cube.data.data() + (size_t{1} * f * s + y) * s * texel_values;
+      const float* row = data.data() + (size_t{1} * f * s + y) * s * texel_values;
       for (const auto& [ch, offset] : channels) {
         for (int x = 0; x < s; ++x) {
           const float value = row[x * texel_values + offset];

@@ -11,6 +11,7 @@
 #define SHRM_CORE_IO_CUBE_EXR_H_
 
 #include <map>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -34,7 +35,9 @@ struct CubeExr {
 
 // The file's bytes, encoded in memory (`name` only labels error messages). Six scanline parts
 // named after the faces, channels "<group>.R/.G/.B", no compression, the attributes as strings.
-absl::StatusOr<std::string> EncodeCubeExr(const CubeExr& cube, const std::string& name);
+// With `cube.data` empty, `values` (same layout) are encoded instead, without a copy.
+absl::StatusOr<std::string> EncodeCubeExr(const CubeExr& cube, const std::string& name,
+                                          std::span<const float> values = {});
 // EncodeCubeExr, then written atomically (temporary file + rename).
 absl::Status WriteCubeExr(const std::string& path, const CubeExr& cube);
 

@@ -46,7 +46,6 @@ absl::StatusOr<std::string> EncodeShrmFile(const std::string& path, const ShrmCu
   exr.half = half;
   for (int p = 0; p <= cube.pmax; ++p)
     for (int q = -p; q <= p; ++q) exr.group_names.push_back(ShrmChannelGroup(p, q));
-  exr.data = cube.data;  // same layout: texel-major, then coefficient, then channel
   for (const auto& [k, v] : extra) {
     if (!absl::StartsWith(k, "shrm:")) {
       return absl::InvalidArgumentError(absl::StrCat("SHRM attribute ", k, " lacks shrm: prefix"));
@@ -57,7 +56,9 @@ absl::StatusOr<std::string> EncodeShrmFile(const std::string& path, const ShrmCu
   exr.attributes["shrm:kind"] = cube.kind == ShrmKind::kLocal ? "local" : "global";
   exr.attributes["shrm:index"] = cube.index == ReparamKind::kTangent ? "tangent" : "reflection";
   exr.attributes["shrm:pmax"] = absl::StrCat(cube.pmax);
-  return EncodeCubeExr(exr, path);
+  // cube.data has the file's layout (texel-major, then coefficient, then channel): encoded in
+  // place rather than copied (a large SHRM is hundreds of MB).
+  return EncodeCubeExr(exr, path, cube.data);
 }
 
 absl::Status WriteShrmFile(const std::string& path, const ShrmCube& cube,
