@@ -4,12 +4,14 @@
 #ifndef SHRM_TESTS_TEST_MAPS_H_
 #define SHRM_TESTS_TEST_MAPS_H_
 
+#include <random>
 #include <string>
 #include <vector>
 
 #include "core/envmap/envmap.h"
 #include "core/io/image.h"
 #include "core/sh/quadrature.h"
+#include "core/sh/sh.h"
 #include "core/transform/sht.h"
 #include "gtest/gtest.h"
 
@@ -46,6 +48,35 @@ inline std::vector<EnvSample> LatLongSamples(const Image& img) {
       samples.push_back(e);
     }
   return samples;
+}
+
+// A band-limited lat-long map: random RGB SH coefficients of degree `lmax` (normal, sigma 0.3,
+// from `seed`) plus 4 on the constant term (mostly positive radiance), synthesized at the pixel
+// centres of a width x height grid. Its coefficients to any degree < height are exact under the
+// transform's Fejer rule and vanish above lmax.
+inline Image BandLimitedLatLong(int lmax, unsigned seed, int width, int height) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> gauss(0, 0.3);
+  std::vector<double> c(ShCount(lmax) * 3);
+  for (double& x : c) x = gauss(rng);
+  for (int ch = 0; ch < 3; ++ch) c[ch] += 4.0;
+  Image img;
+  img.width = width;
+  img.height = height;
+  img.channels = 3;
+  img.pixels.resize(static_cast<size_t>(img.width) * img.height * 3);
+  const ShtGrid grid{img.width, img.height, ShtGridKind::kEquiangular};
+  std::vector<double> y(ShCount(lmax));
+  for (int j = 0; j < img.height; ++j)
+    for (int i = 0; i < img.width; ++i) {
+      EvalSh(lmax, ShFrameFromWorld(ShtGridDirection(grid, i, j)), y);
+      for (int ch = 0; ch < 3; ++ch) {
+        double v = 0;
+        for (int k = 0; k < ShCount(lmax); ++k) v += c[3 * k + ch] * y[k];
+        img.pixels[(static_cast<size_t>(j) * img.width + i) * 3 + ch] = static_cast<float>(v);
+      }
+    }
+  return img;
 }
 
 }  // namespace shrm::testing

@@ -1,0 +1,518 @@
+#include "viewer/app.h"
+
+#include <epoxy/gl.h>
+// GLFW without its own GL header (libepoxy provides GL).
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "core/base/status_macros.h"
+#include "core/io/image.h"
+#include "core/sh/sh.h"
+#include "viewer/brdf_edit.h"
+#include "viewer/gl_util.h"
+#include "viewer/mesh.h"
+#include "viewer/renderer.h"
+#include "viewer/scene_source.h"
+#ifdef SHRM_VIEWER_HAVE_CLIENT
+#include "viewer/remote_source.h"
+#endif
+
+namespace shrm::viewer {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Ms(Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
+
+void Fail(const absl::Status& s) {
+  std::fprintf(stderr, "shrm-view: %s\n", std::string(s.message()).c_str());
+}
+
+// Meshes: sphere (128 x 64), torus, or the OBJ file.
+absl::StatusOr<Mesh> BuildMesh(const std::string& which) {
+  if (which == "sphere") return MakeSphere(128, 64);
+  if (which == "torus") return MakeTorus(0.7, 0.3, 128, 48);
+  return LoadObjMesh(which);
+}
+
+// Automatic exposure: mean luminance of the map (or of the SHRM's c_00 radiance) -> 0.18.
+double AutoExposure(const SceneData& scene) {
+  double mean = 0;
+  if (scene.env != nullptr) {
+    mean = scene.env->mean_luminance;
+  } else if (scene.shrm != nullptr) {
+    const ShrmCube& c = scene.shrm->global;
+    const size_t texels = c.size() / (c.coeff_count() * c.channels);
+    for (size_t t = 0; t < texels; ++t) {
+      const float* v = &c.data[t * c.coeff_count() * c.channels];
+      mean += (0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2]) / (2 * std::sqrt(kPi));
+    }
+    mean /= std::max<size_t>(1, texels);
+  }
+  return mean > 0 ? std::log2(0.18 / mean) : 0.0;
+}
+
+// The overlay's text (window title and stdout; no text rendering in the GL frame).
+std::string Overlay(const ModeInfo& mode, const SceneData& scene, const Renderer& r,
+                    double frame_ms, bool diff, double exposure) {
+  std::string s = absl::StrCat("mode ", mode.key, " ", mode.name);
+  if (scene.shrm != nullptr) {
+    const ShrmData& d = *scene.shrm;
+    absl::StrAppend(&s, " | ", d.brdf_spec.empty() ? "BRDF ?" : d.brdf_spec);
+    absl::StrAppendFormat(&s, " | F_B %d P_B %d (%d coeffs) S_B %d", d.f_b, d.p_b, ShCount(d.p_b),
+                          d.global.face_size);
+    if (!d.epsilon.empty()) absl::StrAppend(&s, " eps ", d.epsilon);
+    if (d.eps_bound >= 0) absl::StrAppendFormat(&s, " bound %.3g", d.eps_bound);
+  }
+  absl::StrAppendFormat(&s, " | %.1f ms | EV %+.1f", frame_ms, exposure);
+  const std::string ms = r.ModeStatus(mode.key);
+  if (!ms.empty()) absl::StrAppend(&s, " | ", ms);
+  if (diff) {
+    const DiffStats& st = r.diff_stats();
+    if (st.valid) {
+      absl::StrAppendFormat(&s, " | diff: rel. RMS %.4f, median %.4f, p99 %.4f (%d px)", st.rel_rms,
+                            st.rel_median, st.rel_p99, st.pixels);
+    } else {
+      absl::StrAppend(&s, " | diff: ground truth computing");
+    }
+  }
+  return s;
+}
+
+class Viewer {
+ public:
+  explicit Viewer(const ViewerOptions& o) : o_(o), camera_(o.view) {
+    camera_.set_fov_y_deg(o.fov_deg);
+    settings_.mode = o.mode;
+    settings_.diff = o.diff;
+  }
+
+  // Loads everything that does not need GL.
+  absl::Status Load() {
+    SHRM_ASSIGN_OR_RETURN(mesh_, BuildMesh(o_.mesh));
+    if (!o_.env.empty()) {
+      const auto t0 = Clock::now();
+      SHRM_ASSIGN_OR_RETURN(scene_.env, LoadEnvironment(o_.env, o_.reference_width, o_.threads));
+      Log(absl::StrFormat(
+          "environment %s: %d x %d, SH to degree %d, ground truth over %d x %d "
+          "(%.0f ms)",
+          o_.env, scene_.env->map.width(), scene_.env->map.height(), scene_.env->sh_lmax,
+          o_.reference_width, o_.reference_width / 2, Ms(Clock::now() - t0)));
+    }
+    brdf_spec_ = o_.brdf;
+    if (!o_.shrm_file.empty()) {
+      SHRM_ASSIGN_OR_RETURN(ShrmData d, LoadShrmData(o_.shrm_file, o_.threads));
+      if (brdf_spec_.empty()) brdf_spec_ = d.brdf_spec;
+      scene_.shrm = std::make_shared<const ShrmData>(std::move(d));
+    }
+    if (!brdf_spec_.empty()) {
+      absl::StatusOr<std::unique_ptr<Brdf>> b = ParseBrdfSpec(brdf_spec_);
+      if (b.ok()) {
+        scene_.brdf = std::move(*b);
+        scene_.brdf_spec = scene_.brdf->spec();
+      } else if (o_.mode == 5 || o_.diff || o_.shrm_file.empty()) {
+        return b.status();
+      }
+    }
+    if ((o_.mode == 5 || o_.diff) && scene_.brdf == nullptr) {
+      return absl::InvalidArgumentError(
+          "the ground truth needs the BRDF: give --brdf (the SHRM file has no shrm:brdf)");
+    }
+    if (!o_.env.empty()) {
+#ifdef SHRM_VIEWER_HAVE_CLIENT
+      job_ = std::make_unique<AsyncShrmJob>(o_.server.empty() ? EmbeddedCompute(scene_.env)
+                                                              : RemoteCompute(o_.server, o_.env));
+#else
+      job_ = std::make_unique<AsyncShrmJob>(EmbeddedCompute(scene_.env));
+#endif
+    }
+    if (scene_.shrm == nullptr) StartCompute(brdf_spec_);
+    exposure_ = o_.exposure_set ? o_.exposure : AutoExposure(scene_);
+    return absl::OkStatus();
+  }
+
+  absl::Status CreateGl(bool visible) {
+    SHRM_ASSIGN_OR_RETURN(context_, GlContext::Create(o_.width, o_.height, visible, "shrm-view"));
+    if (o_.verbose) Log(context_->Describe());
+    SHRM_ASSIGN_OR_RETURN(renderer_, Renderer::Create(o_.width, o_.height, o_.threads));
+    renderer_->SetMesh(mesh_);
+    UploadScene();
+    return absl::OkStatus();
+  }
+
+  // --screenshot: one frame (waiting for a computation and the ground truth), then the file.
+  absl::Status Screenshot() {
+    if (job_ != nullptr) SHRM_RETURN_IF_ERROR(TakeJobResult(job_->Wait()));
+    if (scene_.shrm == nullptr && (settings_.mode == 1 || settings_.mode == 2)) {
+      return absl::FailedPreconditionError("no SHRM to show");
+    }
+    if (!o_.exposure_set) exposure_ = AutoExposure(scene_);
+    settings_.exposure = static_cast<float>(exposure_);
+    if (!renderer_->ModeReady(settings_.mode)) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("mode ", settings_.mode, " has no data to draw",
+                       upload_error_.empty() ? "" : absl::StrCat(" (", upload_error_, ")")));
+    }
+    const auto t0 = Clock::now();
+    SHRM_RETURN_IF_ERROR(renderer_->Render(camera_, settings_));
+    if (renderer_->reference_active()) {
+      renderer_->reference().Wait();
+      SHRM_RETURN_IF_ERROR(renderer_->Render(camera_, settings_));  // uploads the truth
+      SHRM_RETURN_IF_ERROR(renderer_->Render(camera_, settings_));  // difference statistics
+    }
+    glFinish();
+    const double ms = Ms(Clock::now() - t0);
+    std::printf("%s\n", Overlay(*FindMode(settings_.mode), scene_, *renderer_, ms, settings_.diff,
+                                exposure_)
+                            .c_str());
+    const bool exr =
+        o_.screenshot.size() > 4 && (o_.screenshot.substr(o_.screenshot.size() - 4) == ".exr" ||
+                                     o_.screenshot.substr(o_.screenshot.size() - 4) == ".EXR");
+    if (exr) {
+      const std::vector<float> rgba = renderer_->ReadHdr();
+      Image img;
+      img.width = renderer_->width();
+      img.height = renderer_->height();
+      img.channels = 3;
+      img.pixels.resize(static_cast<size_t>(img.width) * img.height * 3);
+      for (size_t i = 0; i < rgba.size() / 4; ++i)
+        for (int c = 0; c < 3; ++c) img.pixels[3 * i + c] = rgba[4 * i + c];
+      SHRM_RETURN_IF_ERROR(WriteExr(o_.screenshot, img));
+    } else {
+      SHRM_RETURN_IF_ERROR(WriteImage8Bit(o_.screenshot, renderer_->ReadLdr()));
+    }
+    std::printf("wrote %s (%d x %d, mode %d%s)\n", o_.screenshot.c_str(), renderer_->width(),
+                renderer_->height(), settings_.mode, settings_.diff ? ", difference view" : "");
+    return absl::OkStatus();
+  }
+
+  // --bench-frames N: N frames per ready mode, the camera turning 1 degree per frame.
+  absl::Status Bench() {
+    if (job_ != nullptr) SHRM_RETURN_IF_ERROR(TakeJobResult(job_->Wait()));
+    settings_.exposure = static_cast<float>(exposure_);
+    std::printf("frame times at %d x %d (%s), mesh %s, %d frames per mode:\n", renderer_->width(),
+                renderer_->height(), context_->Describe().c_str(), o_.mesh.c_str(),
+                o_.bench_frames);
+    for (const ModeInfo& m : RegisteredModes()) {
+      if (!renderer_->ModeReady(m.key)) {
+        std::printf("  mode %d %-12s not ready (missing inputs)\n", m.key, m.name);
+        continue;
+      }
+      RenderSettings s = settings_;
+      s.mode = m.key;
+      s.diff = false;
+      OrbitCamera cam = camera_;
+      SHRM_RETURN_IF_ERROR(renderer_->Render(cam, s));  // warm-up (programs, uploads)
+      glFinish();
+      s.reference_may_restart = false;  // mode 5: draw cost only, the truth stays running
+      const auto t0 = Clock::now();
+      for (int i = 0; i < o_.bench_frames; ++i) {
+        cam.Orbit(1, 0);
+        SHRM_RETURN_IF_ERROR(renderer_->Render(cam, s));
+        glFinish();
+      }
+      const double ms = Ms(Clock::now() - t0) / o_.bench_frames;
+      std::printf("  mode %d %-12s %8.2f ms/frame  %s\n", m.key, m.name, ms,
+                  renderer_->ModeStatus(m.key).c_str());
+      renderer_->reference().Cancel();
+    }
+    return absl::OkStatus();
+  }
+
+  absl::Status Interactive() {
+    GLFWwindow* w = context_->window();
+    glfwSetWindowUserPointer(w, this);
+    glfwSetKeyCallback(w, [](GLFWwindow* win, int key, int, int action, int mods) {
+      static_cast<Viewer*>(glfwGetWindowUserPointer(win))->OnKey(key, action, mods);
+    });
+    glfwSetMouseButtonCallback(w, [](GLFWwindow* win, int button, int action, int) {
+      auto* v = static_cast<Viewer*>(glfwGetWindowUserPointer(win));
+      if (button == GLFW_MOUSE_BUTTON_LEFT) v->dragging_ = action == GLFW_PRESS;
+      glfwGetCursorPos(win, &v->last_x_, &v->last_y_);
+    });
+    glfwSetCursorPosCallback(w, [](GLFWwindow* win, double x, double y) {
+      auto* v = static_cast<Viewer*>(glfwGetWindowUserPointer(win));
+      if (v->dragging_) {
+        v->camera_.Orbit(-0.3 * (x - v->last_x_), 0.3 * (y - v->last_y_));
+        v->last_move_ = Clock::now();
+      }
+      v->last_x_ = x;
+      v->last_y_ = y;
+    });
+    glfwSetScrollCallback(w, [](GLFWwindow* win, double, double dy) {
+      auto* v = static_cast<Viewer*>(glfwGetWindowUserPointer(win));
+      v->camera_.Zoom(std::pow(0.9, dy));
+      v->last_move_ = Clock::now();
+    });
+    PrintHelp();
+    auto last_title = Clock::now() - std::chrono::seconds(1);
+    double frame_ms = 0;
+    auto prev = Clock::now();
+    std::string last_stats;
+    int frames = 0;
+    while (!glfwWindowShouldClose(w)) {
+      // --frames counts the frames drawn once no computation is pending.
+      if (o_.quit_after_frames > 0 && !(job_ != nullptr && job_->busy()) &&
+          frames++ >= o_.quit_after_frames)
+        break;
+      glfwPollEvents();
+      if (job_ != nullptr) {
+        if (std::optional<absl::StatusOr<ShrmData>> r = job_->Poll()) {
+          absl::Status s = TakeJobResult(std::move(r));
+          if (!s.ok()) Fail(s);
+        }
+      }
+      int fw, fh;
+      glfwGetFramebufferSize(w, &fw, &fh);
+      if (fw > 0 && fh > 0) {
+        absl::Status s = renderer_->Resize(fw, fh);
+        if (!s.ok()) return s;
+      }
+      settings_.exposure = static_cast<float>(exposure_);
+      settings_.compute_progress = job_ != nullptr && job_->busy() ? job_->fraction() : -1;
+      settings_.reference_may_restart =
+          !dragging_ && Clock::now() - last_move_ > std::chrono::milliseconds(200);
+      if (renderer_->ModeReady(settings_.mode)) {
+        absl::Status s = renderer_->Render(camera_, settings_);
+        if (!s.ok()) return s;
+      } else {
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        glClearColor(0.05f, 0.05f, 0.05f, 1);
+        glClear(GL_COLOR_BUFFER_BIT);
+      }
+      renderer_->BlitToWindow(fw, fh);
+      glfwSwapBuffers(w);
+      const auto now = Clock::now();
+      frame_ms = 0.9 * frame_ms + 0.1 * Ms(now - prev);
+      prev = now;
+      if (now - last_title > std::chrono::milliseconds(250)) {
+        last_title = now;
+        std::string title = Overlay(*FindMode(settings_.mode), scene_, *renderer_, frame_ms,
+                                    settings_.diff, exposure_);
+        if (job_ != nullptr && job_->busy())
+          absl::StrAppendFormat(&title, " | computing %s %.0f%%", job_->stage(),
+                                100 * job_->fraction());
+        glfwSetWindowTitle(w, ("shrm-view | " + title).c_str());
+        const DiffStats& st = renderer_->diff_stats();
+        if (settings_.diff && st.valid) {
+          const std::string line = absl::StrFormat(
+              "difference mode %d vs ground truth: rel. RMS %.4f, median %.4f, p99 %.4f (%d px)",
+              settings_.mode, st.rel_rms, st.rel_median, st.rel_p99, st.pixels);
+          if (line != last_stats) Log(line);
+          last_stats = line;
+        }
+      }
+    }
+    return absl::OkStatus();
+  }
+
+ private:
+  void Log(const std::string& line) {
+    std::printf("%s\n", line.c_str());
+    std::fflush(stdout);
+  }
+
+  void PrintHelp() {
+    Log("keys: 1-5 mode, D difference view, B next BRDF, [ ] lobe narrower/wider, +/- exposure,\n"
+        "      M next mesh, arrows orbit, PgUp/PgDn zoom, R reset view, H help, Esc quit;\n"
+        "      mouse: drag to orbit, wheel to zoom");
+    for (const ModeInfo& m : RegisteredModes())
+      Log(absl::StrFormat("  mode %d %-12s %s", m.key, m.name, m.description));
+  }
+
+  void StartCompute(const std::string& spec) {
+    if (job_ == nullptr) {
+      Log("changing the BRDF needs --env (the map the SHRM is computed from)");
+      return;
+    }
+    ComputeRequest req;
+    req.brdf_spec = spec;
+    req.epsilon = o_.epsilon;
+    req.f = o_.f;
+    req.p = o_.p;
+    req.face_size = o_.face_size;
+    req.threads = o_.threads;
+    pending_spec_ = spec;
+    Log(absl::StrCat("computing the SHRM of ", spec, o_.server.empty() ? "" : " on ", o_.server,
+                     " ..."));
+    job_->Start(req);
+  }
+
+  absl::Status TakeJobResult(std::optional<absl::StatusOr<ShrmData>> r) {
+    if (!r.has_value()) return absl::OkStatus();
+    if (!r->ok()) return r->status();
+    auto d = std::make_shared<const ShrmData>(*std::move(*r));
+    absl::StatusOr<std::unique_ptr<Brdf>> b = ParseBrdfSpec(d->brdf_spec);
+    if (b.ok()) {
+      scene_.brdf = std::move(*b);
+      scene_.brdf_spec = scene_.brdf->spec();
+      brdf_spec_ = scene_.brdf_spec;
+    }
+    scene_.shrm = d;
+    Log(absl::StrFormat("SHRM %s (%s): F_B %d, P_B %d, %d coefficients, S_B %d, %.0f ms",
+                        d->brdf_spec, d->origin, d->f_b, d->p_b, ShCount(d->p_b),
+                        d->global.face_size, d->compute_ms));
+    if (renderer_ != nullptr) UploadScene();
+    return absl::OkStatus();
+  }
+
+  // A mode that cannot take the scene (e.g. a cube beyond the GL limits) is not ready; the others
+  // go on. The message is kept for the error of a screenshot in that mode.
+  void UploadScene() {
+    absl::Status s = renderer_->SetScene(scene_);
+    upload_error_ = s.ok() ? "" : std::string(s.message());
+    if (!s.ok()) std::fprintf(stderr, "shrm-view: warning: %s\n", upload_error_.c_str());
+  }
+
+  void OnKey(int key, int action, int mods) {
+    if (action != GLFW_PRESS && action != GLFW_REPEAT) return;
+    if (key >= GLFW_KEY_1 && key <= GLFW_KEY_9) {
+      const int m = key - GLFW_KEY_0;
+      const ModeInfo* info = FindMode(m);
+      if (info == nullptr) {
+        Log(absl::StrCat("mode ", m, " is not available in this build"));
+      } else if (!renderer_->ModeReady(m)) {
+        Log(absl::StrCat("mode ", m, " (", info->name, ") has no data yet",
+                         m == 5 ? ": the ground truth needs --env and a BRDF" : ""));
+      } else {
+        settings_.mode = m;
+        Log(absl::StrCat("mode ", m, ": ", info->description));
+      }
+      return;
+    }
+    switch (key) {
+      case GLFW_KEY_ESCAPE:
+      case GLFW_KEY_Q:
+        glfwSetWindowShouldClose(context_->window(), GLFW_TRUE);
+        break;
+      case GLFW_KEY_D:
+        if (scene_.env == nullptr || scene_.brdf == nullptr) {
+          Log("the difference view needs --env and a BRDF");
+        } else {
+          settings_.diff = !settings_.diff;
+          Log(settings_.diff ? "difference view on (blue 1e-3 .. red 1 relative error)"
+                             : "difference view off");
+        }
+        break;
+      case GLFW_KEY_B: {
+        const std::vector<std::string>& presets = BrdfPresets();
+        preset_ = (preset_ + 1) % static_cast<int>(presets.size());
+        StartCompute(presets[preset_]);
+        break;
+      }
+      case GLFW_KEY_LEFT_BRACKET:
+      case GLFW_KEY_RIGHT_BRACKET: {
+        const std::string base = pending_spec_.empty() ? brdf_spec_ : pending_spec_;
+        absl::StatusOr<std::string> s =
+            ScaleBrdfLobe(base, key == GLFW_KEY_LEFT_BRACKET ? 0.8 : 1.25);
+        if (s.ok()) {
+          StartCompute(*s);
+        } else {
+          Fail(s.status());
+        }
+        break;
+      }
+      case GLFW_KEY_EQUAL:
+      case GLFW_KEY_KP_ADD:
+        exposure_ += 0.5;
+        break;
+      case GLFW_KEY_MINUS:
+      case GLFW_KEY_KP_SUBTRACT:
+        exposure_ -= 0.5;
+        break;
+      case GLFW_KEY_M: {
+        std::vector<std::string> meshes = {"sphere", "torus"};
+        if (o_.mesh != "sphere" && o_.mesh != "torus") meshes.push_back(o_.mesh);
+        mesh_index_ = (mesh_index_ + 1) % static_cast<int>(meshes.size());
+        absl::StatusOr<Mesh> m = BuildMesh(meshes[mesh_index_]);
+        if (m.ok()) {
+          renderer_->SetMesh(*m);
+          Log(absl::StrCat("mesh ", meshes[mesh_index_]));
+        } else {
+          Fail(m.status());
+        }
+        break;
+      }
+      case GLFW_KEY_LEFT:
+        camera_.Orbit(-5, 0);
+        break;
+      case GLFW_KEY_RIGHT:
+        camera_.Orbit(5, 0);
+        break;
+      case GLFW_KEY_UP:
+        camera_.Orbit(0, 5);
+        break;
+      case GLFW_KEY_DOWN:
+        camera_.Orbit(0, -5);
+        break;
+      case GLFW_KEY_PAGE_UP:
+        camera_.Zoom(0.9);
+        break;
+      case GLFW_KEY_PAGE_DOWN:
+        camera_.Zoom(1 / 0.9);
+        break;
+      case GLFW_KEY_R:
+        camera_.set_view(o_.view);
+        break;
+      case GLFW_KEY_H:
+        PrintHelp();
+        break;
+      default: {
+        std::string message;  // keys of the active mode (RenderMode::OnKey)
+        if (renderer_->ModeKey(settings_.mode, key, &message)) Log(message);
+        break;
+      }
+    }
+    (void)mods;
+  }
+
+  const ViewerOptions& o_;
+  OrbitCamera camera_;
+  RenderSettings settings_;
+  Mesh mesh_;
+  int mesh_index_ = 0;
+  SceneData scene_;
+  std::string brdf_spec_, pending_spec_, upload_error_;
+  int preset_ = -1;
+  double exposure_ = 0;
+  std::unique_ptr<AsyncShrmJob> job_;
+  std::unique_ptr<GlContext> context_;
+  std::unique_ptr<Renderer> renderer_;
+  bool dragging_ = false;
+  double last_x_ = 0, last_y_ = 0;
+  Clock::time_point last_move_ = Clock::now();
+};
+
+}  // namespace
+
+int RunViewer(const ViewerOptions& o) {
+  Viewer viewer(o);
+  absl::Status s = viewer.Load();
+  const bool headless = !o.screenshot.empty() || o.bench_frames > 0;
+  if (s.ok()) s = viewer.CreateGl(!headless);
+  if (s.ok()) {
+    if (!o.screenshot.empty()) {
+      s = viewer.Screenshot();
+    } else if (o.bench_frames > 0) {
+      s = viewer.Bench();
+    } else {
+      s = viewer.Interactive();
+    }
+  }
+  if (!s.ok()) {
+    Fail(s);
+    return kExitError;
+  }
+  return kExitOk;
+}
+
+}  // namespace shrm::viewer

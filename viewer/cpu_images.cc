@@ -1,0 +1,68 @@
+#include "viewer/cpu_images.h"
+
+#include <cmath>
+
+#include "core/base/parallel.h"
+#include "core/shrm/shrm_synthesis.h"
+
+namespace shrm::viewer {
+
+GeometryBuffer SphereGeometry(const OrbitCamera& camera, int width, int height) {
+  GeometryBuffer g;
+  g.width = width;
+  g.height = height;
+  g.pixels.resize(static_cast<size_t>(width) * height);
+  const Vec3 eye = camera.Eye();
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const Vec3 d = camera.PixelRay(x, y, width, height);
+      // |eye + t d|^2 = 1.
+      const double b = eye.Dot(d), c = eye.Dot(eye) - 1;
+      const double disc = b * b - c;
+      if (disc < 0) continue;
+      const double t = -b - std::sqrt(disc);
+      if (t <= 0) continue;
+      PixelGeometry& p = g.pixels[static_cast<size_t>(y) * width + x];
+      p.hit = true;
+      p.position = eye + d * t;
+      p.normal = p.position.Normalized();
+      const double azimuth = std::atan2(p.normal.x, -p.normal.z);
+      p.tangent = {std::cos(azimuth), 0, std::sin(azimuth)};
+      p.view = d * -1.0;
+    }
+  return g;
+}
+
+Image ShadeImage(const GeometryBuffer& g, const PixelShader& shader, int threads,
+                 std::array<float, 3> background) {
+  Image img;
+  img.width = g.width;
+  img.height = g.height;
+  img.channels = 3;
+  img.pixels.resize(static_cast<size_t>(g.width) * g.height * 3);
+  ParallelChunks(g.height, threads, [&](int begin, int end) {
+    for (int y = begin; y < end; ++y)
+      for (int x = 0; x < g.width; ++x) {
+        const PixelGeometry& p = g.at(x, y);
+        float* out = &img.pixels[(static_cast<size_t>(y) * g.width + x) * 3];
+        if (!p.hit) {
+          for (int c = 0; c < 3; ++c) out[c] = background[c];
+          continue;
+        }
+        const std::array<double, 3> v = shader(p);
+        for (int c = 0; c < 3; ++c) out[c] = static_cast<float>(v[c]);
+      }
+  });
+  return img;
+}
+
+PixelShader ShrmPixelShader(const ShrmCube& cube, ViewModel model, const Vec3& central_view) {
+  return [&cube, model, central_view](const PixelGeometry& p) {
+    const Vec3 index = cube.index == ReparamKind::kTangent
+                           ? p.tangent
+                           : p.normal * (2 * p.normal.Dot(p.view)) - p.view;
+    return ShrmEvalAt(cube, index, model == ViewModel::kCentral ? central_view : p.view);
+  };
+}
+
+}  // namespace shrm::viewer

@@ -1,0 +1,24 @@
+// shrm-view: the OpenGL reflection-map viewer (docs/viewer.md).
+#include <cstdio>
+#include <string>
+
+#include "viewer/app.h"
+#include "viewer/render_mode.h"
+#include "viewer/viewer_options.h"
+
+int main(int argc, char** argv) {
+  using namespace shrm::viewer;
+  ViewerOptions options;
+  const int code = ParseViewerOptions(argc, argv, &options);
+  if (code >= 0) return code;
+  if (FindMode(options.mode) == nullptr) {
+    std::string available;
+    for (const ModeInfo& m : RegisteredModes())
+      available +=
+          std::string(available.empty() ? "" : ", ") + std::to_string(m.key) + " " + m.name;
+    std::fprintf(stderr, "shrm-view: --mode %d is not available in this build (available: %s)\n",
+                 options.mode, available.c_str());
+    return kExitUsage;
+  }
+  return RunViewer(options);
+}

@@ -1,0 +1,111 @@
+// The viewer's frame: background (the environment, lat-long lookup per pixel ray), the active
+// render mode (viewer/render_mode.h) into an HDR framebuffer, the ground truth when it is needed
+// (G-buffer pass -> viewer/progressive_reference.h on worker threads -> texture), then either the
+// tone mapping (2^exposure, Reinhard x / (1 + x), sRGB; the operator of core's WritePreviewPng)
+// or the difference view (relative error |mode - truth| / |truth| per pixel, false-coloured on a
+// log scale from 1e-3 (blue) to 1 (red); grey where the truth is not computed yet), and progress
+// bars (SHRM computation, ground truth) along the top edge.
+#ifndef SHRM_VIEWER_RENDERER_H_
+#define SHRM_VIEWER_RENDERER_H_
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "core/io/image.h"
+#include "viewer/camera.h"
+#include "viewer/gl_util.h"
+#include "viewer/gpu_mesh.h"
+#include "viewer/progressive_reference.h"
+#include "viewer/render_mode.h"
+
+namespace shrm::viewer {
+
+struct RenderSettings {
+  int mode = 1;       // registered key
+  bool diff = false;  // difference view against the ground truth
+  bool background = true;
+  float exposure = 0;  // EV
+  // Progress of an SHRM computation in [0, 1) (drawn as a bar), or < 0 for none.
+  double compute_progress = -1;
+  // The ground truth may (re)start for a new view: false while the camera moves.
+  bool reference_may_restart = true;
+};
+
+// Statistics of the difference view once the ground truth of the view is complete.
+struct DiffStats {
+  bool valid = false;
+  int64_t pixels = 0;
+  double rel_rms = 0;     // sqrt(sum |a - b|^2 / sum |b|^2) over the covered pixels
+  double rel_median = 0;  // median of |a - b| / |b|
+  double rel_p99 = 0;
+};
+
+class Renderer {
+ public:
+  // GL context must be current. reference_threads: workers of the ground truth.
+  static absl::StatusOr<std::unique_ptr<Renderer>> Create(int width, int height,
+                                                          int reference_threads);
+  ~Renderer();
+
+  absl::Status Resize(int width, int height);
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+  void SetMesh(const Mesh& mesh);
+  // New scene data: uploaded to every mode; errors of a mode name it.
+  absl::Status SetScene(const SceneData& scene);
+  const SceneData& scene() const { return scene_; }
+
+  // Whether `key`'s mode is registered and has its inputs.
+  bool ModeReady(int key) const;
+  // Renders one frame into the LDR framebuffer (and the HDR one). Errors: unknown or not ready.
+  absl::Status Render(const OrbitCamera& camera, const RenderSettings& settings);
+  // Copies the LDR frame to the default framebuffer of the window (size w x h).
+  void BlitToWindow(int window_width, int window_height) const;
+
+  // Linear radiance of the last frame (RGBA, alpha 1 on the mesh), rows from the top.
+  std::vector<float> ReadHdr() const;
+  // The displayed frame as an RGB image with values in [0, 1], rows from the top.
+  Image ReadLdr() const;
+  // The ground truth of the current view (Wait() blocks until it is complete).
+  ProgressiveReference& reference() { return *reference_; }
+  bool reference_active() const { return reference_key_valid_; }
+  const DiffStats& diff_stats() const { return diff_stats_; }
+  std::string ModeStatus(int key) const;
+  // Passes a key the viewer does not bind to mode `mode` (RenderMode::OnKey).
+  bool ModeKey(int mode, int key, std::string* message);
+
+ private:
+  Renderer() = default;
+  struct ModeSlot {
+    const ModeInfo* info;
+    std::unique_ptr<RenderMode> mode;
+  };
+  RenderMode* Mode(int key) const;
+  void DrawBackground(const OrbitCamera& camera, float aspect);
+  void UpdateReference(const OrbitCamera& camera, const RenderSettings& settings);
+  void ComputeDiffStats();
+
+  int width_ = 0, height_ = 0;
+  std::vector<ModeSlot> modes_;
+  std::unique_ptr<GpuMesh> mesh_;
+  uint64_t mesh_version_ = 0, scene_version_ = 0;
+  SceneData scene_;
+  std::unique_ptr<Framebuffer> hdr_, ldr_, gbuffer_;
+  GLuint empty_vao_ = 0, env_texture_ = 0, reference_texture_ = 0;
+  GLuint background_program_ = 0, tonemap_program_ = 0, diff_program_ = 0, gbuffer_program_ = 0;
+  std::unique_ptr<ProgressiveReference> reference_;
+  std::string reference_key_;
+  bool reference_key_valid_ = false;
+  bool reference_current_ = false;  // the running truth is of this frame's view (not stale)
+  bool reference_uploaded_complete_ = false;
+  std::vector<float> reference_rgba_;  // GL order (row 0 at the bottom)
+  DiffStats diff_stats_;
+  int diff_stats_mode_ = -1;
+};
+
+}  // namespace shrm::viewer
+
+#endif  // SHRM_VIEWER_RENDERER_H_

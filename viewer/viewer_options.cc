@@ -1,0 +1,176 @@
+#include "viewer/viewer_options.h"
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <thread>
+#include <vector>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+#include "client/cli_validators.h"
+
+namespace shrm::viewer {
+namespace {
+
+std::string Usage(const std::string& message) {
+  std::fprintf(stderr, "shrm-view: %s\nRun with --help for more information.\n", message.c_str());
+  return message;
+}
+
+// Folder of `path` exists and is a folder.
+bool FolderExists(const std::string& path) {
+  std::filesystem::path p(path);
+  std::filesystem::path dir = p.parent_path();
+  if (dir.empty()) dir = ".";
+  std::error_code ec;
+  return std::filesystem::is_directory(dir, ec);
+}
+
+}  // namespace
+
+int ParseViewerOptions(int argc, char** argv, ViewerOptions* o) {
+  CLI::App app{
+      "shrm-view: OpenGL viewer of Spherical Harmonic Reflection Maps (docs/viewer.md).\n"
+      "Sources: an SHRM file; or --env MAP --brdf SPEC (computed here, or by --server)."};
+  std::string orders, view, size;
+  app.add_option("shrm", o->shrm_file, "SHRM file (*.shrm.exr) to show");
+  app.add_option("--env", o->env,
+                 "environment map: background, ground truth, and the input of --brdf computations");
+  app.add_option("--brdf", o->brdf,
+                 "BRDF spec (docs/brdf.md); computes the SHRM from --env (default with a file: its "
+                 "shrm:brdf)");
+  app.add_option("--server", o->server, "compute through the shrmd service at host:port");
+  app.add_option("--epsilon", o->epsilon, "tolerance for the orders, in (0, 1)")
+      ->capture_default_str()
+      ->check(cli::kOpenUnitInterval);
+  app.add_option("--orders", orders, "explicit orders F,P instead of --epsilon")
+      ->check(cli::kOrders);
+  app.add_option("--face-size", o->face_size, "cube face size S_B of computed SHRMs (0: ~10 F_B)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 2048));
+  app.add_option("--mesh", o->mesh, "sphere, torus or an OBJ file")->capture_default_str();
+  app.add_option("--mode", o->mode, "render mode (the keys 1-9; docs/viewer.md)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 9));
+  app.add_flag("--diff", o->diff, "difference view against the ground truth (false colour)");
+  app.add_option("--view", view,
+                 "camera azimuth,elevation[,distance] in degrees (default 30,20,3)");
+  app.add_option("--fov", o->fov_deg, "vertical field of view in degrees")
+      ->capture_default_str()
+      ->check(CLI::Range(5.0, 120.0));
+  app.add_option("--size", size, "window / image size W,H (default 1280,720)");
+  app.add_option("--exposure", o->exposure, "exposure in EV (default: automatic from the map)");
+  app.add_option("--screenshot", o->screenshot,
+                 "render one frame offscreen and write it (.png/.tif tone-mapped, .exr linear)");
+  app.add_option("--bench-frames", o->bench_frames,
+                 "render N frames offscreen per mode and print ms/frame")
+      ->check(CLI::Range(1, 100000));
+  app.add_option("--frames", o->quit_after_frames,
+                 "interactive window: close after N frames (smoke tests)")
+      ->check(CLI::Range(1, 100000000));
+  app.add_option("--ref-width", o->reference_width,
+                 "lat-long width of the map the ground truth integrates (even)")
+      ->capture_default_str()
+      ->check(CLI::Range(8, 1024));
+  app.add_option("--threads", o->threads, "worker threads (0: all cores)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  app.add_flag("--verbose", o->verbose, "print GL information and timings");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    std::printf("%s", app.help().c_str());
+    return kExitOk;
+  } catch (const CLI::ParseError& e) {
+    Usage(e.what());
+    return kExitUsage;
+  }
+  o->exposure_set = app.count("--exposure") > 0;
+  if (o->exposure_set && !(std::abs(o->exposure) <= 40)) {
+    Usage("--exposure must be a number in [-40, 40]");
+    return kExitUsage;
+  }
+  if (!orders.empty()) {
+    std::vector<std::string> parts = absl::StrSplit(orders, ',');
+    absl::SimpleAtoi(parts[0], &o->f);
+    absl::SimpleAtoi(parts[1], &o->p);
+  }
+  if (!view.empty()) {
+    absl::StatusOr<OrbitView> v = ParseOrbitView(view, "--view");
+    if (!v.ok()) {
+      Usage(std::string(v.status().message()));
+      return kExitUsage;
+    }
+    o->view = *v;
+  }
+  if (!size.empty()) {
+    std::vector<std::string> parts = absl::StrSplit(size, ',');
+    if (parts.size() != 2 || !absl::SimpleAtoi(parts[0], &o->width) ||
+        !absl::SimpleAtoi(parts[1], &o->height) || o->width < kMinImageSize ||
+        o->height < kMinImageSize || o->width > kMaxImageSize || o->height > kMaxImageSize) {
+      Usage(absl::StrCat("--size must be W,H with integers in [", kMinImageSize, ", ",
+                         kMaxImageSize, "], got '", size, "'"));
+      return kExitUsage;
+    }
+  }
+  if (o->reference_width % 2 != 0) {
+    Usage(absl::StrCat("--ref-width must be even, got ", o->reference_width));
+    return kExitUsage;
+  }
+  // Sources.
+  if (o->shrm_file.empty() && (o->env.empty() || o->brdf.empty())) {
+    Usage("nothing to show: give an SHRM file, or --env MAP --brdf SPEC");
+    return kExitUsage;
+  }
+  if (!o->shrm_file.empty() && !o->server.empty()) {
+    Usage("--server computes an SHRM from --env and --brdf; it cannot be combined with a file");
+    return kExitUsage;
+  }
+  if (!o->server.empty() && (o->env.empty() || o->brdf.empty())) {
+    Usage("--server needs --env MAP and --brdf SPEC");
+    return kExitUsage;
+  }
+#ifndef SHRM_VIEWER_HAVE_CLIENT
+  if (!o->server.empty()) {
+    Usage("--server: this shrm-view was built without the service client (SHRM_BUILD_SERVICE=OFF)");
+    return kExitUsage;
+  }
+#endif
+  if ((o->mode == 5 || o->diff) && o->env.empty()) {
+    Usage("the ground truth (--mode 5, --diff) integrates the environment: give --env MAP");
+    return kExitUsage;
+  }
+  const std::string mesh_lower = absl::AsciiStrToLower(o->mesh);
+  if (mesh_lower != "sphere" && mesh_lower != "torus" && !absl::EndsWith(mesh_lower, ".obj")) {
+    Usage(absl::StrCat("--mesh must be sphere, torus or a .obj file, got '", o->mesh, "'"));
+    return kExitUsage;
+  }
+  if (mesh_lower == "sphere" || mesh_lower == "torus") o->mesh = mesh_lower;
+  if (!o->screenshot.empty()) {
+    const std::string ext =
+        absl::AsciiStrToLower(std::filesystem::path(o->screenshot).extension().string());
+    if (ext != ".png" && ext != ".tif" && ext != ".tiff" && ext != ".exr") {
+      Usage(absl::StrCat("--screenshot must end in .png, .tif, .tiff or .exr, got '", o->screenshot,
+                         "'"));
+      return kExitUsage;
+    }
+    if (!FolderExists(o->screenshot)) {
+      Usage(absl::StrCat("--screenshot: the folder of '", o->screenshot, "' does not exist"));
+      return kExitUsage;
+    }
+  }
+  if (!o->screenshot.empty() && o->bench_frames > 0) {
+    Usage("--screenshot and --bench-frames are exclusive");
+    return kExitUsage;
+  }
+  if (o->threads == 0) o->threads = std::max(1u, std::thread::hardware_concurrency());
+  return -1;
+}
+
+}  // namespace shrm::viewer
