@@ -2,11 +2,13 @@
 // input (unknown signature, truncated file, absurd header, limits, NaN/Inf) gets a clear error.
 #include "core/io/image.h"
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <string>
+#include <thread>
 
 #include "absl/status/status.h"
 #include "core/io/sha256.h"
@@ -19,6 +21,8 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr double kMeanTol = 0.01;  // data/envmaps/README.md quotes means to 2 decimals
+// Longer than the 1 s resolution of an EXR DateTime stamp.
+constexpr int kClockTick = 1100;
 
 std::string MapPath(const std::string& name) {
   return std::string(SHRM_SOURCE_DIR) + "/data/envmaps/" + name;
@@ -42,6 +46,23 @@ TEST(ImageTest, ReadsBundledMapWithDocumentedStatistics) {
   EXPECT_NEAR(mean[0] / n, 0.64, kMeanTol);
   EXPECT_NEAR(mean[1] / n, 0.51, kMeanTol);
   EXPECT_NEAR(mean[2] / n, 0.53, kMeanTol);
+}
+
+// Outputs carry no wall-clock stamp: the same pixels written a second apart give the same bytes
+// (OpenImageIO would otherwise put the time into the EXR header).
+TEST(ImageTest, WrittenExrIsAPureFunctionOfItsPixels) {
+  Image img;
+  img.width = 4;
+  img.height = 2;
+  img.channels = 3;
+  img.pixels.assign(24, 0.5f);
+  const std::string a = TempPath("same_a.exr"), b = TempPath("same_b.exr");
+  ASSERT_TRUE(WriteExr(a, img).ok());
+  std::this_thread::sleep_for(std::chrono::milliseconds(kClockTick));
+  ASSERT_TRUE(WriteExr(b, img).ok());
+  EXPECT_EQ(*Sha256OfFile(a), *Sha256OfFile(b));
+  fs::remove(a);
+  fs::remove(b);
 }
 
 TEST(ImageTest, FormatIsChosenByMagicBytesNotExtension) {

@@ -2,7 +2,7 @@
 # Acceptance tests of `shrm-view` on the command line (docs/viewer.md): bad usage exits 2 with a
 # message naming the option and writes nothing; bad input files exit 1; headless screenshots
 # (--screenshot, FBO under Xvfb) of every registered mode, the difference view, the torus and an
-# OBJ mesh, from an SHRM file (made with `shrm prefilter`) and computed on the fly, are written
+# OBJ mesh, the in-frame overlay (--overlay), from an SHRM file (made with `shrm prefilter`) and computed on the fly, are written
 # atomically (no temporary left) with the requested size; --bench-frames prints ms/frame.
 #
 # With SHRMD_BINARY (service builds) the SHRM is also computed by a loopback shrmd (--server).
@@ -135,6 +135,54 @@ expect_image diff_view out/d1.png 96,72 "${ENV[@]}" "${BRDF[@]}" --mode 1 --diff
 grep -q 'diff: rel. RMS' "$TMP/diff_view.stdout" || fail "diff_view: no difference statistics"
 expect_image torus out/torus.png 128,96 "${ENV[@]}" "${BRDF[@]}" --mesh torus --view 0,50
 expect_image hdr_exr out/m1.exr 64,48 "${ENV[@]}" "${BRDF[@]}" --exposure 0
+# --overlay: the text (6 lines, ~125 px high at 2x) is drawn into the top-left corner only: the
+# bottom-right quarter stays the same (PNGs decoded with python3's zlib).
+expect_image overlay_off out/ov0.png 480,360 "${ENV[@]}" "${BRDF[@]}" --exposure 0
+expect_image overlay_on out/ov1.png 480,360 "${ENV[@]}" "${BRDF[@]}" --exposure 0 --overlay
+CHECKS=$((CHECKS + 1))
+if ov=$(python3 - out/ov0.png out/ov1.png <<'PY'
+import struct, sys, zlib
+def rows(path):
+    data = open(path, "rb").read()
+    pos, idat, w, h, ch = 8, b"", 0, 0, 0
+    while pos < len(data):
+        n, kind = struct.unpack(">I4s", data[pos:pos + 8])
+        body = data[pos + 8:pos + 8 + n]
+        if kind == b"IHDR":
+            w, h, depth, color = struct.unpack(">IIBB", body[:10])
+            assert depth == 8 and body[12] == 0, "8-bit non-interlaced only"
+            ch = {0: 1, 2: 3, 4: 2, 6: 4}[color]
+        elif kind == b"IDAT":
+            idat += body
+        pos += 12 + n
+    raw, out, prev, stride = zlib.decompress(idat), [], bytearray(w * ch), w * ch
+    for y in range(h):
+        f, line = raw[y * (stride + 1)], bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
+        for i in range(stride):
+            a = line[i - ch] if i >= ch else 0
+            b, c = prev[i], prev[i - ch] if i >= ch else 0
+            if f == 1: line[i] = (line[i] + a) & 255
+            elif f == 2: line[i] = (line[i] + b) & 255
+            elif f == 3: line[i] = (line[i] + (a + b) // 2) & 255
+            elif f == 4:
+                p = a + b - c
+                pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
+                line[i] = (line[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
+        out.append(bytes(line))
+        prev = line
+    return w, h, ch, out
+w, h, ch, a = rows(sys.argv[1])
+_, _, _, b = rows(sys.argv[2])
+tl = sum(a[y][:w // 4 * ch] != b[y][:w // 4 * ch] for y in range(8, 40))
+br = sum(a[y][w // 2 * ch:] != b[y][w // 2 * ch:] for y in range(h // 2, h))
+print(f"{tl} of 32 top-left rows differ, {br} bottom-right rows differ")
+sys.exit(0 if tl > 0 and br == 0 else 1)
+PY
+); then
+  echo "ok: overlay: $ov"
+else
+  fail "overlay: the top-left must differ and the bottom-right quarter must not: $ov"
+fi
 cat >quad.obj <<'OBJ'
 v -1 -1 0
 v 1 -1 0

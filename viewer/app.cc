@@ -14,6 +14,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
 #include "core/base/status_macros.h"
 #include "core/io/image.h"
 #include "core/sh/sh.h"
@@ -61,32 +62,38 @@ double AutoExposure(const SceneData& scene) {
   return mean > 0 ? std::log2(0.18 / mean) : 0.0;
 }
 
-// The overlay's text (window title and stdout; no text rendering in the GL frame).
-std::string Overlay(const ModeInfo& mode, const SceneData& scene, const Renderer& r,
-                    double frame_ms, bool diff, double exposure) {
-  std::string s = absl::StrCat("mode ", mode.key, " ", mode.name);
+// The overlay's items, one per line of the in-frame text (viewer/overlay_gl.h); joined by " | "
+// they are the window title and the stdout line of screenshots.
+std::vector<std::string> OverlayLines(const ModeInfo& mode, const SceneData& scene,
+                                      const Renderer& r, double frame_ms, bool diff,
+                                      double exposure) {
+  std::vector<std::string> lines = {absl::StrCat("mode ", mode.key, " ", mode.name)};
   if (scene.shrm != nullptr) {
     const ShrmData& d = *scene.shrm;
-    absl::StrAppend(&s, " | ", d.brdf_spec.empty() ? "BRDF ?" : d.brdf_spec);
-    absl::StrAppendFormat(&s, " | F_B %d P_B %d (%d coeffs) S_B %d", d.f_b, d.p_b, ShCount(d.p_b),
-                          d.global.face_size);
+    lines.push_back(d.brdf_spec.empty() ? "BRDF ?" : d.brdf_spec);
+    std::string s = absl::StrFormat("F_B %d P_B %d (%d coeffs) S_B %d", d.f_b, d.p_b,
+                                    ShCount(d.p_b), d.global.face_size);
     if (!d.epsilon.empty()) absl::StrAppend(&s, " eps ", d.epsilon);
     if (d.eps_bound >= 0) absl::StrAppendFormat(&s, " bound %.3g", d.eps_bound);
+    lines.push_back(s);
   }
-  absl::StrAppendFormat(&s, " | %.1f ms | EV %+.1f", frame_ms, exposure);
+  lines.push_back(absl::StrFormat("%.1f ms", frame_ms));
+  lines.push_back(absl::StrFormat("EV %+.1f", exposure));
   const std::string ms = r.ModeStatus(mode.key);
-  if (!ms.empty()) absl::StrAppend(&s, " | ", ms);
+  if (!ms.empty()) lines.push_back(ms);
   if (diff) {
     const DiffStats& st = r.diff_stats();
     if (st.valid) {
-      absl::StrAppendFormat(&s, " | diff: rel. RMS %.4f, median %.4f, p99 %.4f (%d px)", st.rel_rms,
-                            st.rel_median, st.rel_p99, st.pixels);
+      lines.push_back(absl::StrFormat("diff: rel. RMS %.4f, median %.4f, p99 %.4f (%d px)",
+                                      st.rel_rms, st.rel_median, st.rel_p99, st.pixels));
     } else {
-      absl::StrAppend(&s, " | diff: ground truth computing");
+      lines.push_back("diff: ground truth computing");
     }
   }
-  return s;
+  return lines;
 }
+
+std::string Overlay(const std::vector<std::string>& lines) { return absl::StrJoin(lines, " | "); }
 
 class Viewer {
  public:
@@ -171,9 +178,14 @@ class Viewer {
     }
     glFinish();
     const double ms = Ms(Clock::now() - t0);
-    std::printf("%s\n", Overlay(*FindMode(settings_.mode), scene_, *renderer_, ms, settings_.diff,
-                                exposure_)
-                            .c_str());
+    const std::vector<std::string> lines =
+        OverlayLines(*FindMode(settings_.mode), scene_, *renderer_, ms, settings_.diff, exposure_);
+    std::printf("%s\n", Overlay(lines).c_str());
+    if (o_.overlay) {  // --overlay: the same frame again with the text drawn in
+      settings_.overlay = lines;
+      SHRM_RETURN_IF_ERROR(renderer_->Render(camera_, settings_));
+      glFinish();
+    }
     const bool exr =
         o_.screenshot.size() > 4 && (o_.screenshot.substr(o_.screenshot.size() - 4) == ".exr" ||
                                      o_.screenshot.substr(o_.screenshot.size() - 4) == ".EXR");
@@ -296,12 +308,17 @@ class Viewer {
       prev = now;
       if (now - last_title > std::chrono::milliseconds(250)) {
         last_title = now;
-        std::string title = Overlay(*FindMode(settings_.mode), scene_, *renderer_, frame_ms,
-                                    settings_.diff, exposure_);
+        std::vector<std::string> lines = OverlayLines(*FindMode(settings_.mode), scene_, *renderer_,
+                                                      frame_ms, settings_.diff, exposure_);
         if (job_ != nullptr && job_->busy())
-          absl::StrAppendFormat(&title, " | computing %s %.0f%%", job_->stage(),
-                                100 * job_->fraction());
-        glfwSetWindowTitle(w, ("shrm-view | " + title).c_str());
+          lines.push_back(
+              absl::StrFormat("computing %s %.0f%%", job_->stage(), 100 * job_->fraction()));
+        glfwSetWindowTitle(w, ("shrm-view | " + Overlay(lines)).c_str());
+        if (show_overlay_) {
+          settings_.overlay = std::move(lines);
+        } else {
+          settings_.overlay.clear();
+        }
         const DiffStats& st = renderer_->diff_stats();
         if (settings_.diff && st.valid) {
           const std::string line = absl::StrFormat(
@@ -323,7 +340,8 @@ class Viewer {
 
   void PrintHelp() {
     Log("keys: 1-5 mode, D difference view, B next BRDF, [ ] lobe narrower/wider, +/- exposure,\n"
-        "      M next mesh, arrows orbit, PgUp/PgDn zoom, R reset view, H help, Esc quit;\n"
+        "      M next mesh, O overlay, arrows orbit, PgUp/PgDn zoom, R reset view, H help,\n"
+        "      Esc quit;\n"
         "      mouse: drag to orbit, wheel to zoom");
     for (const ModeInfo& m : RegisteredModes())
       Log(absl::StrFormat("  mode %d %-12s %s", m.key, m.name, m.description));
@@ -466,6 +484,11 @@ class Viewer {
       case GLFW_KEY_H:
         PrintHelp();
         break;
+      case GLFW_KEY_O:
+        show_overlay_ = !show_overlay_;
+        if (!show_overlay_) settings_.overlay.clear();
+        Log(show_overlay_ ? "overlay on" : "overlay off");
+        break;
       default: {
         std::string message;  // keys of the active mode (RenderMode::OnKey)
         if (renderer_->ModeKey(settings_.mode, key, &message)) Log(message);
@@ -488,6 +511,7 @@ class Viewer {
   std::unique_ptr<GlContext> context_;
   std::unique_ptr<Renderer> renderer_;
   bool dragging_ = false;
+  bool show_overlay_ = true;  // key O: the in-frame text of the interactive window
   double last_x_ = 0, last_y_ = 0;
   Clock::time_point last_move_ = Clock::now();
 };

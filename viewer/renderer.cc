@@ -128,6 +128,7 @@ absl::StatusOr<std::unique_ptr<Renderer>> Renderer::Create(int width, int height
                    absl::StrCat("#version 330 core\n", kToneGlsl, kDiffMain), "difference view"));
   SHRM_ASSIGN_OR_RETURN(r->gbuffer_program_,
                         BuildProgram(kMeshVertexShader, kGbufferFragment, "G-buffer"));
+  SHRM_ASSIGN_OR_RETURN(r->overlay_, OverlayGl::Create());
   for (const ModeInfo& info : RegisteredModes()) {
     ModeSlot slot{&info, info.create()};
     absl::Status s = slot.mode->Init();
@@ -145,6 +146,7 @@ Renderer::~Renderer() {
   hdr_.reset();
   ldr_.reset();
   gbuffer_.reset();
+  overlay_.reset();
   for (GLuint p : {background_program_, tonemap_program_, diff_program_, gbuffer_program_})
     if (p != 0) glDeleteProgram(p);
   for (GLuint t : {env_texture_, reference_texture_})
@@ -415,6 +417,8 @@ absl::Status Renderer::Render(const OrbitCamera& camera, const RenderSettings& s
   if (reference_key_valid_ && !reference_->finished())
     bar(row++, reference_->progress(), 0.2f, 0.5f, 1.0f);
   glDisable(GL_SCISSOR_TEST);
+  // Text overlay below the progress bars (2x font pixels).
+  overlay_->Draw(settings.overlay, 2, 8 + 5 * row, width_, height_);
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
 
   if (diff && reference_current_ && reference_uploaded_complete_ &&

@@ -17,6 +17,7 @@
 #include "viewer/camera.h"
 #include "viewer/gl_util.h"
 #include "viewer/gpu_mesh.h"
+#include "viewer/overlay_gl.h"
 #include "viewer/progressive_reference.h"
 #include "viewer/render_mode.h"
 
@@ -31,6 +32,8 @@ struct RenderSettings {
   double compute_progress = -1;
   // The ground truth may (re)start for a new view: false while the camera moves.
   bool reference_may_restart = true;
+  // In-frame text overlay (viewer/overlay_gl.h), one item per line, top-left; none if empty.
+  std::vector<std::string> overlay;
 };
 
 // Statistics of the difference view once the ground truth of the view is complete.
@@ -94,6 +97,7 @@ class Renderer {
   uint64_t mesh_version_ = 0, scene_version_ = 0;
   SceneData scene_;
   std::unique_ptr<Framebuffer> hdr_, ldr_, gbuffer_;
+  std::unique_ptr<OverlayGl> overlay_;
   GLuint empty_vao_ = 0, env_texture_ = 0, reference_texture_ = 0;
   GLuint background_program_ = 0, tonemap_program_ = 0, diff_program_ = 0, gbuffer_program_ = 0;
   std::unique_ptr<ProgressiveReference> reference_;

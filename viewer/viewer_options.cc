@@ -68,6 +68,7 @@ int ParseViewerOptions(int argc, char** argv, ViewerOptions* o) {
   app.add_option("--exposure", o->exposure, "exposure in EV (default: automatic from the map)");
   app.add_option("--screenshot", o->screenshot,
                  "render one frame offscreen and write it (.png/.tif tone-mapped, .exr linear)");
+  app.add_flag("--overlay", o->overlay, "draw the overlay text into the --screenshot image");
   app.add_option("--bench-frames", o->bench_frames,
                  "render N frames offscreen per mode and print ms/frame")
       ->check(CLI::Range(1, 100000));

@@ -35,6 +35,7 @@ struct ViewerOptions {
   bool exposure_set = false;
   double exposure = 0;     // EV; automatic (mean env luminance -> 0.18) unless given
   std::string screenshot;  // .png / .tif / .tiff (tone-mapped frame) or .exr (linear radiance)
+  bool overlay = false;    // --overlay: the overlay text drawn into a .png / .tif screenshot
   int bench_frames = 0;
   int quit_after_frames = 0;  // interactive: close after N frames (smoke tests); 0 = never
   int reference_width = 128;

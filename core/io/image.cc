@@ -165,6 +165,9 @@ absl::Status WriteAtomically(const std::string& path, const Image& image, const 
   if (!out) return absl::InternalError(absl::StrCat("no OpenImageIO writer for ", format));
   OIIO::ImageSpec spec(image.width, image.height, image.channels, type);
   if (std::string(format) == "openexr") spec.attribute("compression", "zip");
+  // A fixed capture date (OpenImageIO would stamp the wall-clock time into EXR and TIFF headers):
+  // equal pixels give byte-identical files, so pipelines can compare outputs by hash.
+  spec.attribute("DateTime", "1970:01:01 00:00:00");
   if (!out->open(tmp, spec) || !out->write_image(pixel_type, pixels) || !out->close()) {
     DiscardTempFile(tmp);
     return absl::UnavailableError(absl::StrCat(path, ": cannot write: ", out->geterror()));
