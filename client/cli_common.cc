@@ -168,7 +168,7 @@ absl::Status RunRemoteJob(client::ShrmClient* client, const EnvArgs& env, const 
                           bool quiet, const std::function<absl::Status()>& attempt, int* retries) {
   const int max_attempts = client->options().max_attempts;
   if (env.files.size() == 1) {
-    absl::StatusOr<std::string> key = Sha256OfFile(env.files[0]);
+    absl::StatusOr<std::string> key = client->FileSha256(env.files[0]);
     if (key.ok()) client->set_affinity_key(*key);
   }
   int retried = 0, missing_blob_answers = 0;

@@ -6,12 +6,10 @@
 #include <string>
 #include <vector>
 
-#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
-#include "absl/time/clock.h"
 #include "client/cli_common.h"
 #include "client/cli_validators.h"
 #include "client/commands.h"
@@ -21,7 +19,6 @@
 #include "core/brdf/brdf.h"
 #include "core/io/atomic_file.h"
 #include "core/io/image.h"
-#include "core/io/sha256.h"
 #include "core/shrm/prefilter.h"
 #include "core/shrm/shrm_file.h"
 #include "core/shrm/shrm_synthesis.h"

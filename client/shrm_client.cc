@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <sstream>
@@ -164,12 +165,7 @@ absl::Status ShrmClient::WithRetries(
 absl::StatusOr<v1::HasBlobResponse> ShrmClient::HasBlob(const std::string& sha256) {
   v1::HasBlobRequest req;
   req.set_sha256(sha256);
-  v1::HasBlobResponse resp;
-  absl::Status s =
-      WithRetries([&](grpc::ClientContext* c) { return stub_->HasBlob(c, req, &resp); },
-                  absl::InfiniteDuration());
-  if (!s.ok()) return s;
-  return resp;
+  return Unary(&v1::Shrm::Stub::HasBlob, req, absl::InfiniteDuration());
 }
 
 absl::Status ShrmClient::UploadOnce(grpc::ClientContext* context, std::string_view bytes,
@@ -237,7 +233,7 @@ absl::StatusOr<RemoteBrdf> ResolveRemoteBrdf(const std::string& spec, ShrmClient
 }
 
 absl::StatusOr<std::string> ShrmClient::UploadIfMissing(const std::string& path) {
-  absl::StatusOr<std::string> sha = Sha256OfFile(path);
+  absl::StatusOr<std::string> sha = FileSha256(path);
   if (!sha.ok()) return sha.status();
   if (upload_copies_ <= 0) {
     absl::StatusOr<v1::HasBlobResponse> has = HasBlob(*sha);
@@ -327,53 +323,37 @@ absl::StatusOr<PrefilterOutcome> ShrmClient::Prefilter(const v1::PrefilterReques
 
 absl::StatusOr<v1::AnalyzeResponse> ShrmClient::Analyze(const v1::AnalyzeRequest& request,
                                                         absl::Duration deadline) {
-  v1::AnalyzeResponse resp;
-  absl::Status s = WithRetries(
-      [&](grpc::ClientContext* c) {
-        resp.Clear();
-        return stub_->Analyze(c, request, &resp);
-      },
-      deadline);
-  if (!s.ok()) return s;
-  return resp;
+  return Unary(&v1::Shrm::Stub::Analyze, request, deadline);
 }
 
 absl::StatusOr<v1::ReferenceResponse> ShrmClient::Reference(const v1::ReferenceRequest& request,
                                                             absl::Duration deadline) {
-  v1::ReferenceResponse resp;
-  absl::Status s = WithRetries(
-      [&](grpc::ClientContext* c) {
-        resp.Clear();
-        return stub_->Reference(c, request, &resp);
-      },
-      deadline);
-  if (!s.ok()) return s;
-  return resp;
+  return Unary(&v1::Shrm::Stub::Reference, request, deadline);
 }
 
 absl::StatusOr<v1::IrradianceResponse> ShrmClient::Irradiance(const v1::IrradianceRequest& request,
                                                               absl::Duration deadline) {
-  v1::IrradianceResponse resp;
-  absl::Status s = WithRetries(
-      [&](grpc::ClientContext* c) {
-        resp.Clear();
-        return stub_->Irradiance(c, request, &resp);
-      },
-      deadline);
-  if (!s.ok()) return s;
-  return resp;
+  return Unary(&v1::Shrm::Stub::Irradiance, request, deadline);
 }
 
 absl::StatusOr<v1::ListBrdfModelsResponse> ShrmClient::ListBrdfModels() {
-  v1::ListBrdfModelsResponse resp;
-  absl::Status s = WithRetries(
-      [&](grpc::ClientContext* c) {
-        resp.Clear();
-        return stub_->ListBrdfModels(c, v1::ListBrdfModelsRequest(), &resp);
-      },
-      absl::InfiniteDuration());
-  if (!s.ok()) return s;
-  return resp;
+  return Unary(&v1::Shrm::Stub::ListBrdfModels, v1::ListBrdfModelsRequest(),
+               absl::InfiniteDuration());
+}
+
+absl::StatusOr<std::string> ShrmClient::FileSha256(const std::string& path) {
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  const auto mtime = std::filesystem::last_write_time(path, ec);
+  if (!ec) {
+    auto it = file_hashes_.find(path);
+    if (it != file_hashes_.end() && it->second.size == size && it->second.mtime == mtime) {
+      return it->second.sha256;
+    }
+  }
+  absl::StatusOr<std::string> sha = Sha256OfFile(path);
+  if (sha.ok() && !ec) file_hashes_[path] = {size, mtime, *sha};
+  return sha;
 }
 
 }  // namespace shrm::client

@@ -9,7 +9,9 @@
 
 #include <atomic>
 #include <cstdint>
+#include <filesystem>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -96,6 +98,9 @@ class ShrmClient {
       absl::Duration deadline = absl::InfiniteDuration());
 
   const ClientOptions& options() const { return options_; }
+  // SHA-256 of a file, remembered per path while its size and modification time stay the same
+  // (a job's retries and the affinity key hash a map once).
+  absl::StatusOr<std::string> FileSha256(const std::string& path);
 
   // Trailing metadata "retry-after-ms" of the last RESOURCE_EXHAUSTED answer (0 when none).
   int64_t last_retry_after_ms() const { return last_retry_after_ms_; }
@@ -105,6 +110,22 @@ class ShrmClient {
   // Runs `attempt` (returning a grpc::Status) until it is not UNAVAILABLE or attempts run out.
   absl::Status WithRetries(const std::function<grpc::Status(grpc::ClientContext*)>& attempt,
                            absl::Duration deadline);
+  // One idempotent unary call with retries (WithRetries); `method` is the stub's blocking method.
+  template <typename Request, typename Response>
+  absl::StatusOr<Response> Unary(grpc::Status (shrm::v1::Shrm::Stub::*method)(grpc::ClientContext*,
+                                                                              const Request&,
+                                                                              Response*),
+                                 const Request& request, absl::Duration deadline) {
+    Response resp;
+    absl::Status s = WithRetries(
+        [&](grpc::ClientContext* c) {
+          resp.Clear();
+          return (stub_.get()->*method)(c, request, &resp);
+        },
+        deadline);
+    if (!s.ok()) return s;
+    return resp;
+  }
   // Adds the bearer token (when there is one) to a call's metadata.
   void Authorize(grpc::ClientContext* context) const;
   absl::Status UploadOnce(grpc::ClientContext* context, std::string_view bytes,
@@ -116,6 +137,12 @@ class ShrmClient {
   int64_t last_retry_after_ms_ = 0;
   std::string affinity_key_;
   int upload_copies_ = 0;
+  struct FileHash {
+    uintmax_t size;
+    std::filesystem::file_time_type mtime;
+    std::string sha256;
+  };
+  std::map<std::string, FileHash> file_hashes_;
 };
 
 // The BRDF fields of a request for a CLI --brdf spec. "table:PATH" and "merl:PATH" upload the

@@ -696,13 +696,20 @@ absl::StatusOr<Vec3> UnitDirection(const v1::ReferenceRequest& request, bool vie
   return v * (1.0 / len);
 }
 
-// Decodes a pinned map between stage checks (before decoding and before `next_stage`).
-absl::StatusOr<EnvMap> DecodeForStage(grpc::ServerContext* context, const PinnedEnv& env,
-                                      std::string_view next_stage) {
+// A pinned environment, decoded between stage checks (before decoding and before `next_stage`);
+// errors name blobs, not spool files.
+struct DecodedEnv {
+  PinnedEnv pinned;
+  EnvMap map;
+};
+absl::StatusOr<DecodedEnv> PinAndDecode(grpc::ServerContext* context, const v1::Environment& env,
+                                        BlobStore* blobs, std::string_view next_stage) {
+  SHRM_ASSIGN_OR_RETURN(PinnedEnv pinned, PinEnvironment(env, blobs));
   SHRM_RETURN_IF_ERROR(CheckStage(context, "decode"));
-  SHRM_ASSIGN_OR_RETURN(EnvMap map, EnvMap::Load(env.options));
+  absl::StatusOr<EnvMap> map = EnvMap::Load(pinned.options);
+  if (!map.ok()) return HideSpoolPaths(map.status(), &pinned);
   SHRM_RETURN_IF_ERROR(CheckStage(context, next_stage));
-  return map;
+  return DecodedEnv{std::move(pinned), *std::move(map)};
 }
 
 }  // namespace
@@ -711,10 +718,7 @@ grpc::Status ShrmServiceImpl::Reference(grpc::ServerContext* context,
                                         const v1::ReferenceRequest* request,
                                         v1::ReferenceResponse* response) {
   RequestLog log(context, "Reference");
-  const PinnedEnv* pinned_for_messages = nullptr;
-  auto fail = [&](const absl::Status& s) {
-    return log.Finish(ToGrpcStatus(HideSpoolPaths(s, pinned_for_messages)));
-  };
+  auto fail = [&](const absl::Status& s) { return log.Finish(ToGrpcStatus(s)); };
   absl::StatusOr<std::unique_ptr<JobSlot>> slot = Admit(context);
   if (!slot.ok()) return fail(slot.status());
   absl::StatusOr<RequestBrdf> brdf =
@@ -724,13 +728,11 @@ grpc::Status ShrmServiceImpl::Reference(grpc::ServerContext* context,
   if (!index.ok()) return fail(index.status());
   absl::StatusOr<Vec3> view = UnitDirection(*request, /*view=*/true);
   if (!view.ok()) return fail(view.status());
-  absl::StatusOr<PinnedEnv> env = PinEnvironment(request->environment(), blobs_.get());
+  absl::StatusOr<DecodedEnv> env =
+      PinAndDecode(context, request->environment(), blobs_.get(), "reference");
   if (!env.ok()) return fail(env.status());
-  pinned_for_messages = &*env;
-  absl::StatusOr<EnvMap> map = DecodeForStage(context, *env, "reference");
-  if (!map.ok()) return fail(map.status());
   const std::array<double, 3> rgb =
-      BrdfReferenceRadiance(map->samples(), *brdf->brdf, env->rotation, *index, *view);
+      BrdfReferenceRadiance(env->map.samples(), *brdf->brdf, env->pinned.rotation, *index, *view);
   for (double c : rgb) response->add_rgb(c);
   return log.Finish(grpc::Status::OK);
 }
@@ -739,20 +741,15 @@ grpc::Status ShrmServiceImpl::Irradiance(grpc::ServerContext* context,
                                          const v1::IrradianceRequest* request,
                                          v1::IrradianceResponse* response) {
   RequestLog log(context, "Irradiance");
-  const PinnedEnv* pinned_for_messages = nullptr;
-  auto fail = [&](const absl::Status& s) {
-    return log.Finish(ToGrpcStatus(HideSpoolPaths(s, pinned_for_messages)));
-  };
+  auto fail = [&](const absl::Status& s) { return log.Finish(ToGrpcStatus(s)); };
   absl::StatusOr<std::unique_ptr<JobSlot>> slot = Admit(context);
   if (!slot.ok()) return fail(slot.status());
-  absl::StatusOr<PinnedEnv> env = PinEnvironment(request->environment(), blobs_.get());
+  absl::StatusOr<DecodedEnv> env =
+      PinAndDecode(context, request->environment(), blobs_.get(), "lighting");
   if (!env.ok()) return fail(env.status());
-  pinned_for_messages = &*env;
-  absl::StatusOr<EnvMap> map = DecodeForStage(context, *env, "lighting");
-  if (!map.ok()) return fail(map.status());
   // The CLI's computation (client/cmd_outputs.cc): L_lm to l = 2, then A_l.
   absl::StatusOr<std::vector<double>> light =
-      LightingCoefficients(*map, 2, env->rotation, options_.job_threads);
+      LightingCoefficients(env->map, 2, env->pinned.rotation, options_.job_threads);
   if (!light.ok()) return fail(light.status());
   absl::StatusOr<std::vector<double>> e9 = IrradianceCoefficients(2, 3, *light);
   if (!e9.ok()) return fail(e9.status());
