@@ -15,7 +15,10 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
+#include "core/base/status_macros.h"
+#include "core/brdf/brdf.h"
 #include "core/io/sha256.h"
+#include "proto/status_details.h"
 
 namespace shrm::client {
 namespace {
@@ -60,21 +63,20 @@ absl::StatusOr<std::string> ReadToken(const std::string& path) {
 
 }  // namespace
 
-absl::Status FromGrpcStatus(const grpc::Status& status) {
-  if (status.ok()) return absl::OkStatus();
-  return absl::Status(static_cast<absl::StatusCode>(status.error_code()), status.error_message());
-}
-
 bool IsTransient(const absl::Status& status) {
   if (absl::IsUnavailable(status)) return true;
-  if (!absl::IsInternal(status) && !absl::IsUnknown(status)) return false;
-  static constexpr absl::string_view kTransportMarks[] = {
-      "RST_STREAM", "Stream removed", "Socket closed", "Connection reset",
-      "GOAWAY",     "status: 502",    "status: 503",   "status: 504"};
-  for (absl::string_view mark : kTransportMarks) {
-    if (absl::StrContains(status.message(), mark)) return true;
-  }
-  return false;
+  // INTERNAL / UNKNOWN from the transport or a proxy (a replica died mid-call: RST_STREAM,
+  // GOAWAY, HTTP 502/503/504) carry no shrm ErrorInfo; the server's own carry one and are final.
+  return (absl::IsInternal(status) || absl::IsUnknown(status)) && !wire::FromShrmServer(status);
+}
+
+bool IsMissingBlob(const absl::Status& status) {
+  return absl::IsNotFound(status) && wire::ErrorReason(status) == wire::kReasonBlobNotFound;
+}
+
+absl::Duration ServerRetryDelay(const absl::Status& status) {
+  if (!absl::IsResourceExhausted(status)) return absl::ZeroDuration();
+  return wire::RetryDelay(status).value_or(absl::ZeroDuration());
 }
 
 absl::Duration RetryBackoff(const ClientOptions& options, int attempt) {
@@ -85,7 +87,7 @@ absl::Duration RetryBackoff(const ClientOptions& options, int attempt) {
 
 absl::StatusOr<std::unique_ptr<ShrmClient>> ShrmClient::Connect(const std::string& target,
                                                                 const ClientOptions& options) {
-  if (target.empty()) return absl::InvalidArgumentError("--server: empty target");
+  if (target.empty()) return absl::InvalidArgumentError("server target: empty");
   if (options.max_attempts < 1) return absl::InvalidArgumentError("max_attempts must be >= 1");
   ClientOptions opt = options;
   FromEnv(&opt.token_file, "SHRM_TOKEN_FILE");
@@ -98,7 +100,8 @@ absl::StatusOr<std::unique_ptr<ShrmClient>> ShrmClient::Connect(const std::strin
     opt.token = *std::move(token);
   }
   if (opt.tls_cert_file.empty() != opt.tls_key_file.empty()) {
-    return absl::InvalidArgumentError("--tls-cert and --tls-key go together");
+    return absl::InvalidArgumentError(
+        "tls_cert_file and tls_key_file go together (a client certificate needs its key)");
   }
   grpc::ChannelArguments args;
   args.SetLoadBalancingPolicyName("round_robin");
@@ -107,14 +110,14 @@ absl::StatusOr<std::unique_ptr<ShrmClient>> ShrmClient::Connect(const std::strin
   if (!opt.tls_ca_file.empty() || !opt.tls_cert_file.empty()) {
     grpc::SslCredentialsOptions ssl;
     if (!opt.tls_ca_file.empty()) {
-      absl::StatusOr<std::string> ca = ReadPem(opt.tls_ca_file, "--tls-ca");
+      absl::StatusOr<std::string> ca = ReadPem(opt.tls_ca_file, "TLS CA file");
       if (!ca.ok()) return ca.status();
       ssl.pem_root_certs = *ca;
     }
     if (!opt.tls_cert_file.empty()) {
-      absl::StatusOr<std::string> cert = ReadPem(opt.tls_cert_file, "--tls-cert");
+      absl::StatusOr<std::string> cert = ReadPem(opt.tls_cert_file, "TLS certificate file");
       if (!cert.ok()) return cert.status();
-      absl::StatusOr<std::string> key = ReadPem(opt.tls_key_file, "--tls-key");
+      absl::StatusOr<std::string> key = ReadPem(opt.tls_key_file, "TLS key file");
       if (!key.ok()) return key.status();
       ssl.pem_cert_chain = *cert;
       ssl.pem_private_key = *key;
@@ -127,7 +130,7 @@ absl::StatusOr<std::unique_ptr<ShrmClient>> ShrmClient::Connect(const std::strin
     creds = grpc::InsecureChannelCredentials();
   }
   std::shared_ptr<grpc::Channel> channel = grpc::CreateCustomChannel(target, creds, args);
-  if (!channel) return absl::InvalidArgumentError(absl::StrCat("--server: bad target ", target));
+  if (!channel) return absl::InvalidArgumentError(absl::StrCat("server target: bad: ", target));
   return std::unique_ptr<ShrmClient>(new ShrmClient(std::move(channel), opt));
 }
 
@@ -141,25 +144,22 @@ void ShrmClient::Authorize(grpc::ClientContext* context) const {
 
 absl::Status ShrmClient::WithRetries(
     const std::function<grpc::Status(grpc::ClientContext*)>& attempt, absl::Duration deadline) {
-  grpc::Status status;
+  absl::Status status;
   for (int i = 0; i < options_.max_attempts; ++i) {
     if (i > 0) absl::SleepFor(RetryBackoff(options_, i));
     grpc::ClientContext context;
     SetDeadline(&context, std::min(deadline, options_.call_timeout));
     Authorize(&context);
-    status = attempt(&context);
-    last_retry_after_ms_ = 0;
-    if (status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) {
-      auto it = context.GetServerTrailingMetadata().find("retry-after-ms");
-      int64_t ms = 0;
-      if (it != context.GetServerTrailingMetadata().end() &&
-          absl::SimpleAtoi(absl::string_view(it->second.data(), it->second.size()), &ms)) {
-        last_retry_after_ms_ = ms;
-      }
-    }
-    if (!IsTransient(FromGrpcStatus(status))) break;
+    status = Received(attempt(&context));
+    if (!IsTransient(status)) break;
   }
-  return FromGrpcStatus(status);
+  return status;
+}
+
+absl::Status ShrmClient::Received(const grpc::Status& status) {
+  absl::Status s = wire::FromGrpcStatus(status);
+  last_retry_after_ms_ = absl::ToInt64Milliseconds(ServerRetryDelay(s));
+  return s;
 }
 
 absl::StatusOr<v1::HasBlobResponse> ShrmClient::HasBlob(const std::string& sha256) {
@@ -168,7 +168,7 @@ absl::StatusOr<v1::HasBlobResponse> ShrmClient::HasBlob(const std::string& sha25
   return Unary(&v1::Shrm::Stub::HasBlob, req, absl::InfiniteDuration());
 }
 
-absl::Status ShrmClient::UploadOnce(grpc::ClientContext* context, std::string_view bytes,
+grpc::Status ShrmClient::UploadOnce(grpc::ClientContext* context, std::string_view bytes,
                                     const std::string& sha256, std::string* verified) {
   v1::UploadBlobResponse resp;
   std::unique_ptr<grpc::ClientWriter<v1::UploadBlobChunk>> writer =
@@ -190,18 +190,15 @@ absl::Status ShrmClient::UploadOnce(grpc::ClientContext* context, std::string_vi
   writer->WritesDone();
   grpc::Status status = writer->Finish();
   if (status.ok()) *verified = resp.sha256();
-  return FromGrpcStatus(status);
+  return status;
 }
 
 absl::StatusOr<std::string> ShrmClient::UploadBytes(std::string_view bytes) {
   const std::string sha = Sha256Hex(bytes);
   std::string verified;
-  absl::Status s = WithRetries(
-      [&](grpc::ClientContext* c) {
-        absl::Status u = UploadOnce(c, bytes, sha, &verified);
-        return grpc::Status(static_cast<grpc::StatusCode>(u.code()), std::string(u.message()));
-      },
-      absl::InfiniteDuration());
+  absl::Status s =
+      WithRetries([&](grpc::ClientContext* c) { return UploadOnce(c, bytes, sha, &verified); },
+                  absl::InfiniteDuration());
   if (!s.ok()) return s;
   if (verified != sha) {
     return absl::DataLossError(
@@ -213,22 +210,18 @@ absl::StatusOr<std::string> ShrmClient::UploadBytes(std::string_view bytes) {
 absl::StatusOr<RemoteBrdf> ResolveRemoteBrdf(const std::string& spec, ShrmClient* client) {
   RemoteBrdf out;
   out.spec = spec;
-  // Split as core's ParseBrdfSpec does (core/brdf/brdf.cc): the model name and the path are
-  // stripped of surrounding whitespace, and TableBrdf/MerlBrdf::spec() is "<model>:<path>".
-  const absl::string_view s = absl::StripAsciiWhitespace(spec);
-  const size_t colon = s.find(':');
-  if (colon == absl::string_view::npos) return out;
-  const std::string model(absl::StripAsciiWhitespace(s.substr(0, colon)));
-  const std::string path(absl::StripAsciiWhitespace(s.substr(colon + 1)));
-  if ((model != "table" && model != "merl") || path.empty() || path == "@") return out;
-  absl::StatusOr<std::string> sha = client->UploadIfMissing(path);
+  // As core's ParseBrdfSpec reads the spec: TableBrdf/MerlBrdf::spec() is "<model>:<path>".
+  std::string model;
+  const std::optional<std::string> path = BrdfSpecFile(spec, &model);
+  if (!path || path->empty() || *path == "@") return out;
+  absl::StatusOr<std::string> sha = client->UploadIfMissing(*path);
   if (!sha.ok()) {
-    return absl::Status(sha.status().code(), absl::StrCat("--brdf ", model, " file ", path, ": ",
-                                                          sha.status().message()));
+    return WithMessage(sha.status(),
+                       absl::StrCat("BRDF ", model, " file ", *path, ": ", sha.status().message()));
   }
   out.spec = absl::StrCat(model, ":@");
   out.blob_sha256 = *sha;
-  out.display_spec = absl::StrCat(model, ":", path);
+  out.display_spec = absl::StrCat(model, ":", *path);
   return out;
 }
 
@@ -295,17 +288,8 @@ absl::StatusOr<PrefilterOutcome> ShrmClient::Prefilter(const v1::PrefilterReques
         break;
     }
   }
-  grpc::Status status = reader->Finish();
-  last_retry_after_ms_ = 0;
-  if (status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) {
-    auto it = context.GetServerTrailingMetadata().find("retry-after-ms");
-    int64_t ms = 0;
-    if (it != context.GetServerTrailingMetadata().end() &&
-        absl::SimpleAtoi(absl::string_view(it->second.data(), it->second.size()), &ms)) {
-      last_retry_after_ms_ = ms;
-    }
-  }
-  if (!status.ok()) return FromGrpcStatus(status);
+  const absl::Status status = Received(reader->Finish());
+  if (!status.ok()) return status;
   const bool want_file =
       request.outputs_size() == 0 || std::find(request.outputs().begin(), request.outputs().end(),
                                                v1::OUTPUT_SHRM_FILE) != request.outputs().end();

@@ -1,9 +1,9 @@
 // Client library of the shrm service (shrm.v1.Shrm, docs/server.md): typed calls returning
-// absl::StatusOr. Idempotent calls (HasBlob, UploadBlob, Analyze, ListBrdfModels, Reference,
-// Irradiance) are retried on
-// transient errors (IsTransient) with exponential backoff. Prefilter is one attempt: a retry may
-// need the inputs uploaded again (another replica), so callers retry the whole job
-// (client/cmd_prefilter.cc), which is idempotent (the same request gives the same bytes).
+// absl::StatusOr, with the server's error details (proto/status_details.h) as payloads.
+// Idempotent calls (HasBlob, UploadBlob, Analyze, ListBrdfModels, Reference, Irradiance) are
+// retried on transient errors (IsTransient) with exponential backoff. Prefilter is one attempt: a
+// retry may need the inputs uploaded again (another replica), so callers retry the whole job
+// (client/remote_jobs.h), which is idempotent (the same request gives the same bytes).
 #ifndef SHRM_CLIENT_SHRM_CLIENT_H_
 #define SHRM_CLIENT_SHRM_CLIENT_H_
 
@@ -19,6 +19,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
+#include "proto/job_codec.h"
 #include "shrm/v1/shrm.grpc.pb.h"
 
 namespace shrm::client {
@@ -102,7 +103,7 @@ class ShrmClient {
   // (a job's retries and the affinity key hash a map once).
   absl::StatusOr<std::string> FileSha256(const std::string& path);
 
-  // Trailing metadata "retry-after-ms" of the last RESOURCE_EXHAUSTED answer (0 when none).
+  // The server's retry delay (RetryInfo) of the last RESOURCE_EXHAUSTED answer, ms (0: none).
   int64_t last_retry_after_ms() const { return last_retry_after_ms_; }
 
  private:
@@ -128,7 +129,9 @@ class ShrmClient {
   }
   // Adds the bearer token (when there is one) to a call's metadata.
   void Authorize(grpc::ClientContext* context) const;
-  absl::Status UploadOnce(grpc::ClientContext* context, std::string_view bytes,
+  // A call's final status as absl::Status (wire::FromGrpcStatus); notes its retry delay.
+  absl::Status Received(const grpc::Status& status);
+  grpc::Status UploadOnce(grpc::ClientContext* context, std::string_view bytes,
                           const std::string& sha256, std::string* verified);
 
   std::shared_ptr<grpc::Channel> channel_;
@@ -145,26 +148,24 @@ class ShrmClient {
   std::map<std::string, FileHash> file_hashes_;
 };
 
-// The BRDF fields of a request for a CLI --brdf spec. "table:PATH" and "merl:PATH" upload the
-// file (UploadIfMissing) and become spec "table:@" / "merl:@" with its hash, and the local spec
+// The BRDF fields of a request for a BRDF spec. "table:PATH" and "merl:PATH" upload the file
+// (UploadIfMissing) and become spec "table:@" / "merl:@" with its hash, and the local spec
 // ("table:PATH", as core's TableBrdf::spec()) as display spec, so that the SHRM file's shrm:brdf
 // is the embedded run's. Other specs pass through unchanged (no blob, no display spec).
-struct RemoteBrdf {
-  std::string spec;
-  std::string blob_sha256;
-  std::string display_spec;
-};
+using RemoteBrdf = wire::WireBrdf;
 absl::StatusOr<RemoteBrdf> ResolveRemoteBrdf(const std::string& spec, ShrmClient* client);
 
-// grpc::Status -> absl::Status (same codes; the message kept).
-absl::Status FromGrpcStatus(const grpc::Status& status);
-
-// Whether an idempotent call that failed with `status` may succeed when sent again: UNAVAILABLE
-// (server draining or unreachable, proxy without upstream), and the transport failures a proxy
-// reports when a replica dies mid-call (INTERNAL or UNKNOWN "RST_STREAM", "Stream removed",
-// "Socket closed", HTTP 502/503/504). Never DEADLINE_EXCEEDED, CANCELLED or an answer about the
-// request itself.
+// Whether an idempotent call that failed with `status` may succeed when sent again, decided by
+// the code and by where the call failed, never by the message: UNAVAILABLE (server draining or
+// unreachable, proxy without upstream), and INTERNAL or UNKNOWN that did not come from an shrm
+// server (no ErrorInfo: the transport or a proxy failed, e.g. a replica died mid-call). Never
+// DEADLINE_EXCEEDED, CANCELLED or an answer about the request itself.
 bool IsTransient(const absl::Status& status);
+// NOT_FOUND with reason BLOB_NOT_FOUND: the server lacks an input blob (upload it again).
+bool IsMissingBlob(const absl::Status& status);
+// How long a RESOURCE_EXHAUSTED answer asks to wait (RetryInfo; zero: none, e.g. a too large
+// input, which waiting does not help).
+absl::Duration ServerRetryDelay(const absl::Status& status);
 
 // The backoff before attempt `attempt` (1 = the first retry): initial * 2^(attempt - 1), capped.
 absl::Duration RetryBackoff(const ClientOptions& options, int attempt);

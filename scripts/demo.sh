@@ -8,7 +8,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
 bash scripts/build.sh >/dev/null
-SHRM="${SHRM_BUILD_DIR:-build}/client/shrm"
+SHRM="${SHRM_BUILD_DIR:-build}/cli/shrm"
 mkdir -p out
 if [ $# -gt 0 ]; then
   exec "$SHRM" prefilter "$@"

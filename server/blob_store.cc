@@ -11,17 +11,10 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/io/sha256.h"
+#include "proto/status_details.h"
 
 namespace shrm::server {
 namespace fs = std::filesystem;
-
-bool IsSha256Hex(std::string_view s) {
-  if (s.size() != 64) return false;
-  for (char c : s) {
-    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
-  }
-  return true;
-}
 
 BlobStore::Lease::Lease(BlobStore* store, std::string sha256, std::string path)
     : store_(store), sha256_(std::move(sha256)), path_(std::move(path)) {}
@@ -93,8 +86,9 @@ absl::StatusOr<std::unique_ptr<BlobStore::Lease>> BlobStore::Pin(const std::stri
   std::lock_guard<std::mutex> lock(mu_);
   auto it = blobs_.find(sha256);
   if (it == blobs_.end()) {
-    return absl::NotFoundError(
-        absl::StrCat("blob ", sha256, " is not on the server (upload it first)"));
+    return wire::WithErrorReason(absl::NotFoundError(absl::StrCat(
+                                     "blob ", sha256, " is not on the server (upload it first)")),
+                                 wire::kReasonBlobNotFound, "sha256", sha256);
   }
   ++it->second.pins;
   lru_.splice(lru_.begin(), lru_, it->second.lru);

@@ -17,11 +17,9 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "core/io/sha256.h"
 
 namespace shrm::server {
-
-// True for 64 lowercase hex digits.
-bool IsSha256Hex(std::string_view s);
 
 class BlobStore {
  public:

@@ -75,6 +75,12 @@ Metrics& Metrics::Global() {
   return *m;
 }
 
+uint64_t Metrics::RequestCount(const std::string& method, const std::string& code) const {
+  std::lock_guard<std::mutex> lock(mu_);
+  auto it = requests_.find({method, code});
+  return it == requests_.end() ? 0 : it->second;
+}
+
 void Metrics::RecordRequest(const std::string& method, const std::string& code, double seconds) {
   std::lock_guard<std::mutex> lock(mu_);
   ++requests_[{method, code}];

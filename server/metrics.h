@@ -32,6 +32,8 @@ class Metrics {
   void JobFinished() { jobs_in_flight_.fetch_sub(1); }
   // `cache`: "lighting" or "brdf".
   void RecordCache(const std::string& cache, bool hit);
+  // The number of finished calls of `method` with `code` (tests).
+  uint64_t RequestCount(const std::string& method, const std::string& code) const;
   // A refused input or request, by reason (the gRPC code name in lower case).
   void RecordRejected(const std::string& reason);
   // A job stopped before its end because its deadline passed or its client cancelled:

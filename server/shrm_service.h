@@ -1,18 +1,22 @@
-// The shrm.v1.Shrm service: a thin layer that turns requests into core types, calls core (through
-// server/cached_prefilter.h for the prefilter pipeline) and turns the results into responses.
-// All math lives in core/. docs/server.md documents the behaviour and the status codes.
+// The shrm.v1.Shrm service: a thin layer that decodes requests into jobs (proto/job_codec.h),
+// resolves their blobs (server/request_inputs.h), runs them through core (server/cached_prefilter.h
+// for the prefilter pipeline) and encodes the results; the job layer (jobs/) says what a job's
+// outputs hold. All math lives in core/. docs/server.md documents the behaviour and the statuses.
 #ifndef SHRM_SERVER_SHRM_SERVICE_H_
 #define SHRM_SERVER_SHRM_SERVICE_H_
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
 #include "server/blob_store.h"
 #include "server/cached_prefilter.h"
+#include "server/request_log.h"
 #include "shrm/v1/shrm.grpc.pb.h"
 
 namespace shrm::server {
@@ -26,6 +30,9 @@ struct ServiceOptions {
   size_t cache_bytes = 512ull << 20;     // L_lm + rho_lpq caches together
   // Testing only: sleep this long at the start of every pipeline stage (makes jobs slow).
   absl::Duration test_stage_delay = absl::ZeroDuration();
+  // Testing only: called at the start of every Prefilter stage, after the delay (tests hold a
+  // job in its slot with it: tests/stage_gate.h).
+  std::function<void(std::string_view stage)> test_stage_hook;
 };
 
 class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
@@ -54,9 +61,21 @@ class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
 
  private:
   class JobSlot;
+  struct PrefilterCall;
   ShrmServiceImpl(const ServiceOptions& options, std::unique_ptr<BlobStore> blobs);
-  // OK and a held slot, or RESOURCE_EXHAUSTED / UNAVAILABLE (with a retry hint).
-  absl::StatusOr<std::unique_ptr<JobSlot>> Admit(grpc::ServerContext* context);
+  // OK and a held slot, or RESOURCE_EXHAUSTED (reason SERVER_BUSY, with a retry delay) /
+  // UNAVAILABLE (reason DRAINING).
+  absl::StatusOr<std::unique_ptr<JobSlot>> Admit();
+  // The Prefilter call in three steps: the request decoded and its blobs resolved; the job run
+  // (progress events, cancellation between stages) and its file encoded; the report and the file
+  // streamed back.
+  absl::Status ParsePrefilterCall(const shrm::v1::PrefilterRequest& request, PrefilterCall* call);
+  absl::Status RunPrefilterCall(grpc::ServerContext* context,
+                                grpc::ServerWriter<shrm::v1::PrefilterEvent>* writer,
+                                PrefilterCall* call, RequestLog* log);
+  absl::Status SendPrefilterResult(grpc::ServerContext* context,
+                                   grpc::ServerWriter<shrm::v1::PrefilterEvent>* writer,
+                                   const PrefilterCall& call, RequestLog* log);
 
   const ServiceOptions options_;
   std::unique_ptr<BlobStore> blobs_;

@@ -27,9 +27,11 @@
 #include "core/io/sha256.h"
 #include "core/shrm/prefilter.h"
 #include "core/shrm/shrm_file.h"
+#include "jobs/prefilter_job.h"
 #include "nlohmann/json.hpp"
 #include "server/metrics.h"
 #include "server/server.h"
+#include "tests/stage_gate.h"
 #include "tests/test_paths.h"
 
 namespace shrm {
@@ -51,13 +53,16 @@ constexpr size_t kLargeUploadBytes = 64u << 20;
 constexpr uint64_t kSmallBlobLimit = 64 << 10;
 // Slow jobs for admission/deadline tests: every stage sleeps this long (6 stages: ~1.2 s a job).
 constexpr absl::Duration kSlowStage = absl::Milliseconds(200);
-// A refused job must come back long before an accepted one finishes (~1.2 s): "quickly".
-constexpr auto kQuickRejection = std::chrono::milliseconds(500);
+// Safety net of the gate tests (tests/stage_gate.h): how long a job may take to reach the gate,
+// or a refusal to be counted, before the test fails instead of hanging. Not a timing claim:
+// passing never depends on it.
+constexpr absl::Duration kGateTimeout = absl::Seconds(60);
 // The deadline: far shorter than a slow job (~1.2 s).
 constexpr absl::Duration kShortDeadline = absl::Milliseconds(200);
 // How long the server may take to notice a deadline or a cancellation and stop the job: it checks
-// between stages, so at most one slow stage (200 ms) plus scheduling on a loaded 2-core machine.
-constexpr absl::Duration kAbandonWithin = absl::Seconds(3);
+// between stages, so one slow stage (200 ms) plus scheduling; generous, because the poll returns
+// as soon as the count moves and a loaded 2-core CI machine must not fail it.
+constexpr absl::Duration kAbandonWithin = absl::Seconds(30);
 constexpr int kConcurrentJobs = 3;
 // The tabulated BRDF of the blob tests: GGX sampled on a small grid (smooth enough for F = 8).
 constexpr char kTableSource[] = "ggx:alpha=0.5,f0=1";
@@ -112,6 +117,18 @@ class ServiceTest : public ::testing::Test {
   std::vector<std::string> dirs_;
 };
 
+// Polls `count` until it exceeds `before` or `within` passes; returns the last value.
+uint64_t WaitForIncrease(const std::function<uint64_t()>& count, uint64_t before,
+                         absl::Duration within = kAbandonWithin) {
+  const absl::Time end = absl::Now() + within;
+  uint64_t n = count();
+  while (n <= before && absl::Now() < end) {
+    absl::SleepFor(absl::Milliseconds(20));
+    n = count();
+  }
+  return n;
+}
+
 TEST_F(ServiceTest, RoundTripMatchesEmbeddedRunAndHitsLightingCache) {
   auto c = StartServer();
   const std::string map = MapPath("courtyard.exr");
@@ -142,37 +159,19 @@ TEST_F(ServiceTest, RoundTripMatchesEmbeddedRunAndHitsLightingCache) {
   EXPECT_FALSE(r2->report.cache().brdf_hit());
   EXPECT_NE(r2->report.report_json().find("\"lighting\": \"hit\""), std::string::npos);
 
-  // The same job in process through core's Prefilter() and WriteShrmFile, with the attributes
-  // the CLI writes: byte for byte the same file.
-  auto brdf = ParseBrdfSpec("microfacet:sigma=0.2");
-  ASSERT_TRUE(brdf.ok());
-  EnvMapOptions eo;
-  eo.paths = {map};
-  absl::StatusOr<EnvMap> env = EnvMap::Load(eo);
-  ASSERT_TRUE(env.ok());
-  PrefilterOptions po;
-  po.f = kTestF;
-  po.p = kTestP;
-  po.face_size = kTestFaceSize;
-  po.threads = 3;  // thread count must not matter (core's transforms are bit-exact in it)
-  absl::StatusOr<PrefilterResult> pr = Prefilter(*env, **brdf, po);
-  ASSERT_TRUE(pr.ok());
-  const ShrmAnalysis& an = pr->analysis;
-  const std::map<std::string, std::string> attrs = {
-      {"shrm:brdf", (*brdf)->spec()},
-      {"shrm:epsilon", "explicit orders"},
-      {"shrm:orders", absl::StrCat(an.f_b, ",", an.p_b)},
-      {"shrm:brdf_orders", absl::StrCat(an.f_brdf, ",", an.p_brdf)},
-      {"shrm:eps_light", absl::StrCat(an.eps_light)},
-      {"shrm:eps_brdf", absl::StrCat(an.eps_brdf)},
-      {"shrm:eps_bound", absl::StrCat(an.eps_bound)},
-      {"shrm:source", map},
-      {"shrm:source_sha256", *sha},
-      {"shrm:working_space", "lin_rec709"},
-      {"shrm:layout", EnvLayoutName(env->layout())},
-  };
+  // The same job in process: the job layer's embedded run (core's Prefilter(), the attributes the
+  // CLI writes) and WriteShrmFile: byte for byte the same file.
+  jobs::PrefilterJob job;
+  job.env.files = {map};
+  job.brdf = "microfacet:sigma=0.2";
+  job.orders = jobs::Orders{kTestF, kTestP};
+  job.face_size = kTestFaceSize;
+  // Thread count must not matter (core's transforms are bit-exact in it).
+  absl::StatusOr<jobs::PrefilterRun> pr = jobs::RunPrefilterJob(job, /*threads=*/3);
+  ASSERT_TRUE(pr.ok()) << pr.status();
+  EXPECT_EQ(pr->provenance.source.sha256, *sha);
   const std::string local = testing::UniqueTempPath("embedded.shrm.exr");
-  ASSERT_TRUE(WriteShrmFile(local, pr->cube, attrs).ok());
+  ASSERT_TRUE(WriteShrmFile(local, pr->result.cube, pr->attributes).ok());
   const std::string local_bytes = ReadFile(local);
   std::filesystem::remove(local);
   EXPECT_EQ(r2->shrm_file.size(), local_bytes.size());
@@ -279,12 +278,19 @@ TEST_F(ServiceTest, CliTokenFileFlagAuthenticates) {
 }
 
 TEST_F(ServiceTest, CliJobsWaitForAFreeSlotWhenTheServerIsFull) {
+  // Two CLI jobs, one slot: the first is held at the gate until the server has refused the
+  // second at least once, so the second must wait the server's retry-after-ms and run after it.
   ServerOptions opt;
   opt.service.max_jobs = 1;
-  opt.service.test_stage_delay = kSlowStage;  // ~1.2 s a job: the two jobs overlap
+  testing::StageGate gate;
+  opt.service.test_stage_hook = gate.Hook();
   auto c = StartServer(opt);
   const std::string map = MapPath("interior.exr");
   ASSERT_TRUE(c->UploadIfMissing(map).ok());
+  auto refused = [] {
+    return server::Metrics::Global().RequestCount("Prefilter", "RESOURCE_EXHAUSTED");
+  };
+  const uint64_t refused_before = refused();
   std::vector<std::string> reports;
   std::vector<std::thread> jobs;
   for (int i = 0; i < 2; ++i) {
@@ -299,6 +305,10 @@ TEST_F(ServiceTest, CliJobsWaitForAFreeSlotWhenTheServerIsFull) {
       std::filesystem::remove(out);
     });
   }
+  EXPECT_TRUE(gate.WaitHeld(1, kGateTimeout)) << "no job reached a stage";
+  EXPECT_GT(WaitForIncrease(refused, refused_before, kGateTimeout), refused_before)
+      << "the second job was never refused";
+  gate.Open();
   for (std::thread& t : jobs) t.join();
   // One job found the only slot taken, waited the server's retry-after-ms and ran.
   int retries = 0;
@@ -391,51 +401,37 @@ TEST_F(ServiceTest, MalformedRequestsGetTheRightStatusAndTheServerKeepsServing) 
 }
 
 TEST_F(ServiceTest, AdmissionControlRefusesExcessJobsQuickly) {
+  // The only slot is held by a job waiting at the gate; every other job must be refused at once
+  // (never queued behind it): they return while the held job still cannot finish.
   ServerOptions opt;
   opt.service.max_jobs = 1;
-  opt.service.test_stage_delay = kSlowStage;
+  testing::StageGate gate;
+  opt.service.test_stage_hook = gate.Hook();
   auto c = StartServer(opt);
   absl::StatusOr<std::string> sha = c->UploadIfMissing(MapPath("interior.exr"));
   ASSERT_TRUE(sha.ok());
+  absl::Status held;
+  std::thread holder([&] { held = c->Prefilter(Request(*sha, "phong:s=32")).status(); });
+  ASSERT_TRUE(gate.WaitHeld(1, kGateTimeout)) << "the first job never reached a stage";
   std::vector<absl::Status> results(kConcurrentJobs);
-  std::vector<std::chrono::milliseconds> took(kConcurrentJobs);
   std::vector<int64_t> retry_after(kConcurrentJobs);
   std::vector<std::thread> threads;
   for (int i = 0; i < kConcurrentJobs; ++i) {
     threads.emplace_back([&, i] {
       auto ci = ShrmClient::Connect(absl::StrCat("127.0.0.1:", port_));
-      const auto t0 = std::chrono::steady_clock::now();
-      results[i] = (*ci)->Prefilter(Request(*sha, "phong:s=32")).status();
-      took[i] = std::chrono::duration_cast<std::chrono::milliseconds>(
-          std::chrono::steady_clock::now() - t0);
+      // A deadline only so that a queued (wrongly accepted) call fails instead of hanging.
+      results[i] = (*ci)->Prefilter(Request(*sha, "phong:s=32"), nullptr, kGateTimeout).status();
       retry_after[i] = (*ci)->last_retry_after_ms();
     });
   }
   for (auto& t : threads) t.join();
-  int ok = 0, refused = 0;
+  gate.Open();
+  holder.join();
+  EXPECT_TRUE(held.ok()) << held;
   for (int i = 0; i < kConcurrentJobs; ++i) {
-    if (results[i].ok()) {
-      ++ok;
-    } else {
-      EXPECT_EQ(results[i].code(), absl::StatusCode::kResourceExhausted) << results[i];
-      EXPECT_LT(took[i], kQuickRejection);
-      EXPECT_GT(retry_after[i], 0);
-      ++refused;
-    }
+    EXPECT_EQ(results[i].code(), absl::StatusCode::kResourceExhausted) << results[i];
+    EXPECT_GT(retry_after[i], 0);
   }
-  EXPECT_GE(ok, 1);
-  EXPECT_GE(refused, 1);
-}
-
-// Polls `count` until it exceeds `before` or kAbandonWithin passes; returns the last value.
-uint64_t WaitForIncrease(const std::function<uint64_t()>& count, uint64_t before) {
-  const absl::Time end = absl::Now() + kAbandonWithin;
-  uint64_t n = count();
-  while (n <= before && absl::Now() < end) {
-    absl::SleepFor(absl::Milliseconds(20));
-    n = count();
-  }
-  return n;
 }
 
 TEST_F(ServiceTest, ShortDeadlineGivesDeadlineExceededAndTheServerAbandonsTheJob) {

@@ -249,7 +249,8 @@ class ViewerMode34Test : public ::testing::Test {
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     glEnable(GL_DEPTH_TEST);
     glDepthFunc(GL_LESS);
-    mode.Draw(f);
+    const absl::Status drawn = mode.Draw(f);  // Draw() returns its errors (render_mode.h)
+    EXPECT_TRUE(drawn.ok()) << drawn;
     glDisable(GL_DEPTH_TEST);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     return read ? target->ReadRgba(0) : std::vector<float>{};

@@ -19,6 +19,7 @@
 #include "core/io/image.h"
 #include "core/sh/sh.h"
 #include "viewer/brdf_edit.h"
+#include "viewer/error_report.h"
 #include "viewer/gl_util.h"
 #include "viewer/mesh.h"
 #include "viewer/renderer.h"
@@ -33,10 +34,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 double Ms(Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
-
-void Fail(const absl::Status& s) {
-  std::fprintf(stderr, "shrm-view: %s\n", std::string(s.message()).c_str());
-}
 
 // Meshes: sphere (128 x 64), torus, or the OBJ file.
 absl::StatusOr<Mesh> BuildMesh(const std::string& which) {
@@ -63,10 +60,11 @@ double AutoExposure(const SceneData& scene) {
 }
 
 // The overlay's items, one per line of the in-frame text (viewer/overlay_gl.h); joined by " | "
-// they are the window title and the stdout line of screenshots.
+// they are the window title and the stdout line of screenshots. `error`: the last error reported
+// (Viewer::ReportError), "" if none.
 std::vector<std::string> OverlayLines(const ModeInfo& mode, const SceneData& scene,
                                       const Renderer& r, double frame_ms, bool diff,
-                                      double exposure) {
+                                      double exposure, const std::string& error) {
   std::vector<std::string> lines = {absl::StrCat("mode ", mode.key, " ", mode.name)};
   if (scene.shrm != nullptr) {
     const ShrmData& d = *scene.shrm;
@@ -90,10 +88,17 @@ std::vector<std::string> OverlayLines(const ModeInfo& mode, const SceneData& sce
       lines.push_back("diff: ground truth computing");
     }
   }
+  if (!error.empty()) lines.push_back(error);
   return lines;
 }
 
 std::string Overlay(const std::vector<std::string>& lines) { return absl::StrJoin(lines, " | "); }
+
+// An error as one overlay item: its first line (shader logs follow on the next ones).
+std::string ErrorLine(const absl::Status& s) {
+  const absl::string_view message = s.message();
+  return absl::StrCat("error: ", message.substr(0, message.find('\n')));
+}
 
 class Viewer {
  public:
@@ -102,9 +107,23 @@ class Viewer {
     settings_.mode = o.mode;
     settings_.diff = o.diff;
   }
+  ~Viewer() {
+    SetGlfwErrorHandler(nullptr);  // GLFW's last words (glfwTerminate) go to stderr directly
+  }
+  Viewer(const Viewer&) = delete;
+  Viewer& operator=(const Viewer&) = delete;
+
+  // The one way an error reaches the user: one line "shrm-view: <message>" on stderr, and the
+  // message's first line in the window title and the overlay (until the next scene upload that
+  // succeeds). Fatal errors (RunViewer) come here too, before the exit code.
+  void ReportError(const absl::Status& s) {
+    if (s.ok()) return;
+    PrintError(s.message());
+    error_line_ = ErrorLine(s);
+  }
 
   // Loads everything that does not need GL.
-  absl::Status Load() {
+  [[nodiscard]] absl::Status Load() {
     SHRM_ASSIGN_OR_RETURN(mesh_, BuildMesh(o_.mesh));
     if (!o_.env.empty()) {
       const auto t0 = Clock::now();
@@ -147,17 +166,19 @@ class Viewer {
     return absl::OkStatus();
   }
 
-  absl::Status CreateGl(bool visible) {
+  [[nodiscard]] absl::Status CreateGl(bool visible) {
+    SetGlfwErrorHandler([this](const absl::Status& s) { ReportError(s); });
     SHRM_ASSIGN_OR_RETURN(context_, GlContext::Create(o_.width, o_.height, visible, "shrm-view"));
     if (o_.verbose) Log(context_->Describe());
     SHRM_ASSIGN_OR_RETURN(renderer_, Renderer::Create(o_.width, o_.height, o_.threads));
+    ReportError(renderer_->InitErrors());  // unavailable modes; the others go on
     renderer_->SetMesh(mesh_);
     UploadScene();
     return absl::OkStatus();
   }
 
   // --screenshot: one frame (waiting for a computation and the ground truth), then the file.
-  absl::Status Screenshot() {
+  [[nodiscard]] absl::Status Screenshot() {
     if (job_ != nullptr) SHRM_RETURN_IF_ERROR(TakeJobResult(job_->Wait()));
     if (scene_.shrm == nullptr && (settings_.mode == 1 || settings_.mode == 2)) {
       return absl::FailedPreconditionError("no SHRM to show");
@@ -165,9 +186,10 @@ class Viewer {
     if (!o_.exposure_set) exposure_ = AutoExposure(scene_);
     settings_.exposure = static_cast<float>(exposure_);
     if (!renderer_->ModeReady(settings_.mode)) {
+      const absl::Status why = renderer_->ModeError(settings_.mode);
       return absl::FailedPreconditionError(
           absl::StrCat("mode ", settings_.mode, " has no data to draw",
-                       upload_error_.empty() ? "" : absl::StrCat(" (", upload_error_, ")")));
+                       why.ok() ? "" : absl::StrCat(" (", why.message(), ")")));
     }
     const auto t0 = Clock::now();
     SHRM_RETURN_IF_ERROR(renderer_->Render(camera_, settings_));
@@ -178,8 +200,8 @@ class Viewer {
     }
     glFinish();
     const double ms = Ms(Clock::now() - t0);
-    const std::vector<std::string> lines =
-        OverlayLines(*FindMode(settings_.mode), scene_, *renderer_, ms, settings_.diff, exposure_);
+    const std::vector<std::string> lines = OverlayLines(
+        *FindMode(settings_.mode), scene_, *renderer_, ms, settings_.diff, exposure_, error_line_);
     std::printf("%s\n", Overlay(lines).c_str());
     if (o_.overlay) {  // --overlay: the same frame again with the text drawn in
       settings_.overlay = lines;
@@ -208,7 +230,7 @@ class Viewer {
   }
 
   // --bench-frames N: N frames per ready mode, the camera turning 1 degree per frame.
-  absl::Status Bench() {
+  [[nodiscard]] absl::Status Bench() {
     if (job_ != nullptr) SHRM_RETURN_IF_ERROR(TakeJobResult(job_->Wait()));
     settings_.exposure = static_cast<float>(exposure_);
     std::printf("frame times at %d x %d (%s), mesh %s, %d frames per mode:\n", renderer_->width(),
@@ -216,7 +238,8 @@ class Viewer {
                 o_.bench_frames);
     for (const ModeInfo& m : RegisteredModes()) {
       if (!renderer_->ModeReady(m.key)) {
-        std::printf("  mode %d %-12s not ready (missing inputs)\n", m.key, m.name);
+        std::printf("  mode %d %-12s not ready (%s)\n", m.key, m.name,
+                    renderer_->ModeError(m.key).ok() ? "missing inputs" : "error reported above");
         continue;
       }
       RenderSettings s = settings_;
@@ -240,7 +263,7 @@ class Viewer {
     return absl::OkStatus();
   }
 
-  absl::Status Interactive() {
+  [[nodiscard]] absl::Status Interactive() {
     GLFWwindow* w = context_->window();
     glfwSetWindowUserPointer(w, this);
     glfwSetKeyCallback(w, [](GLFWwindow* win, int key, int, int action, int mods) {
@@ -279,8 +302,7 @@ class Viewer {
       glfwPollEvents();
       if (job_ != nullptr) {
         if (std::optional<absl::StatusOr<ShrmData>> r = job_->Poll()) {
-          absl::Status s = TakeJobResult(std::move(r));
-          if (!s.ok()) Fail(s);
+          ReportError(TakeJobResult(std::move(r)));
         }
       }
       int fw, fh;
@@ -294,8 +316,9 @@ class Viewer {
       settings_.reference_may_restart =
           !dragging_ && Clock::now() - last_move_ > std::chrono::milliseconds(200);
       if (renderer_->ModeReady(settings_.mode)) {
-        absl::Status s = renderer_->Render(camera_, settings_);
-        if (!s.ok()) return s;
+        // A mode's Draw() error leaves it not ready (render_mode.h): reported once, the window
+        // stays.
+        ReportError(renderer_->Render(camera_, settings_));
       } else {
         glBindFramebuffer(GL_FRAMEBUFFER, 0);
         glClearColor(0.05f, 0.05f, 0.05f, 1);
@@ -308,8 +331,9 @@ class Viewer {
       prev = now;
       if (now - last_title > std::chrono::milliseconds(250)) {
         last_title = now;
-        std::vector<std::string> lines = OverlayLines(*FindMode(settings_.mode), scene_, *renderer_,
-                                                      frame_ms, settings_.diff, exposure_);
+        std::vector<std::string> lines =
+            OverlayLines(*FindMode(settings_.mode), scene_, *renderer_, frame_ms, settings_.diff,
+                         exposure_, error_line_);
         if (job_ != nullptr && job_->busy())
           lines.push_back(
               absl::StrFormat("computing %s %.0f%%", job_->stage(), 100 * job_->fraction()));
@@ -365,7 +389,7 @@ class Viewer {
     job_->Start(req);
   }
 
-  absl::Status TakeJobResult(std::optional<absl::StatusOr<ShrmData>> r) {
+  [[nodiscard]] absl::Status TakeJobResult(std::optional<absl::StatusOr<ShrmData>> r) {
     if (!r.has_value()) return absl::OkStatus();
     if (!r->ok()) return r->status();
     auto d = std::make_shared<const ShrmData>(*std::move(*r));
@@ -384,11 +408,18 @@ class Viewer {
   }
 
   // A mode that cannot take the scene (e.g. a cube beyond the GL limits) is not ready; the others
-  // go on. The message is kept for the error of a screenshot in that mode.
+  // go on (the renderer keeps each mode's error for a screenshot in that mode: ModeError). The
+  // same error again (the next SHRM for the same BRDF) is not reported twice.
   void UploadScene() {
-    absl::Status s = renderer_->SetScene(scene_);
-    upload_error_ = s.ok() ? "" : std::string(s.message());
-    if (!s.ok()) std::fprintf(stderr, "shrm-view: warning: %s\n", upload_error_.c_str());
+    const absl::Status s = renderer_->SetScene(scene_);
+    if (s.ok()) {
+      // Every available mode takes the scene: earlier errors are over, unavailable modes are not.
+      const absl::Status unavailable = renderer_->InitErrors();
+      error_line_ = unavailable.ok() ? "" : ErrorLine(unavailable);
+    } else if (s != last_upload_error_) {
+      ReportError(s);
+    }
+    last_upload_error_ = s;
   }
 
   void OnKey(int key, int action, int mods) {
@@ -399,8 +430,11 @@ class Viewer {
       if (info == nullptr) {
         Log(absl::StrCat("mode ", m, " is not available in this build"));
       } else if (!renderer_->ModeReady(m)) {
+        const absl::Status why = renderer_->ModeError(m);
         Log(absl::StrCat("mode ", m, " (", info->name, ") has no data yet",
-                         m == 5 ? ": the ground truth needs --env and a BRDF" : ""));
+                         !why.ok() ? absl::StrCat(": ", why.message())
+                         : m == 5  ? ": the ground truth needs --env and a BRDF"
+                                   : ""));
       } else {
         settings_.mode = m;
         Log(absl::StrCat("mode ", m, ": ", info->description));
@@ -435,7 +469,7 @@ class Viewer {
         if (s.ok()) {
           StartCompute(*s);
         } else {
-          Fail(s.status());
+          ReportError(s.status());
         }
         break;
       }
@@ -456,7 +490,7 @@ class Viewer {
           renderer_->SetMesh(*m);
           Log(absl::StrCat("mesh ", meshes[mesh_index_]));
         } else {
-          Fail(m.status());
+          ReportError(m.status());
         }
         break;
       }
@@ -504,7 +538,9 @@ class Viewer {
   Mesh mesh_;
   int mesh_index_ = 0;
   SceneData scene_;
-  std::string brdf_spec_, pending_spec_, upload_error_;
+  std::string brdf_spec_, pending_spec_;
+  std::string error_line_;  // the last error, shown in the title and the overlay
+  absl::Status last_upload_error_;
   int preset_ = -1;
   double exposure_ = 0;
   std::unique_ptr<AsyncShrmJob> job_;
@@ -533,7 +569,7 @@ int RunViewer(const ViewerOptions& o) {
     }
   }
   if (!s.ok()) {
-    Fail(s);
+    viewer.ReportError(s);
     return kExitError;
   }
   return kExitOk;

@@ -17,7 +17,7 @@ const std::vector<std::string>& BrdfPresets();
 // The canonical spec with its lobe parameter (phong / kajiya-kay s, microfacet sigma, ggx / ward
 // alpha, lafortune n of the first lobe) multiplied by `factor`. Errors: InvalidArgument for a bad
 // spec, a model without a lobe parameter (lambert, tables), or a result out of range.
-absl::StatusOr<std::string> ScaleBrdfLobe(const std::string& spec, double factor);
+[[nodiscard]] absl::StatusOr<std::string> ScaleBrdfLobe(const std::string& spec, double factor);
 
 }  // namespace shrm::viewer
 

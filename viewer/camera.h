@@ -40,7 +40,7 @@ inline constexpr double kMaxDistance = 1000;
 
 // Parses "azimuth,elevation[,distance]" (degrees, degrees, units); InvalidArgument naming `what`
 // and the valid ranges.
-absl::StatusOr<OrbitView> ParseOrbitView(const std::string& text, const char* what);
+[[nodiscard]] absl::StatusOr<OrbitView> ParseOrbitView(const std::string& text, const char* what);
 
 class OrbitCamera {
  public:

@@ -13,7 +13,8 @@
 namespace shrm::viewer {
 
 // The cube as `to` (a copy when it already is). Errors: inconsistent cube, threads < 1.
-absl::StatusOr<ShrmCube> ConvertShrmKind(const ShrmCube& cube, ShrmKind to, int threads = 1);
+[[nodiscard]] absl::StatusOr<ShrmCube> ConvertShrmKind(const ShrmCube& cube, ShrmKind to,
+                                                       int threads = 1);
 
 }  // namespace shrm::viewer
 

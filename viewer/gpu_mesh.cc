@@ -3,20 +3,20 @@
 namespace shrm::viewer {
 
 GpuMesh::GpuMesh(const Mesh& mesh) {
-  glGenVertexArrays(1, &vao_);
-  glBindVertexArray(vao_);
-  glGenBuffers(4, vbo_);
+  vao_ = GlVertexArray::Generate();
+  glBindVertexArray(vao_.get());
   const std::vector<float>* data[4] = {&mesh.positions, &mesh.normals, &mesh.tangents, &mesh.uvs};
   const int sizes[4] = {3, 3, 4, 2};
   for (int a = 0; a < 4; ++a) {
-    glBindBuffer(GL_ARRAY_BUFFER, vbo_[a]);
+    vbo_[a] = GlBuffer::Generate();
+    glBindBuffer(GL_ARRAY_BUFFER, vbo_[a].get());
     glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data[a]->size() * sizeof(float)),
                  data[a]->data(), GL_STATIC_DRAW);
     glEnableVertexAttribArray(a);
     glVertexAttribPointer(a, sizes[a], GL_FLOAT, GL_FALSE, 0, nullptr);
   }
-  glGenBuffers(1, &ebo_);
-  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ebo_);
+  ebo_ = GlBuffer::Generate();
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ebo_.get());
   glBufferData(GL_ELEMENT_ARRAY_BUFFER,
                static_cast<GLsizeiptr>(mesh.indices.size() * sizeof(uint32_t)), mesh.indices.data(),
                GL_STATIC_DRAW);
@@ -24,14 +24,8 @@ GpuMesh::GpuMesh(const Mesh& mesh) {
   glBindVertexArray(0);
 }
 
-GpuMesh::~GpuMesh() {
-  glDeleteBuffers(4, vbo_);
-  glDeleteBuffers(1, &ebo_);
-  glDeleteVertexArrays(1, &vao_);
-}
-
 void GpuMesh::Draw() const {
-  glBindVertexArray(vao_);
+  glBindVertexArray(vao_.get());
   glDrawElements(GL_TRIANGLES, index_count_, GL_UNSIGNED_INT, nullptr);
   glBindVertexArray(0);
 }

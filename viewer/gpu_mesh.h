@@ -8,26 +8,28 @@
 
 #include <epoxy/gl.h>
 
+#include <array>
 #include <memory>
 
+#include "viewer/gl_util.h"
 #include "viewer/mesh.h"
 
 namespace shrm::viewer {
 
 class GpuMesh {
  public:
+  // GL context must be current (also when it is destroyed: gl_util.h).
   explicit GpuMesh(const Mesh& mesh);
-  ~GpuMesh();
-  GpuMesh(const GpuMesh&) = delete;
-  GpuMesh& operator=(const GpuMesh&) = delete;
 
   // Binds the VAO and draws all triangles (the caller's program must be in use).
   void Draw() const;
   size_t triangle_count() const { return index_count_ / 3; }
 
  private:
-  GLuint vao_ = 0, ebo_ = 0;
-  GLuint vbo_[4] = {0, 0, 0, 0};
+  // Destroyed in reverse order: the vertex buffers, the index buffer, the vertex array.
+  GlVertexArray vao_;
+  GlBuffer ebo_;
+  std::array<GlBuffer, 4> vbo_;
   GLsizei index_count_ = 0;
 };
 

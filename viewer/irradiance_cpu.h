@@ -27,7 +27,7 @@ namespace shrm::viewer {
 
 enum class IrradianceBasis { kH4, kH6, kSh9 };
 std::string_view IrradianceBasisName(IrradianceBasis b);  // "h4", "h6", "sh9"
-absl::StatusOr<IrradianceBasis> ParseIrradianceBasis(std::string_view name);
+[[nodiscard]] absl::StatusOr<IrradianceBasis> ParseIrradianceBasis(std::string_view name);
 // 4, 6, 9.
 int IrradianceCoefficientCount(IrradianceBasis b);
 // The SH degree of the lighting the basis uses: 4 for H4 / H6 (T_h's l = 4 block), 2 for SH9.
@@ -37,9 +37,9 @@ int IrradianceLightLmax(IrradianceBasis b);
 // them, from world lighting [ShIndex(l, m) * 3 + c] of any complete degree >= 2 (bands above
 // IrradianceLightLmax are ignored). world_from_tangent: columns (t, b, n), orthonormal, either
 // handedness. Errors: those of core/sh/tangent_irradiance.h.
-absl::Status TangentIrradianceRgb(std::span<const double> world_sh_rgb,
-                                  const Mat3& world_from_tangent, IrradianceBasis b,
-                                  std::span<double> out);
+[[nodiscard]] absl::Status TangentIrradianceRgb(std::span<const double> world_sh_rgb,
+                                                const Mat3& world_from_tangent, IrradianceBasis b,
+                                                std::span<double> out);
 
 // E at the tangent-space normal m (normalized here) from the coefficients above.
 std::array<double, 3> EvalTangentIrradiance(IrradianceBasis b, std::span<const double> coeffs_rgb,
@@ -50,10 +50,9 @@ std::array<double, 3> EvalTangentIrradiance(IrradianceBasis b, std::span<const d
 std::array<double, 3> IrradianceAlbedo(const Brdf* brdf);
 
 // One pixel: albedo / pi * E(m) with the coefficients of the frame (t, b, n).
-absl::StatusOr<std::array<double, 3>> IrradiancePixel(std::span<const double> world_sh_rgb,
-                                                      const Mat3& world_from_tangent,
-                                                      IrradianceBasis b, const Vec3& tangent_normal,
-                                                      const std::array<double, 3>& albedo);
+[[nodiscard]] absl::StatusOr<std::array<double, 3>> IrradiancePixel(
+    std::span<const double> world_sh_rgb, const Mat3& world_from_tangent, IrradianceBasis b,
+    const Vec3& tangent_normal, const std::array<double, 3>& albedo);
 
 }  // namespace shrm::viewer
 

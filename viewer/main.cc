@@ -1,8 +1,8 @@
 // shrm-view: the OpenGL reflection-map viewer (docs/viewer.md).
-#include <cstdio>
 #include <string>
 
 #include "viewer/app.h"
+#include "viewer/error_report.h"
 #include "viewer/render_mode.h"
 #include "viewer/viewer_options.h"
 
@@ -16,8 +16,8 @@ int main(int argc, char** argv) {
     for (const ModeInfo& m : RegisteredModes())
       available +=
           std::string(available.empty() ? "" : ", ") + std::to_string(m.key) + " " + m.name;
-    std::fprintf(stderr, "shrm-view: --mode %d is not available in this build (available: %s)\n",
-                 options.mode, available.c_str());
+    PrintError("--mode " + std::to_string(options.mode) +
+               " is not available in this build (available: " + available + ")");
     return kExitUsage;
   }
   return RunViewer(options);

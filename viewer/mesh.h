@@ -38,7 +38,7 @@ Mesh MakeTorus(double major, double minor, int segments, int sides);
 // ones; tangents from the UVs (or any orthonormal vector when the file has none); scaled and
 // centred into the unit sphere. Errors (InvalidArgument / NotFound) name the file; Unimplemented
 // when built without tinyobjloader.
-absl::StatusOr<Mesh> LoadObjMesh(const std::string& path);
+[[nodiscard]] absl::StatusOr<Mesh> LoadObjMesh(const std::string& path);
 
 // Per-vertex tangents from positions, normals, uvs and indices (accumulated per-triangle dP/du,
 // Gram-Schmidt against the normal, handedness from dP/dv); vertices whose UV derivatives are

@@ -5,6 +5,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "core/base/status_macros.h"
 #include "viewer/gl_util.h"
 #include "viewer/glsl_snippets.h"
 #include "viewer/reflection_sum.h"
@@ -30,27 +31,21 @@ void main() {
 
 class GlobalShrmMode final : public RenderMode {
  public:
-  ~GlobalShrmMode() override {
-    if (texture_ != 0) glDeleteTextures(1, &texture_);
-    if (program_ != 0) glDeleteProgram(program_);
-  }
-
-  absl::Status Init() override {
-    absl::StatusOr<GLuint> p = BuildProgram(kMeshVertexShader, kFragment, "mode 1 (global SHRM)");
-    if (!p.ok()) return p.status();
-    program_ = *p;
+  [[nodiscard]] absl::Status Init() override {
+    SHRM_ASSIGN_OR_RETURN(program_,
+                          BuildProgram(kMeshVertexShader, kFragment, "mode 1 (global SHRM)"));
     return absl::OkStatus();
   }
 
-  absl::Status Upload(const SceneData& scene) override {
+  [[nodiscard]] absl::Status Upload(const SceneData& scene) override {
     sum_.reset();
     if (scene.shrm == nullptr) return absl::OkStatus();
     absl::StatusOr<GlobalReflectionSum> s = GlobalReflectionSum::Create(scene.shrm->global);
     if (!s.ok()) return s.status();
     sum_ = *std::move(s);
     tangent_index_ = scene.shrm->global.index == ReparamKind::kTangent;
-    if (texture_ == 0) glGenTextures(1, &texture_);
-    glBindTexture(GL_TEXTURE_CUBE_MAP, texture_);
+    if (!texture_) texture_ = GlTexture::Generate();
+    glBindTexture(GL_TEXTURE_CUBE_MAP, texture_.get());
     const int size = sum_->face_size();
     for (int f = 0; f < 6; ++f)
       glTexImage2D(GL_TEXTURE_CUBE_MAP_POSITIVE_X + f, 0, GL_RGB32F, size, size, 0, GL_RGB,
@@ -63,29 +58,32 @@ class GlobalShrmMode final : public RenderMode {
     return absl::OkStatus();
   }
 
-  bool ready() const override { return sum_.has_value(); }
+  bool ready() const override { return program_ && sum_.has_value(); }
 
-  void Draw(const FrameInputs& frame) override {
+  [[nodiscard]] absl::Status Draw(const FrameInputs& frame) override {
+    if (!ready()) return absl::FailedPreconditionError("mode 1 has no SHRM to draw");
     const auto t0 = std::chrono::steady_clock::now();
     sum_->Compute(frame.central_view, &map_);
     const auto t1 = std::chrono::steady_clock::now();
     sum_ms_ = std::chrono::duration<double, std::milli>(t1 - t0).count();
     const int size = map_.face_size;
-    glBindTexture(GL_TEXTURE_CUBE_MAP, texture_);
+    glBindTexture(GL_TEXTURE_CUBE_MAP, texture_.get());
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
     for (int f = 0; f < 6; ++f)
       glTexSubImage2D(GL_TEXTURE_CUBE_MAP_POSITIVE_X + f, 0, 0, 0, size, size, GL_RGB, GL_FLOAT,
                       map_.data.data() + map_.Index(f, 0, 0, 0));
-    glUseProgram(program_);
-    SetUniformMat4(program_, "u_view_projection", frame.view_projection.data());
-    SetUniform(program_, "u_eye", static_cast<float>(frame.eye.x), static_cast<float>(frame.eye.y),
+    const GLuint program = program_.get();
+    glUseProgram(program);
+    SetUniformMat4(program, "u_view_projection", frame.view_projection.data());
+    SetUniform(program, "u_eye", static_cast<float>(frame.eye.x), static_cast<float>(frame.eye.y),
                static_cast<float>(frame.eye.z));
-    SetUniform(program_, "u_tangent_index", tangent_index_ ? 1 : 0);
+    SetUniform(program, "u_tangent_index", tangent_index_ ? 1 : 0);
     glActiveTexture(GL_TEXTURE0);
-    glBindTexture(GL_TEXTURE_CUBE_MAP, texture_);
-    SetUniform(program_, "u_map", 0);
+    glBindTexture(GL_TEXTURE_CUBE_MAP, texture_.get());
+    SetUniform(program, "u_map", 0);
     frame.mesh->Draw();
     glUseProgram(0);
+    return absl::OkStatus();
   }
 
   std::string Status() const override {
@@ -95,7 +93,9 @@ class GlobalShrmMode final : public RenderMode {
   }
 
  private:
-  GLuint program_ = 0, texture_ = 0;
+  // Destroyed in reverse order: the texture, then the program.
+  GlProgram program_;
+  GlTexture texture_;
   std::optional<GlobalReflectionSum> sum_;
   RadianceCube map_;
   bool tangent_index_ = false;

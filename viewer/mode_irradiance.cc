@@ -1,10 +1,10 @@
 #include "viewer/mode_irradiance.h"
 
-#include <cstdio>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "core/base/status_macros.h"
 #include "core/sh/hbasis.h"
 #include "core/sh/sh.h"
 #include "viewer/gl_util.h"
@@ -109,57 +109,52 @@ void main() {
 
 }  // namespace
 
-IrradianceMode::~IrradianceMode() {
-  if (normal_texture_ != 0) glDeleteTextures(1, &normal_texture_);
-  if (program_ != 0) glDeleteProgram(program_);
-}
-
 absl::Status IrradianceMode::Init() {
+  program_.reset();
+  SHRM_ASSIGN_OR_RETURN(const HBasisConversion th, HBasisConversion::Create(kLightLmax));
   const std::string defines = absl::StrCat("#version 330 core\n#define LMAX ", kLightLmax, "\n");
-  absl::StatusOr<GLuint> p = BuildProgram(
-      absl::StrCat(defines, ShRotateZGlsl(kLightLmax), LocalLightingGlsl(kLightLmax), kVertexMain),
-      absl::StrCat("#version 330 core\n", kFragmentMain), "mode 4 (irradiance)");
-  if (!p.ok()) {
-    error_ = std::string(p.status().message());
-    std::fprintf(stderr, "shrm-view: %s\n", error_.c_str());
-    return absl::OkStatus();
-  }
-  program_ = *p;
+  SHRM_ASSIGN_OR_RETURN(
+      GlProgram program,
+      BuildProgram(absl::StrCat(defines, ShRotateZGlsl(kLightLmax), LocalLightingGlsl(kLightLmax),
+                                kVertexMain),
+                   absl::StrCat("#version 330 core\n", kFragmentMain), "mode 4 (irradiance)"));
   // Constant uniforms (the lighting is set in Upload()): A_l and T_h.
-  glUseProgram(program_);
+  glUseProgram(program.get());
   std::vector<float> band(kLightLmax + 1);
   for (int l = 0; l <= kLightLmax; ++l) band[l] = static_cast<float>(LambertianBandFactor(l));
-  glUniform1fv(glGetUniformLocation(program_, "u_band"), kLightLmax + 1, band.data());
-  const HBasisConversion th = *HBasisConversion::Create(kLightLmax);
+  glUniform1fv(glGetUniformLocation(program.get(), "u_band"), kLightLmax + 1, band.data());
   const std::vector<float> t(th.matrix().begin(), th.matrix().end());
-  glUniform1fv(glGetUniformLocation(program_, "u_th"), static_cast<GLsizei>(t.size()), t.data());
+  glUniform1fv(glGetUniformLocation(program.get(), "u_th"), static_cast<GLsizei>(t.size()),
+               t.data());
   glUseProgram(0);
+  program_ = std::move(program);
   return absl::OkStatus();
 }
 
 absl::Status IrradianceMode::Upload(const SceneData& scene) {
   env_ = scene.env;
   albedo_ = IrradianceAlbedo(scene.brdf.get());
-  if (program_ == 0 || env_ == nullptr || env_->sh.empty()) return absl::OkStatus();
+  if (!program_ || env_ == nullptr || env_->sh.empty()) return absl::OkStatus();
   std::vector<double> world(static_cast<size_t>(ShCount(kLightLmax)) * 3, 0.0);
   std::copy(env_->sh.begin(), env_->sh.begin() + std::min(world.size(), env_->sh.size()),
             world.begin());
-  glUseProgram(program_);
-  SetLocalLightingUniforms(program_, kLightLmax, world.data());
+  glUseProgram(program_.get());
+  SetLocalLightingUniforms(program_.get(), kLightLmax, world.data());
   glUseProgram(0);
   return absl::OkStatus();
 }
 
 bool IrradianceMode::ready() const {
-  return program_ != 0 && env_ != nullptr && env_->sh.size() >= static_cast<size_t>(ShCount(2)) * 3;
+  return program_ && env_ != nullptr && env_->sh.size() >= static_cast<size_t>(ShCount(2)) * 3;
 }
 
-void IrradianceMode::Draw(const FrameInputs& frame) {
+absl::Status IrradianceMode::Draw(const FrameInputs& frame) {
+  if (!ready()) return absl::FailedPreconditionError("mode 4 needs --env");
   const bool use_map = settings_.normal_map != NormalMapKind::kNone;
   if (use_map && settings_.normal_map != normal_uploaded_) {
     const NormalMap map = MakeNormalMap(settings_.normal_map);
-    if (normal_texture_ == 0) glGenTextures(1, &normal_texture_);
-    glBindTexture(GL_TEXTURE_2D, normal_texture_);
+    if (!normal_texture_) normal_texture_ = GlTexture::Generate();
+    glBindTexture(GL_TEXTURE_2D, normal_texture_.get());
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
     glTexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, map.width, map.height, 0, GL_RGB, GL_FLOAT,
                  map.texels.data());
@@ -169,22 +164,24 @@ void IrradianceMode::Draw(const FrameInputs& frame) {
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_REPEAT);
     normal_uploaded_ = settings_.normal_map;
   }
-  glUseProgram(program_);
-  SetUniformMat4(program_, "u_view_projection", frame.view_projection.data());
-  SetUniform(program_, "u_basis", static_cast<int>(settings_.basis));
-  SetUniform(program_, "u_use_normal_map", use_map ? 1 : 0);
-  SetUniform(program_, "u_albedo_over_pi", static_cast<float>(albedo_[0] / kPi),
+  const GLuint program = program_.get();
+  glUseProgram(program);
+  SetUniformMat4(program, "u_view_projection", frame.view_projection.data());
+  SetUniform(program, "u_basis", static_cast<int>(settings_.basis));
+  SetUniform(program, "u_use_normal_map", use_map ? 1 : 0);
+  SetUniform(program, "u_albedo_over_pi", static_cast<float>(albedo_[0] / kPi),
              static_cast<float>(albedo_[1] / kPi), static_cast<float>(albedo_[2] / kPi));
   glActiveTexture(GL_TEXTURE1);
-  glBindTexture(GL_TEXTURE_2D, use_map ? normal_texture_ : 0);
-  SetUniform(program_, "u_normal_map", 1);
+  glBindTexture(GL_TEXTURE_2D, use_map ? normal_texture_.get() : 0);
+  SetUniform(program, "u_normal_map", 1);
   glActiveTexture(GL_TEXTURE0);
   frame.mesh->Draw();
   glUseProgram(0);
+  return absl::OkStatus();
 }
 
 std::string IrradianceMode::Status() const {
-  if (!error_.empty()) return error_;
+  if (!program_) return "";  // unavailable: Init()'s error says why
   return absl::StrFormat(
       "irradiance %s per vertex (lighting l<=%d, exact rotation), albedo %.3g/%.3g/%.3g, normal "
       "map %s [S basis, N normal map]",

@@ -21,6 +21,7 @@
 #include <memory>
 #include <string>
 
+#include "viewer/gl_util.h"
 #include "viewer/irradiance_cpu.h"
 #include "viewer/normal_map.h"
 #include "viewer/render_mode.h"
@@ -35,12 +36,12 @@ struct IrradianceSettings {
 class IrradianceMode final : public RenderMode {
  public:
   explicit IrradianceMode(const IrradianceSettings& settings = {}) : settings_(settings) {}
-  ~IrradianceMode() override;
 
-  absl::Status Init() override;
-  absl::Status Upload(const SceneData& scene) override;
+  // Errors: the program does not build (e.g. too few vertex output components).
+  [[nodiscard]] absl::Status Init() override;
+  [[nodiscard]] absl::Status Upload(const SceneData& scene) override;
   bool ready() const override;
-  void Draw(const FrameInputs& frame) override;
+  [[nodiscard]] absl::Status Draw(const FrameInputs& frame) override;
   std::string Status() const override;
   bool OnKey(int key, std::string* message) override;
 
@@ -51,8 +52,9 @@ class IrradianceMode final : public RenderMode {
   IrradianceSettings settings_;
   std::shared_ptr<const EnvironmentData> env_;
   std::array<double, 3> albedo_{1, 1, 1};
-  std::string error_;
-  GLuint program_ = 0, normal_texture_ = 0;
+  // Destroyed in reverse order: the normal map, then the program.
+  GlProgram program_;
+  GlTexture normal_texture_;
   NormalMapKind normal_uploaded_ = NormalMapKind::kNone;
 };
 

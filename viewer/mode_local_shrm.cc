@@ -4,6 +4,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "core/base/status_macros.h"
 #include "core/sh/sh.h"
 #include "viewer/gl_util.h"
 #include "viewer/glsl_snippets.h"
@@ -107,15 +108,9 @@ constexpr double kPoleTexels = 4;
 
 class LocalShrmMode final : public RenderMode {
  public:
-  ~LocalShrmMode() override {
-    if (texture_ != 0) glDeleteTextures(1, &texture_);
-    if (filtered_ != 0) glDeleteTextures(1, &filtered_);
-    DeletePrograms();
-  }
+  [[nodiscard]] absl::Status Init() override { return absl::OkStatus(); }
 
-  absl::Status Init() override { return absl::OkStatus(); }
-
-  absl::Status Upload(const SceneData& scene) override {
+  [[nodiscard]] absl::Status Upload(const SceneData& scene) override {
     ready_ = false;
     if (scene.shrm == nullptr) return absl::OkStatus();
     const ShrmCube& cube = scene.shrm->local;
@@ -130,17 +125,18 @@ class LocalShrmMode final : public RenderMode {
     GLint major = 0;
     glGetIntegerv(GL_MAJOR_VERSION, &major);
     fast_path_ = major >= 4;  // cube map arrays (GL 4.0)
-    if (taps_program_ == 0 || pmax_ != cube.pmax) {
-      DeletePrograms();
+    if (!taps_program_ || pmax_ != cube.pmax) {
+      taps_program_.reset();
+      filtered_program_.reset();
+      pmax_ = -1;
       for (int fast = 0; fast <= (fast_path_ ? 1 : 0); ++fast) {
         const std::string fragment = absl::StrCat(
             fast ? "#version 400 core\n" : "#version 330 core\n", "#define FAST_PATH ", fast,
             "\n#define PMAX ", cube.pmax, "\n", kShEvalGlsl, kCubeGlsl, kFragmentMain);
-        absl::StatusOr<GLuint> p = BuildProgram(
-            kMeshVertexShader, fragment,
-            fast ? "mode 2 (local SHRM, filtered pass)" : "mode 2 (local SHRM, four-tap pass)");
-        if (!p.ok()) return p.status();
-        (fast ? filtered_program_ : taps_program_) = *p;
+        SHRM_ASSIGN_OR_RETURN((fast ? filtered_program_ : taps_program_),
+                              BuildProgram(kMeshVertexShader, fragment,
+                                           fast ? "mode 2 (local SHRM, filtered pass)"
+                                                : "mode 2 (local SHRM, four-tap pass)"));
       }
       pmax_ = cube.pmax;
     }
@@ -155,15 +151,15 @@ class LocalShrmMode final : public RenderMode {
               layered[(((static_cast<size_t>(k) * 6 + f) * s + y) * s + x) * 3 + c] =
                   cube.data[cube.Index(f, x, y, k, c)];
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    if (texture_ == 0) glGenTextures(1, &texture_);
-    glBindTexture(GL_TEXTURE_2D_ARRAY, texture_);
+    if (!texture_) texture_ = GlTexture::Generate();
+    glBindTexture(GL_TEXTURE_2D_ARRAY, texture_.get());
     glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_RGB32F, s, s, 6 * n, 0, GL_RGB, GL_FLOAT,
                  layered.data());
     glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
     if (fast_path_) {
-      if (filtered_ == 0) glGenTextures(1, &filtered_);
-      glBindTexture(GL_TEXTURE_CUBE_MAP_ARRAY, filtered_);
+      if (!filtered_) filtered_ = GlTexture::Generate();
+      glBindTexture(GL_TEXTURE_CUBE_MAP_ARRAY, filtered_.get());
       glTexImage3D(GL_TEXTURE_CUBE_MAP_ARRAY, 0, GL_RGB32F, s, s, 6 * n, 0, GL_RGB, GL_FLOAT,
                    layered.data());
       glTexParameteri(GL_TEXTURE_CUBE_MAP_ARRAY, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
@@ -179,12 +175,14 @@ class LocalShrmMode final : public RenderMode {
 
   bool ready() const override { return ready_; }
 
-  void Draw(const FrameInputs& frame) override {
+  [[nodiscard]] absl::Status Draw(const FrameInputs& frame) override {
+    if (!ready_) return absl::FailedPreconditionError("mode 2 has no SHRM to draw");
     // Pass 1 (GL >= 4): filtered coefficients, one frame per pixel, discarding the pixels near
     // the poles; pass 2: four taps in their own frames, shaded only where pass 1 left no depth
     // (the same vertex shader gives the same depths, so GL_LESS rejects the others early).
-    if (fast_path_) Pass(filtered_program_, frame);
-    Pass(taps_program_, frame);
+    if (fast_path_) Pass(filtered_program_.get(), frame);
+    Pass(taps_program_.get(), frame);
+    return absl::OkStatus();
   }
 
   std::string Status() const override {
@@ -195,13 +193,6 @@ class LocalShrmMode final : public RenderMode {
   }
 
  private:
-  void DeletePrograms() {
-    for (GLuint* p : {&taps_program_, &filtered_program_}) {
-      if (*p != 0) glDeleteProgram(*p);
-      *p = 0;
-    }
-  }
-
   void Pass(GLuint program, const FrameInputs& frame) {
     glUseProgram(program);
     SetUniformMat4(program, "u_view_projection", frame.view_projection.data());
@@ -210,11 +201,11 @@ class LocalShrmMode final : public RenderMode {
     SetUniform(program, "u_size", size_);
     SetUniform(program, "u_tangent_index", tangent_index_ ? 1 : 0);
     glActiveTexture(GL_TEXTURE0);
-    glBindTexture(GL_TEXTURE_2D_ARRAY, texture_);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, texture_.get());
     SetUniform(program, "u_coeffs", 0);
-    if (program == filtered_program_) {
+    if (program == filtered_program_.get()) {
       glActiveTexture(GL_TEXTURE1);
-      glBindTexture(GL_TEXTURE_CUBE_MAP_ARRAY, filtered_);
+      glBindTexture(GL_TEXTURE_CUBE_MAP_ARRAY, filtered_.get());
       SetUniform(program, "u_filtered", 1);
       SetUniform(program, "u_pole_sin", static_cast<float>(kPoleTexels * 2.0 / size_));
       glActiveTexture(GL_TEXTURE0);
@@ -223,7 +214,9 @@ class LocalShrmMode final : public RenderMode {
     glUseProgram(0);
   }
 
-  GLuint taps_program_ = 0, filtered_program_ = 0, texture_ = 0, filtered_ = 0;
+  // Destroyed in reverse order: the textures, then the programs.
+  GlProgram filtered_program_, taps_program_;
+  GlTexture filtered_, texture_;
   int pmax_ = -1, size_ = 0;
   bool tangent_index_ = false, ready_ = false, fast_path_ = false;
 };

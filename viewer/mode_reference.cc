@@ -1,6 +1,7 @@
 #include "viewer/mode_reference.h"
 
 #include "absl/strings/str_format.h"
+#include "core/base/status_macros.h"
 #include "viewer/gl_util.h"
 #include "viewer/glsl_snippets.h"
 
@@ -19,38 +20,37 @@ void main() {
 
 class ReferenceMode final : public RenderMode {
  public:
-  ~ReferenceMode() override {
-    if (program_ != 0) glDeleteProgram(program_);
-  }
-  absl::Status Init() override {
-    absl::StatusOr<GLuint> p = BuildProgram(kMeshVertexShader, kFragment, "mode 5 (reference)");
-    if (!p.ok()) return p.status();
-    program_ = *p;
+  [[nodiscard]] absl::Status Init() override {
+    SHRM_ASSIGN_OR_RETURN(program_,
+                          BuildProgram(kMeshVertexShader, kFragment, "mode 5 (reference)"));
     return absl::OkStatus();
   }
-  absl::Status Upload(const SceneData& scene) override {
+  [[nodiscard]] absl::Status Upload(const SceneData& scene) override {
     ready_ = scene.env != nullptr && scene.brdf != nullptr;
     return absl::OkStatus();
   }
-  bool ready() const override { return ready_; }
+  bool ready() const override { return program_ && ready_; }
   bool needs_reference() const override { return true; }
-  void Draw(const FrameInputs& frame) override {
+  [[nodiscard]] absl::Status Draw(const FrameInputs& frame) override {
+    if (!ready()) return absl::FailedPreconditionError("mode 5 needs --env and a BRDF");
     progress_ = frame.reference_progress;
-    glUseProgram(program_);
-    SetUniformMat4(program_, "u_view_projection", frame.view_projection.data());
+    const GLuint program = program_.get();
+    glUseProgram(program);
+    SetUniformMat4(program, "u_view_projection", frame.view_projection.data());
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_2D, frame.reference_texture);
-    SetUniform(program_, "u_reference", 0);
-    SetUniform(program_, "u_valid", frame.reference_texture != 0 ? 1 : 0);
+    SetUniform(program, "u_reference", 0);
+    SetUniform(program, "u_valid", frame.reference_texture != 0 ? 1 : 0);
     frame.mesh->Draw();
     glUseProgram(0);
+    return absl::OkStatus();
   }
   std::string Status() const override {
     return absl::StrFormat("brute force, %.0f%% of the pixels", 100 * progress_);
   }
 
  private:
-  GLuint program_ = 0;
+  GlProgram program_;
   bool ready_ = false;
   double progress_ = 0;
 };

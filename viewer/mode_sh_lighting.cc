@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <span>
 #include <string>
 #include <thread>
@@ -11,6 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "core/base/status_macros.h"
 #include "core/sh/rotation.h"
 #include "core/sh/sh.h"
 #include "core/sh/wigner.h"
@@ -285,35 +285,20 @@ int VariantKey(bool normal_map, bool rotate, bool hsh, bool grey) {
   return (normal_map ? 1 : 0) | (rotate ? 2 : 0) | (hsh ? 4 : 0) | (grey ? 8 : 0);
 }
 
-}  // namespace
-
-ShLightingMode::~ShLightingMode() {
-  for (Basis& b : bases_)
-    if (b.texture != 0) glDeleteTextures(1, &b.texture);
-  if (normal_texture_ != 0) glDeleteTextures(1, &normal_texture_);
-  for (auto& [key, program] : programs_)
-    if (program != 0) glDeleteProgram(program);
-}
-
-absl::Status ShLightingMode::Init() {
-  // Programs are built per variant on first use (Program()); a GL without enough vertex outputs
-  // (GL 3.3 guarantees 64 components) fails to link: the mode is then unavailable (error_ says
-  // why) and the viewer goes on. Build the default variant now to find out early.
-  Program(false, false, false, true);
-  return absl::OkStatus();
-}
-
-GLuint ShLightingMode::Program(bool normal_map, bool rotate, bool hsh, bool grey) {
-  rotate = rotate && normal_map;
-  const int key = VariantKey(normal_map, rotate, hsh, grey);
-  if (auto it = programs_.find(key); it != programs_.end()) return it->second;
+absl::StatusOr<GlProgram> BuildVariant(bool normal_map, bool rotate, bool hsh, bool grey) {
   const std::string defines = absl::StrCat("#version 330 core\n#define LMAX ", kShLightingLmax,
                                            "\n#define BMAX ", kShLightingLmax, "\n");
-  std::string hsh_glsl;
-  if (hsh) hsh_glsl = HshFromShGlsl(*ShHshConversion::Create(kShLightingLmax, kShLightingLmax));
-  const std::string taylor_glsl =
-      rotate ? TaylorY15Glsl(*TaylorYRotation::Create(kShLightingLmax)) : std::string();
-  absl::StatusOr<GLuint> p = BuildProgram(
+  std::string hsh_glsl, taylor_glsl;
+  if (hsh) {
+    SHRM_ASSIGN_OR_RETURN(const ShHshConversion c,
+                          ShHshConversion::Create(kShLightingLmax, kShLightingLmax));
+    hsh_glsl = HshFromShGlsl(c);
+  }
+  if (rotate) {
+    SHRM_ASSIGN_OR_RETURN(const TaylorYRotation taylor, TaylorYRotation::Create(kShLightingLmax));
+    taylor_glsl = TaylorY15Glsl(taylor);
+  }
+  return BuildProgram(
       absl::StrCat(defines, ShRotateZGlsl(kShLightingLmax), LocalLightingGlsl(kShLightingLmax),
                    kVertexMain),
       absl::StrCat(defines, "#define NORMAL_MAP ", normal_map ? 1 : 0, "\n#define ROTATE ",
@@ -321,15 +306,26 @@ GLuint ShLightingMode::Program(bool normal_map, bool rotate, bool hsh, bool grey
                    "\n", ShRotateZGlsl(kShLightingLmax), kFragmentHead, hsh_glsl, taylor_glsl,
                    kFragmentMain),
       "mode 3 (SH lighting)");
-  GLuint program = 0;
-  if (p.ok()) {
-    program = *p;
-  } else {
-    error_ = std::string(p.status().message());
-    std::fprintf(stderr, "shrm-view: %s\n", error_.c_str());
-  }
-  programs_[key] = program;
-  return program;
+}
+
+}  // namespace
+
+absl::Status ShLightingMode::Init() {
+  // Programs are built per variant on first use (Program()); a GL without enough vertex outputs
+  // (GL 3.3 guarantees 64 components) fails to link: the mode is then unavailable (the error says
+  // why) and the viewer goes on without it. Build the default variant now to find out early.
+  init_status_ = Program(false, false, false, true).status();
+  return init_status_;
+}
+
+absl::StatusOr<GLuint> ShLightingMode::Program(bool normal_map, bool rotate, bool hsh, bool grey) {
+  rotate = rotate && normal_map;
+  const int key = VariantKey(normal_map, rotate, hsh, grey);
+  auto it = programs_.find(key);
+  if (it == programs_.end())
+    it = programs_.emplace(key, BuildVariant(normal_map, rotate, hsh, grey)).first;
+  if (!it->second.ok()) return it->second.status();
+  return it->second->get();
 }
 
 absl::Status ShLightingMode::Upload(const SceneData& scene) {
@@ -338,31 +334,34 @@ absl::Status ShLightingMode::Upload(const SceneData& scene) {
   env_ = scene.env;
   brdf_ = scene.brdf;
   brdf_spec_ = brdf_ != nullptr ? brdf_->spec() : "";
+  draw_error_ = absl::OkStatus();
   if (!same) {
     for (Basis& b : bases_) {
       b.cpu.reset();
-      b.error.clear();
+      b.status = absl::OkStatus();
     }
   }
   // The current basis's table now, so that ready() knows about BRDFs the tables refuse
   // (Kajiya-Kay); the other basis when it is first drawn.
-  if (env_ != nullptr && brdf_ != nullptr && !env_->sh.empty()) (void)PrepareBasis(settings_.basis);
+  if (env_ != nullptr && brdf_ != nullptr && !env_->sh.empty())
+    return PrepareBasis(settings_.basis);
   return absl::OkStatus();
 }
 
 absl::Status ShLightingMode::PrepareBasis(HemisphereBasis basis) {
   Basis& b = bases_[static_cast<int>(basis)];
   if (b.cpu.has_value()) return absl::OkStatus();
-  if (!b.error.empty()) return absl::FailedPreconditionError(b.error);
+  if (!b.status.ok()) return b.status;
   const auto t0 = Clock::now();
   ShLightingOptions o;
   o.basis = basis;
   o.threads = Threads();
   absl::StatusOr<ShLightingCpu> cpu = ShLightingCpu::Create(env_->sh, *brdf_, o);
   if (!cpu.ok()) {
-    b.error = absl::StrCat("mode 3: ", cpu.status().message());
-    std::fprintf(stderr, "shrm-view: %s\n", b.error.c_str());
-    return absl::FailedPreconditionError(b.error);
+    b.status = absl::Status(cpu.status().code(),
+                            absl::StrCat(basis == HemisphereBasis::kSh ? "SH" : "HSH",
+                                         " BRDF coefficients: ", cpu.status().message()));
+    return b.status;
   }
   table_ms_ = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   b.cpu = *std::move(cpu);
@@ -382,8 +381,8 @@ absl::Status ShLightingMode::PrepareBasis(HemisphereBasis basis) {
           texels[((static_cast<size_t>(layer) * r + y) * r + x) * comps + comp] =
               table.Texel(x, y, std::min(c, ch - 1))[k];
         }
-  if (b.texture == 0) glGenTextures(1, &b.texture);
-  glBindTexture(GL_TEXTURE_2D_ARRAY, b.texture);
+  if (!b.texture) b.texture = GlTexture::Generate();
+  glBindTexture(GL_TEXTURE_2D_ARRAY, b.texture.get());
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, b.grey ? GL_RGBA32F : GL_RGB32F, r, r, layers, 0,
                b.grey ? GL_RGBA : GL_RGB, GL_FLOAT, texels.data());
@@ -398,8 +397,8 @@ void ShLightingMode::PrepareNormalMap() {
   if (settings_.normal_map == NormalMapKind::kNone || settings_.normal_map == normal_uploaded_)
     return;
   const NormalMap map = MakeNormalMap(settings_.normal_map);
-  if (normal_texture_ == 0) glGenTextures(1, &normal_texture_);
-  glBindTexture(GL_TEXTURE_2D, normal_texture_);
+  if (!normal_texture_) normal_texture_ = GlTexture::Generate();
+  glBindTexture(GL_TEXTURE_2D, normal_texture_.get());
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   glTexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, map.width, map.height, 0, GL_RGB, GL_FLOAT,
                map.texels.data());
@@ -411,8 +410,8 @@ void ShLightingMode::PrepareNormalMap() {
 }
 
 bool ShLightingMode::ready() const {
-  return error_.empty() && env_ != nullptr && brdf_ != nullptr && !env_->sh.empty() &&
-         bases_[static_cast<int>(settings_.basis)].error.empty();
+  return init_status_.ok() && draw_error_.ok() && env_ != nullptr && brdf_ != nullptr &&
+         !env_->sh.empty() && bases_[static_cast<int>(settings_.basis)].status.ok();
 }
 
 const ShLightingCpu* ShLightingMode::cpu(HemisphereBasis basis) const {
@@ -420,15 +419,21 @@ const ShLightingCpu* ShLightingMode::cpu(HemisphereBasis basis) const {
   return b.cpu.has_value() ? &*b.cpu : nullptr;
 }
 
-void ShLightingMode::Draw(const FrameInputs& frame) {
-  if (!ready() || !PrepareBasis(settings_.basis).ok()) return;
+absl::Status ShLightingMode::Draw(const FrameInputs& frame) {
+  if (!ready()) return absl::FailedPreconditionError("mode 3 needs --env and a BRDF");
+  draw_error_ = DrawFrame(frame);
+  return draw_error_;
+}
+
+absl::Status ShLightingMode::DrawFrame(const FrameInputs& frame) {
+  SHRM_RETURN_IF_ERROR(PrepareBasis(settings_.basis));
   PrepareNormalMap();
   const Basis& basis = bases_[static_cast<int>(settings_.basis)];
   const ShLightingCpu& cpu = *basis.cpu;
   const bool use_map = settings_.normal_map != NormalMapKind::kNone;
-  const GLuint program = Program(use_map, settings_.mapping != NormalMapping::kSimplified,
-                                 cpu.conversion().has_value(), basis.grey);
-  if (program == 0) return;
+  SHRM_ASSIGN_OR_RETURN(const GLuint program,
+                        Program(use_map, settings_.mapping != NormalMapping::kSimplified,
+                                cpu.conversion().has_value(), basis.grey));
   glUseProgram(program);
   SetUniformMat4(program, "u_view_projection", frame.view_projection.data());
   SetUniform(program, "u_eye", static_cast<float>(frame.eye.x), static_cast<float>(frame.eye.y),
@@ -436,20 +441,21 @@ void ShLightingMode::Draw(const FrameInputs& frame) {
   // A few hundred floats per frame: cheaper than tracking which program saw which data.
   SetLocalLightingUniforms(program, kShLightingLmax, cpu.world_lighting().data());
   glActiveTexture(GL_TEXTURE0);
-  glBindTexture(GL_TEXTURE_2D_ARRAY, basis.texture);
+  glBindTexture(GL_TEXTURE_2D_ARRAY, basis.texture.get());
   SetUniform(program, "u_brdf", 0);
   glActiveTexture(GL_TEXTURE1);
-  glBindTexture(GL_TEXTURE_2D, use_map ? normal_texture_ : 0);
+  glBindTexture(GL_TEXTURE_2D, use_map ? normal_texture_.get() : 0);
   SetUniform(program, "u_normal_map", 1);
   glActiveTexture(GL_TEXTURE0);
   frame.mesh->Draw();
   glUseProgram(0);
+  return absl::OkStatus();
 }
 
 std::string ShLightingMode::Status() const {
-  if (!error_.empty()) return error_;
   const Basis& b = bases_[static_cast<int>(settings_.basis)];
-  if (!b.error.empty()) return b.error;
+  // Unavailable: the error (Init, Upload or Draw) was reported where it arose.
+  if (!init_status_.ok() || !b.status.ok()) return "";
   std::string s = absl::StrFormat(
       "lighting l<=%d rotated per vertex (exact), %s BRDF %d coeffs, %dx%d table", kShLightingLmax,
       settings_.basis == HemisphereBasis::kSh ? "SH" : "HSH (h = C L)", ShCount(kShLightingLmax),
@@ -467,17 +473,20 @@ std::string ShLightingMode::Status() const {
 bool ShLightingMode::OnKey(int key, std::string* message) {
   switch (key) {
     case 'S':
+      draw_error_ = absl::OkStatus();  // what is drawn changes
       settings_.basis =
           settings_.basis == HemisphereBasis::kSh ? HemisphereBasis::kHsh : HemisphereBasis::kSh;
       *message = absl::StrCat("mode 3: BRDF coefficients in ",
                               settings_.basis == HemisphereBasis::kSh ? "SH" : "HSH (h = C L)");
       return true;
     case 'N':
+      draw_error_ = absl::OkStatus();  // what is drawn changes
       settings_.normal_map = NextNormalMapKind(settings_.normal_map);
       *message =
           absl::StrCat("mode 3: normal map ", std::string(NormalMapKindName(settings_.normal_map)));
       return true;
     case 'T':
+      draw_error_ = absl::OkStatus();  // what is drawn changes
       settings_.mapping = settings_.mapping == NormalMapping::kSimplified
                               ? NormalMapping::kTaylor
                               : NormalMapping::kSimplified;

@@ -21,7 +21,9 @@
 // Keys (while mode 3 is active): S basis SH <-> HSH, N normal map none -> bumps -> steep -> flat,
 // T normal mapping Taylor <-> simplified. The table of the current basis is computed in Upload()
 // (a new BRDF or environment), the other basis's when it is first drawn (tens to hundreds of ms
-// on the GL thread).
+// on the GL thread). Errors (render_mode.h): Init() when the default program does not link (too
+// few vertex outputs), Upload() / Draw() when the tables refuse the BRDF (Kajiya-Kay) or a shader
+// variant does not build.
 #ifndef SHRM_VIEWER_MODE_SH_LIGHTING_H_
 #define SHRM_VIEWER_MODE_SH_LIGHTING_H_
 
@@ -32,6 +34,9 @@
 #include <optional>
 #include <string>
 
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "viewer/gl_util.h"
 #include "viewer/normal_map.h"
 #include "viewer/render_mode.h"
 #include "viewer/sh_lighting_cpu.h"
@@ -47,40 +52,46 @@ struct ShLightingSettings {
 class ShLightingMode final : public RenderMode {
  public:
   explicit ShLightingMode(const ShLightingSettings& settings = {}) : settings_(settings) {}
-  ~ShLightingMode() override;
 
-  absl::Status Init() override;
-  absl::Status Upload(const SceneData& scene) override;
+  [[nodiscard]] absl::Status Init() override;
+  [[nodiscard]] absl::Status Upload(const SceneData& scene) override;
   bool ready() const override;
-  void Draw(const FrameInputs& frame) override;
+  [[nodiscard]] absl::Status Draw(const FrameInputs& frame) override;
   std::string Status() const override;
   bool OnKey(int key, std::string* message) override;
 
   const ShLightingSettings& settings() const { return settings_; }
   // Takes effect at the next Draw() (a new basis computes its table then).
-  void set_settings(const ShLightingSettings& s) { settings_ = s; }
+  void set_settings(const ShLightingSettings& s) {
+    settings_ = s;
+    draw_error_ = absl::OkStatus();
+  }
   // The CPU twin the GPU draws with (nullptr before the first successful draw of a basis).
   const ShLightingCpu* cpu(HemisphereBasis basis) const;
 
  private:
   struct Basis {
     std::optional<ShLightingCpu> cpu;
-    GLuint texture = 0;
-    bool grey = false;  // one BRDF channel: 4 coefficients per RGBA texel
-    std::string error;
+    GlTexture texture;
+    bool grey = false;    // one BRDF channel: 4 coefficients per RGBA texel
+    absl::Status status;  // the table's error (kept until the BRDF or the environment changes)
   };
-  absl::Status PrepareBasis(HemisphereBasis basis);
+  [[nodiscard]] absl::Status PrepareBasis(HemisphereBasis basis);
   void PrepareNormalMap();
-  // The program of a shader variant, built on first use (0 after a build error, in error_).
-  GLuint Program(bool normal_map, bool rotate, bool hsh, bool grey);
+  // The program of a shader variant, built on first use (a build error is kept: not retried).
+  [[nodiscard]] absl::StatusOr<GLuint> Program(bool normal_map, bool rotate, bool hsh, bool grey);
+  [[nodiscard]] absl::Status DrawFrame(const FrameInputs& frame);
 
   ShLightingSettings settings_;
   std::shared_ptr<const EnvironmentData> env_;
   std::shared_ptr<const Brdf> brdf_;
-  std::string brdf_spec_, error_;
+  std::string brdf_spec_;
+  absl::Status init_status_;  // Init(): the default variant's build
+  absl::Status draw_error_;   // the last Draw()'s error: not ready() until the settings change
+  // Destroyed in reverse order: the tables, the normal map, the programs.
+  std::map<int, absl::StatusOr<GlProgram>> programs_;
+  GlTexture normal_texture_;
   Basis bases_[2];
-  std::map<int, GLuint> programs_;
-  GLuint normal_texture_ = 0;
   NormalMapKind normal_uploaded_ = NormalMapKind::kNone;
   double table_ms_ = 0;
 };

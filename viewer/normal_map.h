@@ -39,7 +39,7 @@ enum class NormalMapKind { kNone, kFlat, kBumps, kSteepBumps };
 // "none", "flat", "bumps", "steep".
 std::string_view NormalMapKindName(NormalMapKind kind);
 // The inverse; InvalidArgument naming the valid kinds.
-absl::StatusOr<NormalMapKind> ParseNormalMapKind(std::string_view name);
+[[nodiscard]] absl::StatusOr<NormalMapKind> ParseNormalMapKind(std::string_view name);
 
 // Defaults of the bump map: periods along u and v, texels per period, and the largest tilt
 // (the rotation paper's normal maps modulate the normal by "rather small angles", sec. 5.2).

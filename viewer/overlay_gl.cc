@@ -25,19 +25,13 @@ absl::StatusOr<std::unique_ptr<OverlayGl>> OverlayGl::Create() {
   std::unique_ptr<OverlayGl> o(new OverlayGl());
   SHRM_ASSIGN_OR_RETURN(o->program_,
                         BuildProgram(kFullscreenVertexShader, kOverlayFragment, "text overlay"));
-  glGenTextures(1, &o->texture_);
-  glBindTexture(GL_TEXTURE_2D, o->texture_);
+  o->texture_ = GlTexture::Generate();
+  glBindTexture(GL_TEXTURE_2D, o->texture_.get());
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
   glBindTexture(GL_TEXTURE_2D, 0);
-  glGenVertexArrays(1, &o->vao_);
+  o->vao_ = GlVertexArray::Generate();
   return o;
-}
-
-OverlayGl::~OverlayGl() {
-  if (program_ != 0) glDeleteProgram(program_);
-  if (texture_ != 0) glDeleteTextures(1, &texture_);
-  if (vao_ != 0) glDeleteVertexArrays(1, &vao_);
 }
 
 void OverlayGl::Draw(const std::vector<std::string>& lines, int scale, int margin, int width,
@@ -45,7 +39,7 @@ void OverlayGl::Draw(const std::vector<std::string>& lines, int scale, int margi
   if (lines.empty()) return;
   if (lines != lines_ || scale != scale_) {
     const OverlayImage img = RasterizeOverlay(lines, scale);
-    glBindTexture(GL_TEXTURE_2D, texture_);
+    glBindTexture(GL_TEXTURE_2D, texture_.get());
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, img.width, img.height, 0, GL_RGBA, GL_UNSIGNED_BYTE,
                  img.rgba.data());
@@ -60,14 +54,15 @@ void OverlayGl::Draw(const std::vector<std::string>& lines, int scale, int margi
   glViewport(x0, y0, tex_width_, tex_height_);
   glEnable(GL_BLEND);
   glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ZERO, GL_ONE);
-  glUseProgram(program_);
+  const GLuint program = program_.get();
+  glUseProgram(program);
   glActiveTexture(GL_TEXTURE0);
-  glBindTexture(GL_TEXTURE_2D, texture_);
-  SetUniform(program_, "u_text", 0);
-  SetUniform(program_, "u_x0", x0);
-  SetUniform(program_, "u_y0", y0);
-  SetUniform(program_, "u_height", tex_height_);
-  glBindVertexArray(vao_);
+  glBindTexture(GL_TEXTURE_2D, texture_.get());
+  SetUniform(program, "u_text", 0);
+  SetUniform(program, "u_x0", x0);
+  SetUniform(program, "u_y0", y0);
+  SetUniform(program, "u_height", tex_height_);
+  glBindVertexArray(vao_.get());
   glDrawArrays(GL_TRIANGLES, 0, 3);
   glBindVertexArray(0);
   glUseProgram(0);

@@ -11,14 +11,14 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "viewer/gl_util.h"
 
 namespace shrm::viewer {
 
 class OverlayGl {
  public:
-  // GL context must be current.
-  static absl::StatusOr<std::unique_ptr<OverlayGl>> Create();
-  ~OverlayGl();
+  // GL context must be current (also when it is destroyed: gl_util.h).
+  [[nodiscard]] static absl::StatusOr<std::unique_ptr<OverlayGl>> Create();
 
   // Draws `lines` (scaled by `scale`) into the bound framebuffer of size width x height, its
   // top-left corner `margin` pixels from the top-left of the frame. Nothing without lines.
@@ -27,7 +27,10 @@ class OverlayGl {
 
  private:
   OverlayGl() = default;
-  GLuint program_ = 0, texture_ = 0, vao_ = 0;
+  // Destroyed in reverse order: the program, the texture, the vertex array.
+  GlVertexArray vao_;
+  GlTexture texture_;
+  GlProgram program_;
   std::vector<std::string> lines_;
   int scale_ = 0, tex_width_ = 0, tex_height_ = 0;
 };

@@ -22,7 +22,7 @@ namespace shrm::viewer {
 class GlobalReflectionSum {
  public:
   // Errors (InvalidArgument): a local cube, an empty or inconsistent cube.
-  static absl::StatusOr<GlobalReflectionSum> Create(const ShrmCube& global_cube);
+  [[nodiscard]] static absl::StatusOr<GlobalReflectionSum> Create(const ShrmCube& global_cube);
 
   int face_size() const { return face_size_; }
   int pmax() const { return pmax_; }

@@ -4,7 +4,7 @@
 #include <filesystem>
 
 #include "absl/strings/str_cat.h"
-#include "client/shrm_client.h"
+#include "client/remote_jobs.h"
 #include "core/base/status_macros.h"
 #include "core/io/atomic_file.h"
 #include "core/shrm/shrm_file.h"
@@ -17,29 +17,16 @@ ShrmComputeFn RemoteCompute(const std::string& server, const std::string& env_pa
     const auto t0 = std::chrono::steady_clock::now();
     SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> client,
                           client::ShrmClient::Connect(server));
-    shrm::v1::PrefilterRequest request;
-    SHRM_ASSIGN_OR_RETURN(const std::string sha, client->UploadIfMissing(env_path));
-    request.mutable_environment()->add_sha256(sha);
-    request.mutable_environment()->add_source_names(env_path);
-    SHRM_ASSIGN_OR_RETURN(client::RemoteBrdf brdf,
-                          client::ResolveRemoteBrdf(req.brdf_spec, client.get()));
-    request.set_brdf(brdf.spec);
-    request.set_brdf_blob_sha256(brdf.blob_sha256);
-    request.set_brdf_display_spec(brdf.display_spec);
-    if (req.f >= 0) {
-      request.mutable_orders()->set_f(req.f);
-      request.mutable_orders()->set_p(req.p);
-    } else {
-      request.set_epsilon(req.epsilon);
-    }
-    request.set_kind(shrm::v1::SHRM_KIND_GLOBAL);
-    request.set_face_size(req.face_size);
     absl::Status cancelled;
-    auto on_progress = [&](const shrm::v1::PrefilterProgress& p) {
+    client::RemotePrefilterOptions options;
+    options.progress = [&](const shrm::v1::PrefilterProgress& p) {
       if (progress && cancelled.ok()) cancelled = progress(p.stage());
     };
-    SHRM_ASSIGN_OR_RETURN(client::PrefilterOutcome out, client->Prefilter(request, on_progress));
+    SHRM_ASSIGN_OR_RETURN(
+        client::RemotePrefilterResult remote,
+        client::RunRemotePrefilter(client.get(), server, PrefilterJobFor(req, env_path), options));
     SHRM_RETURN_IF_ERROR(cancelled);
+    const client::PrefilterOutcome& out = remote.outcome;
     // ReadShrmFile reads paths: a private temporary file, removed afterwards.
     const std::string tmp = (std::filesystem::temp_directory_path() /
                              absl::StrCat("shrm-view-", out.shrm_sha256.substr(0, 16), ".shrm.exr"))

@@ -12,12 +12,22 @@
 //   viewer/CMakeLists.txt picks up every viewer/mode_*.cc by itself. The key (1-9) is also the
 //   `--mode N` number; keys without a registered mode print "mode N is not available".
 //
-// Life cycle (all calls on the GL thread, with the context current):
+// Life cycle (all calls on the GL thread, with the context current; a mode is destroyed while the
+// context is still current, so GL objects live in the handles of viewer/gl_util.h):
 //   Init() once after creation; Upload(scene) whenever the scene data changes (a new SHRM swapped
 //   in after an asynchronous recompute, a new environment or BRDF; fields may be null: a mode
-//   whose inputs are missing returns false from ready() and is not drawn); Draw(frame) per frame.
+//   whose inputs are missing returns false from ready() and is not drawn); Draw(frame) per frame,
+//   only while ready().
+// Errors are values, and a mode never prints them (the program reports them, viewer/app.cc):
+//  - Init(): the mode is unavailable (e.g. a program that does not link: GL 3.3 guarantees only
+//    64 vertex output components); the renderer keeps the status and goes on without the mode;
+//  - Upload(): what the mode cannot take (a cube beyond the GL limits, a BRDF its tables refuse);
+//    it is then not ready() until an Upload() succeeds;
+//  - Draw(): what failed on first use (a shader variant, a table computed lazily); the mode is
+//    then not ready() until what it draws changes (OnKey, new settings, Upload), so a frame loop
+//    reports it once.
 //
-// What Draw() gets and must do:
+// What Draw() gets and must do (and return OK, or the error above):
 //  - the HDR framebuffer is bound (colour GL_RGBA32F, depth 24 bit, depth test GL_LESS enabled,
 //    viewport = frame.width x frame.height); the background is already drawn (alpha 0);
 //  - draw frame.mesh (GpuMesh::Draw; attributes documented in viewer/gpu_mesh.h) with your
@@ -74,10 +84,10 @@ struct FrameInputs {
 class RenderMode {
  public:
   virtual ~RenderMode() = default;
-  virtual absl::Status Init() = 0;
-  virtual absl::Status Upload(const SceneData& scene) = 0;
+  [[nodiscard]] virtual absl::Status Init() = 0;
+  [[nodiscard]] virtual absl::Status Upload(const SceneData& scene) = 0;
   virtual bool ready() const = 0;
-  virtual void Draw(const FrameInputs& frame) = 0;
+  [[nodiscard]] virtual absl::Status Draw(const FrameInputs& frame) = 0;
   // One line for the overlay (orders, sizes, per-frame CPU work), "" if nothing to say.
   virtual std::string Status() const { return ""; }
   // This mode shows the ground truth: the renderer keeps it computing while the mode is active.

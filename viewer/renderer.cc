@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "core/base/status_macros.h"
 #include "viewer/glsl_snippets.h"
 
@@ -98,6 +99,20 @@ Vec3 At4(const std::vector<float>& v, size_t pixel) {
   return {v[4 * pixel], v[4 * pixel + 1], v[4 * pixel + 2]};
 }
 
+// `s` with the mode it comes from in front: "mode 3 (sh-lighting): ...".
+absl::Status NameMode(const ModeInfo& info, const absl::Status& s) {
+  return absl::Status(s.code(),
+                      absl::StrCat("mode ", info.key, " (", info.name, "): ", s.message()));
+}
+
+// Several errors as one status (the first one's code), OK if there are none.
+absl::Status JoinErrors(const std::vector<absl::Status>& errors) {
+  if (errors.empty()) return absl::OkStatus();
+  std::vector<absl::string_view> messages;
+  for (const absl::Status& e : errors) messages.push_back(e.message());
+  return absl::Status(errors.front().code(), absl::StrJoin(messages, "; "));
+}
+
 // Rows top-first <-> GL order.
 std::vector<float> FlipRows(const std::vector<float>& in, int width, int height) {
   std::vector<float> out(in.size());
@@ -115,7 +130,7 @@ absl::StatusOr<std::unique_ptr<Renderer>> Renderer::Create(int width, int height
   std::unique_ptr<Renderer> r(new Renderer());
   r->reference_ = std::make_unique<ProgressiveReference>(reference_threads);
   glEnable(GL_TEXTURE_CUBE_MAP_SEAMLESS);
-  glGenVertexArrays(1, &r->empty_vao_);
+  r->empty_vao_ = GlVertexArray::Generate();
   SHRM_ASSIGN_OR_RETURN(r->background_program_,
                         BuildProgram(kFullscreenVertexShader, kBackgroundFragment, "background"));
   SHRM_ASSIGN_OR_RETURN(
@@ -130,28 +145,13 @@ absl::StatusOr<std::unique_ptr<Renderer>> Renderer::Create(int width, int height
                         BuildProgram(kMeshVertexShader, kGbufferFragment, "G-buffer"));
   SHRM_ASSIGN_OR_RETURN(r->overlay_, OverlayGl::Create());
   for (const ModeInfo& info : RegisteredModes()) {
-    ModeSlot slot{&info, info.create()};
-    absl::Status s = slot.mode->Init();
-    if (!s.ok()) return s;
+    ModeSlot slot{&info, info.create(), absl::OkStatus(), absl::OkStatus()};
+    const absl::Status s = slot.mode->Init();
+    if (!s.ok()) slot.init_status = NameMode(info, s);
     r->modes_.push_back(std::move(slot));
   }
   SHRM_RETURN_IF_ERROR(r->Resize(width, height));
   return r;
-}
-
-Renderer::~Renderer() {
-  reference_.reset();
-  modes_.clear();
-  mesh_.reset();
-  hdr_.reset();
-  ldr_.reset();
-  gbuffer_.reset();
-  overlay_.reset();
-  for (GLuint p : {background_program_, tonemap_program_, diff_program_, gbuffer_program_})
-    if (p != 0) glDeleteProgram(p);
-  for (GLuint t : {env_texture_, reference_texture_})
-    if (t != 0) glDeleteTextures(1, &t);
-  if (empty_vao_ != 0) glDeleteVertexArrays(1, &empty_vao_);
 }
 
 absl::Status Renderer::Resize(int width, int height) {
@@ -162,8 +162,8 @@ absl::Status Renderer::Resize(int width, int height) {
   SHRM_ASSIGN_OR_RETURN(ldr_, Framebuffer::Create(width, height, {GL_RGBA8}));
   SHRM_ASSIGN_OR_RETURN(gbuffer_,
                         Framebuffer::Create(width, height, {GL_RGBA32F, GL_RGBA32F, GL_RGBA32F}));
-  if (reference_texture_ == 0) glGenTextures(1, &reference_texture_);
-  glBindTexture(GL_TEXTURE_2D, reference_texture_);
+  if (!reference_texture_) reference_texture_ = GlTexture::Generate();
+  glBindTexture(GL_TEXTURE_2D, reference_texture_.get());
   reference_rgba_.assign(static_cast<size_t>(width) * height * 4, 0.0f);
   glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, width, height, 0, GL_RGBA, GL_FLOAT,
                reference_rgba_.data());
@@ -187,8 +187,8 @@ absl::Status Renderer::SetScene(const SceneData& scene) {
   ++scene_version_;
   if (new_env && scene.env != nullptr) {
     const Image& img = scene.env->latlong;
-    if (env_texture_ == 0) glGenTextures(1, &env_texture_);
-    glBindTexture(GL_TEXTURE_2D, env_texture_);
+    if (!env_texture_) env_texture_ = GlTexture::Generate();
+    glBindTexture(GL_TEXTURE_2D, env_texture_.get());
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
     glTexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, img.width, img.height, 0, GL_RGB, GL_FLOAT,
                  img.pixels.data());
@@ -197,27 +197,51 @@ absl::Status Renderer::SetScene(const SceneData& scene) {
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
   }
-  // Every mode gets the scene; the first error is reported (that mode is not ready()).
-  absl::Status first;
+  // Every available mode gets the scene; a mode that cannot take it is not ready(), the others
+  // go on. The errors of all of them, in one status.
+  std::vector<absl::Status> errors;
   for (ModeSlot& slot : modes_) {
-    absl::Status s = slot.mode->Upload(scene_);
-    if (!s.ok() && first.ok()) {
-      first = absl::Status(s.code(), absl::StrCat("mode ", slot.info->key, " (", slot.info->name,
-                                                  "): ", s.message()));
-    }
+    if (!slot.init_status.ok()) continue;
+    const absl::Status s = slot.mode->Upload(scene_);
+    slot.last_error = s.ok() ? s : NameMode(*slot.info, s);
+    if (!s.ok()) errors.push_back(slot.last_error);
   }
-  return first;
+  return JoinErrors(errors);
+}
+
+Renderer::ModeSlot* Renderer::Slot(int key) {
+  for (ModeSlot& slot : modes_)
+    if (slot.info->key == key) return &slot;
+  return nullptr;
+}
+
+const Renderer::ModeSlot* Renderer::Slot(int key) const {
+  for (const ModeSlot& slot : modes_)
+    if (slot.info->key == key) return &slot;
+  return nullptr;
 }
 
 RenderMode* Renderer::Mode(int key) const {
-  for (const ModeSlot& slot : modes_)
-    if (slot.info->key == key) return slot.mode.get();
-  return nullptr;
+  const ModeSlot* slot = Slot(key);
+  return slot != nullptr && slot->init_status.ok() ? slot->mode.get() : nullptr;
 }
 
 bool Renderer::ModeReady(int key) const {
   const RenderMode* m = Mode(key);
   return m != nullptr && m->ready();
+}
+
+absl::Status Renderer::ModeError(int key) const {
+  const ModeSlot* slot = Slot(key);
+  if (slot == nullptr) return absl::NotFoundError(absl::StrCat("mode ", key, " is not available"));
+  return slot->init_status.ok() ? slot->last_error : slot->init_status;
+}
+
+absl::Status Renderer::InitErrors() const {
+  std::vector<absl::Status> errors;
+  for (const ModeSlot& slot : modes_)
+    if (!slot.init_status.ok()) errors.push_back(slot.init_status);
+  return JoinErrors(errors);
 }
 
 std::string Renderer::ModeStatus(int key) const {
@@ -233,17 +257,18 @@ bool Renderer::ModeKey(int mode, int key, std::string* message) {
 void Renderer::DrawBackground(const OrbitCamera& camera, float aspect) {
   const double t = std::tan(camera.fov_y_deg() * kPi / 360);
   const Vec3 f = camera.Forward(), r = camera.Right() * (t * aspect), u = camera.Up() * t;
-  glUseProgram(background_program_);
-  SetUniform(background_program_, "u_forward", static_cast<float>(f.x), static_cast<float>(f.y),
+  const GLuint program = background_program_.get();
+  glUseProgram(program);
+  SetUniform(program, "u_forward", static_cast<float>(f.x), static_cast<float>(f.y),
              static_cast<float>(f.z));
-  SetUniform(background_program_, "u_right", static_cast<float>(r.x), static_cast<float>(r.y),
+  SetUniform(program, "u_right", static_cast<float>(r.x), static_cast<float>(r.y),
              static_cast<float>(r.z));
-  SetUniform(background_program_, "u_up", static_cast<float>(u.x), static_cast<float>(u.y),
+  SetUniform(program, "u_up", static_cast<float>(u.x), static_cast<float>(u.y),
              static_cast<float>(u.z));
   glActiveTexture(GL_TEXTURE0);
-  glBindTexture(GL_TEXTURE_2D, env_texture_);
-  SetUniform(background_program_, "u_env", 0);
-  glBindVertexArray(empty_vao_);
+  glBindTexture(GL_TEXTURE_2D, env_texture_.get());
+  SetUniform(program, "u_env", 0);
+  glBindVertexArray(empty_vao_.get());
   glDrawArrays(GL_TRIANGLES, 0, 3);
   glBindVertexArray(0);
   glUseProgram(0);
@@ -273,10 +298,10 @@ void Renderer::UpdateReference(const OrbitCamera& camera, const RenderSettings& 
     glClearColor(0, 0, 0, 0);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     glEnable(GL_DEPTH_TEST);
-    glUseProgram(gbuffer_program_);
+    glUseProgram(gbuffer_program_.get());
     const Mat4f vp = Multiply(camera.ProjectionMatrix(static_cast<double>(width_) / height_),
                               camera.ViewMatrix());
-    SetUniformMat4(gbuffer_program_, "u_view_projection", vp.data());
+    SetUniformMat4(gbuffer_program_.get(), "u_view_projection", vp.data());
     mesh_->Draw();
     glUseProgram(0);
     glDisable(GL_DEPTH_TEST);
@@ -311,7 +336,7 @@ void Renderer::UpdateReference(const OrbitCamera& camera, const RenderSettings& 
     std::vector<float> top_first;
     if (reference_->Poll(&top_first)) {
       reference_rgba_ = FlipRows(top_first, width_, height_);
-      glBindTexture(GL_TEXTURE_2D, reference_texture_);
+      glBindTexture(GL_TEXTURE_2D, reference_texture_.get());
       glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, width_, height_, GL_RGBA, GL_FLOAT,
                       reference_rgba_.data());
     }
@@ -364,9 +389,10 @@ absl::Status Renderer::Render(const OrbitCamera& camera, const RenderSettings& s
   frame.width = width_;
   frame.height = height_;
   frame.exposure = settings.exposure;
-  frame.env_texture = env_texture_;
+  frame.env_texture = env_texture_.get();
   // A truth of an older view (the camera is moving) is not shown.
-  frame.reference_texture = reference_key_valid_ && reference_current_ ? reference_texture_ : 0;
+  frame.reference_texture =
+      reference_key_valid_ && reference_current_ ? reference_texture_.get() : 0;
   frame.reference_progress = reference_key_valid_ ? reference_->progress() : 0;
 
   glBindFramebuffer(GL_FRAMEBUFFER, hdr_->id());
@@ -374,16 +400,25 @@ absl::Status Renderer::Render(const OrbitCamera& camera, const RenderSettings& s
   glClearColor(0, 0, 0, 0);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   glDisable(GL_DEPTH_TEST);
-  if (settings.background && env_texture_ != 0) DrawBackground(camera, static_cast<float>(aspect));
+  if (settings.background && env_texture_) DrawBackground(camera, static_cast<float>(aspect));
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
-  if (mode->ready()) mode->Draw(frame);
+  if (mode->ready()) {
+    ModeSlot& slot = *Slot(settings.mode);
+    const absl::Status drawn = mode->Draw(frame);
+    slot.last_error = drawn.ok() ? drawn : NameMode(*slot.info, drawn);
+    if (!drawn.ok()) {
+      glDisable(GL_DEPTH_TEST);
+      glBindFramebuffer(GL_FRAMEBUFFER, 0);
+      return slot.last_error;
+    }
+  }
   glDisable(GL_DEPTH_TEST);
 
   glBindFramebuffer(GL_FRAMEBUFFER, ldr_->id());
   glViewport(0, 0, width_, height_);
   const bool diff = settings.diff;
-  const GLuint program = diff ? diff_program_ : tonemap_program_;
+  const GLuint program = diff ? diff_program_.get() : tonemap_program_.get();
   glUseProgram(program);
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D, hdr_->color(0));
@@ -391,12 +426,12 @@ absl::Status Renderer::Render(const OrbitCamera& camera, const RenderSettings& s
   SetUniform(program, "u_exposure", settings.exposure);
   if (diff) {
     glActiveTexture(GL_TEXTURE1);
-    glBindTexture(GL_TEXTURE_2D, reference_texture_);
+    glBindTexture(GL_TEXTURE_2D, reference_texture_.get());
     SetUniform(program, "u_reference", 1);
     SetUniform(program, "u_reference_valid", frame.reference_texture != 0 ? 1 : 0);
     glActiveTexture(GL_TEXTURE0);
   }
-  glBindVertexArray(empty_vao_);
+  glBindVertexArray(empty_vao_.get());
   glDrawArrays(GL_TRIANGLES, 0, 3);
   glBindVertexArray(0);
   glUseProgram(0);

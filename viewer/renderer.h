@@ -47,24 +47,32 @@ struct DiffStats {
 
 class Renderer {
  public:
-  // GL context must be current. reference_threads: workers of the ground truth.
-  static absl::StatusOr<std::unique_ptr<Renderer>> Create(int width, int height,
-                                                          int reference_threads);
-  ~Renderer();
+  // GL context must be current (also when the renderer is destroyed: gl_util.h).
+  // reference_threads: workers of the ground truth. Errors: the renderer's own programs and
+  // framebuffers; a mode whose Init() fails is only unavailable (ModeError, InitErrors).
+  [[nodiscard]] static absl::StatusOr<std::unique_ptr<Renderer>> Create(int width, int height,
+                                                                        int reference_threads);
 
-  absl::Status Resize(int width, int height);
+  [[nodiscard]] absl::Status Resize(int width, int height);
   int width() const { return width_; }
   int height() const { return height_; }
 
   void SetMesh(const Mesh& mesh);
-  // New scene data: uploaded to every mode; errors of a mode name it.
-  absl::Status SetScene(const SceneData& scene);
+  // New scene data: uploaded to every available mode. The error names each mode that cannot
+  // take it (the others go on; ModeError(key) keeps each mode's own).
+  [[nodiscard]] absl::Status SetScene(const SceneData& scene);
   const SceneData& scene() const { return scene_; }
 
-  // Whether `key`'s mode is registered and has its inputs.
+  // Whether `key`'s mode is registered, available and has its inputs.
   bool ModeReady(int key) const;
-  // Renders one frame into the LDR framebuffer (and the HDR one). Errors: unknown or not ready.
-  absl::Status Render(const OrbitCamera& camera, const RenderSettings& settings);
+  // Why `key`'s mode is unavailable or not ready: its Init() error, else its last Upload() or
+  // Draw() error (each naming the mode); OK if none.
+  absl::Status ModeError(int key) const;
+  // The Init() errors of the unavailable modes, in one status (OK if every mode is available).
+  absl::Status InitErrors() const;
+  // Renders one frame into the LDR framebuffer (and the HDR one). Errors: unknown mode, no mesh,
+  // or the mode's Draw() error (the mode is then not ready: render_mode.h).
+  [[nodiscard]] absl::Status Render(const OrbitCamera& camera, const RenderSettings& settings);
   // Copies the LDR frame to the default framebuffer of the window (size w x h).
   void BlitToWindow(int window_width, int window_height) const;
 
@@ -85,21 +93,29 @@ class Renderer {
   struct ModeSlot {
     const ModeInfo* info;
     std::unique_ptr<RenderMode> mode;
+    absl::Status init_status;  // not OK: unavailable (never uploaded or drawn)
+    absl::Status last_error;   // of the last Upload() or Draw()
   };
+  ModeSlot* Slot(int key);
+  const ModeSlot* Slot(int key) const;
   RenderMode* Mode(int key) const;
   void DrawBackground(const OrbitCamera& camera, float aspect);
   void UpdateReference(const OrbitCamera& camera, const RenderSettings& settings);
   void ComputeDiffStats();
 
   int width_ = 0, height_ = 0;
-  std::vector<ModeSlot> modes_;
-  std::unique_ptr<GpuMesh> mesh_;
   uint64_t mesh_version_ = 0, scene_version_ = 0;
   SceneData scene_;
-  std::unique_ptr<Framebuffer> hdr_, ldr_, gbuffer_;
+  // GL objects, destroyed in reverse order of declaration (members after them first: the ground
+  // truth's workers stop before anything else goes): the modes, the mesh, the framebuffers, the
+  // overlay, the programs, the textures, the empty vertex array.
+  GlVertexArray empty_vao_;
+  GlTexture reference_texture_, env_texture_;
+  GlProgram gbuffer_program_, diff_program_, tonemap_program_, background_program_;
   std::unique_ptr<OverlayGl> overlay_;
-  GLuint empty_vao_ = 0, env_texture_ = 0, reference_texture_ = 0;
-  GLuint background_program_ = 0, tonemap_program_ = 0, diff_program_ = 0, gbuffer_program_ = 0;
+  std::unique_ptr<Framebuffer> gbuffer_, ldr_, hdr_;
+  std::unique_ptr<GpuMesh> mesh_;
+  std::vector<ModeSlot> modes_;
   std::unique_ptr<ProgressiveReference> reference_;
   std::string reference_key_;
   bool reference_key_valid_ = false;

@@ -9,17 +9,17 @@
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
 #include "core/shrm/shrm_file.h"
+#include "jobs/prefilter_job.h"
 #include "viewer/cube_convert.h"
 
 namespace shrm::viewer {
 
-Image DownsampleLatLong(const Image& image, int width) {
+absl::StatusOr<Image> DownsampleLatLong(const Image& image, int width) {
   Image src = image;
   if (src.width % width != 0 || src.height % (width / 2) != 0) {
     // Resample (bilinear) to the next multiple of `width`, then box-filter.
     const int factor = std::max(1, (src.width + width - 1) / width);
-    absl::StatusOr<Image> r = EnvMap::FromLatLong(image).ToLatLong(width * factor);
-    if (r.ok()) src = *std::move(r);
+    SHRM_ASSIGN_OR_RETURN(src, EnvMap::FromLatLong(image).ToLatLong(width * factor));
   }
   Image out;
   out.width = width;
@@ -62,7 +62,8 @@ absl::StatusOr<std::shared_ptr<const EnvironmentData>> LoadEnvironment(const std
   SHRM_ASSIGN_OR_RETURN(env->sh,
                         LightingCoefficients(env->map, env->sh_lmax, Mat3::Identity(), threads));
   env->reference_width = reference_width;
-  const EnvMap small = EnvMap::FromLatLong(DownsampleLatLong(env->latlong, reference_width));
+  SHRM_ASSIGN_OR_RETURN(Image reference_map, DownsampleLatLong(env->latlong, reference_width));
+  const EnvMap small = EnvMap::FromLatLong(std::move(reference_map));
   SHRM_ASSIGN_OR_RETURN(ReferenceIntegrator integrator,
                         ReferenceIntegrator::Create(small.samples()));
   env->reference = std::make_shared<const ReferenceIntegrator>(std::move(integrator));
@@ -106,29 +107,31 @@ absl::StatusOr<ShrmData> LoadShrmData(const std::string& path, int threads) {
   return d;
 }
 
+jobs::PrefilterJob PrefilterJobFor(const ComputeRequest& req, const std::string& env_path) {
+  jobs::PrefilterJob job;
+  job.env.files = {env_path};
+  job.brdf = req.brdf_spec;
+  job.epsilon = req.epsilon;
+  if (req.f >= 0 || req.p >= 0) job.orders = jobs::Orders{req.f, req.p};
+  job.kind = ShrmKind::kGlobal;
+  job.face_size = req.face_size;
+  return job;
+}
+
 ShrmComputeFn EmbeddedCompute(std::shared_ptr<const EnvironmentData> env) {
   return [env](const ComputeRequest& req,
                const PrefilterProgress& progress) -> absl::StatusOr<ShrmData> {
     const auto t0 = std::chrono::steady_clock::now();
     SHRM_ASSIGN_OR_RETURN(std::unique_ptr<Brdf> brdf, ParseBrdfSpec(req.brdf_spec));
-    PrefilterOptions opt;  // as `shrm prefilter` sets them (client/cmd_prefilter.cc)
-    opt.epsilon = req.epsilon;
-    opt.f = req.f;
-    opt.p = req.p;
-    opt.kind = ShrmKind::kGlobal;
-    opt.face_size = req.face_size;
-    opt.threads = std::max(1, req.threads);
+    const jobs::PrefilterJob job = PrefilterJobFor(req, env->path);
+    SHRM_RETURN_IF_ERROR(jobs::ValidatePrefilterJob(job));
+    const PrefilterOptions opt = jobs::CorePrefilterOptions(job, std::max(1, req.threads));
     SHRM_ASSIGN_OR_RETURN(PrefilterResult r, Prefilter(env->map, *brdf, opt, progress));
     if (progress) SHRM_RETURN_IF_ERROR(progress("convert"));
-    const ShrmAnalysis& an = r.analysis;
-    std::map<std::string, std::string> attrs = {
-        {"shrm:brdf", brdf->spec()},
-        {"shrm:epsilon", req.f >= 0 ? "explicit orders" : absl::StrCat(req.epsilon)},
-        {"shrm:orders", absl::StrCat(an.f_b, ",", an.p_b)},
-        {"shrm:eps_light", absl::StrCat(an.eps_light)},
-        {"shrm:eps_brdf", absl::StrCat(an.eps_brdf)},
-        {"shrm:eps_bound", absl::StrCat(an.eps_bound)},
-        {"shrm:source", env->path}};
+    // As `shrm prefilter` writes them, without hashing the file again (the map is loaded).
+    const jobs::PrefilterProvenance provenance{brdf->spec(), {env->path, ""}, env->map.layout()};
+    std::map<std::string, std::string> attrs =
+        jobs::PrefilterFileAttributes(job, provenance, r.analysis);
     SHRM_ASSIGN_OR_RETURN(
         ShrmData d, ShrmDataFromCube(std::move(r.cube), std::move(attrs), "embedded", opt.threads));
     d.compute_ms =

@@ -28,6 +28,7 @@
 #include "core/shrm/prefilter.h"
 #include "core/shrm/shrm_map.h"
 #include "core/shrm/shrm_reference.h"
+#include "jobs/prefilter_job.h"
 
 namespace shrm::viewer {
 
@@ -51,13 +52,12 @@ struct EnvironmentData {
 // Loads --env: decode (layout by aspect ratio), lat-long copy, SH to kSceneLightLmax, and the
 // reference integrator over the map box-filtered to a reference_width x reference_width/2
 // lat-long grid. Errors name the file.
-absl::StatusOr<std::shared_ptr<const EnvironmentData>> LoadEnvironment(const std::string& path,
-                                                                       int reference_width,
-                                                                       int threads);
+[[nodiscard]] absl::StatusOr<std::shared_ptr<const EnvironmentData>> LoadEnvironment(
+    const std::string& path, int reference_width, int threads);
 
 // A lat-long image box-filtered to `width` (an even number; integer factors exactly, otherwise
-// by bilinear resampling to a multiple of width first).
-Image DownsampleLatLong(const Image& image, int width);
+// by bilinear resampling to a multiple of width first). Errors: those of the resampling.
+[[nodiscard]] absl::StatusOr<Image> DownsampleLatLong(const Image& image, int width);
 
 struct ShrmData {
   ShrmCube global, local;
@@ -72,19 +72,21 @@ struct ShrmData {
 
 // Fills global + local from one cube (conversion, `threads` workers) and the fields from the
 // attributes.
-absl::StatusOr<ShrmData> ShrmDataFromCube(ShrmCube cube,
-                                          std::map<std::string, std::string> attributes,
-                                          std::string origin, int threads);
-absl::StatusOr<ShrmData> LoadShrmData(const std::string& path, int threads);
+[[nodiscard]] absl::StatusOr<ShrmData> ShrmDataFromCube(
+    ShrmCube cube, std::map<std::string, std::string> attributes, std::string origin, int threads);
+[[nodiscard]] absl::StatusOr<ShrmData> LoadShrmData(const std::string& path, int threads);
 
 // What to compute: the `shrm prefilter` options the viewer exposes.
 struct ComputeRequest {
   std::string brdf_spec;
-  double epsilon = 0.03;
+  double epsilon = jobs::kDefaultEpsilon;
   int f = -1, p = -1;  // explicit orders (both or neither)
   int face_size = 0;   // 0 = automatic (about 10 F_B)
   int threads = 1;
 };
+
+// The prefilter job of a request (a global SHRM of the map at `env_path`).
+jobs::PrefilterJob PrefilterJobFor(const ComputeRequest& request, const std::string& env_path);
 
 // Computes an SHRM; calls `progress` at each stage (its error cancels).
 using ShrmComputeFn =
@@ -108,9 +110,9 @@ class AsyncShrmJob {
   std::string stage() const;
   double fraction() const { return fraction_.load(); }
   // The finished result (once), or nullopt while running / idle.
-  std::optional<absl::StatusOr<ShrmData>> Poll();
+  [[nodiscard]] std::optional<absl::StatusOr<ShrmData>> Poll();
   // Blocks until the running job has finished (headless use), then Poll().
-  std::optional<absl::StatusOr<ShrmData>> Wait();
+  [[nodiscard]] std::optional<absl::StatusOr<ShrmData>> Wait();
 
  private:
   void RunJob(const ComputeRequest& request, uint64_t gen);

@@ -1,5 +1,6 @@
 #include "viewer/sh_lighting_cpu.h"
 
+#include <cassert>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
@@ -146,7 +147,9 @@ std::array<double, 3> ShLightingCpu::ShadeLocal(std::span<const double> local_rg
     std::vector<double> hc(nb);
     for (int c = 0; c < 3; ++c) {
       Channel(lp, count, c, &in);
-      (void)conversion_->ShToHsh(in, hc);
+      // Can only fail on sizes, fixed by Create(): cols() = light_count(), rows() = brdf_count().
+      [[maybe_unused]] const absl::Status converted = conversion_->ShToHsh(in, hc);
+      assert(converted.ok());
       for (int k = 0; k < nb; ++k) h[3 * k + c] = hc[k];
     }
   } else {

@@ -61,7 +61,8 @@ enum class NormalMapping {
   kExact,       // exact per-pixel rotation (CPU only: the reference of the Taylor variant)
 };
 std::string_view NormalMappingName(NormalMapping m);  // "taylor", "simplified", "exact"
-absl::StatusOr<NormalMapping> ParseNormalMapping(std::string_view name);  // taylor | simplified
+[[nodiscard]] absl::StatusOr<NormalMapping> ParseNormalMapping(
+    std::string_view name);  // taylor | simplified
 
 struct ShLightingOptions {
   HemisphereBasis basis = HemisphereBasis::kSh;
@@ -77,8 +78,9 @@ class ShLightingCpu {
   // (core/envmap/lighting.h), any complete degree L (missing bands up to light_lmax count as 0).
   // Errors (InvalidArgument): an incomplete coefficient vector, degrees outside [0, 32] or
   // brdf_lmax > light_lmax, and the table's own errors (e.g. tangent-indexed Kajiya-Kay).
-  static absl::StatusOr<ShLightingCpu> Create(std::span<const double> world_sh_rgb,
-                                              const Brdf& brdf, const ShLightingOptions& options);
+  [[nodiscard]] static absl::StatusOr<ShLightingCpu> Create(std::span<const double> world_sh_rgb,
+                                                            const Brdf& brdf,
+                                                            const ShLightingOptions& options);
 
   const ShLightingOptions& options() const { return options_; }
   int light_count() const { return (options_.light_lmax + 1) * (options_.light_lmax + 1); }

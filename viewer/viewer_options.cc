@@ -13,13 +13,14 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
-#include "client/cli_validators.h"
+#include "jobs/cli_validators.h"
+#include "viewer/error_report.h"
 
 namespace shrm::viewer {
 namespace {
 
 std::string Usage(const std::string& message) {
-  std::fprintf(stderr, "shrm-view: %s\nRun with --help for more information.\n", message.c_str());
+  PrintError(absl::StrCat(message, "\nRun with --help for more information."));
   return message;
 }
 
@@ -48,9 +49,9 @@ int ParseViewerOptions(int argc, char** argv, ViewerOptions* o) {
   app.add_option("--server", o->server, "compute through the shrmd service at host:port");
   app.add_option("--epsilon", o->epsilon, "tolerance for the orders, in (0, 1)")
       ->capture_default_str()
-      ->check(cli::kOpenUnitInterval);
+      ->check(jobs::kOpenUnitInterval);
   app.add_option("--orders", orders, "explicit orders F,P instead of --epsilon")
-      ->check(cli::kOrders);
+      ->check(jobs::kOrders);
   app.add_option("--face-size", o->face_size, "cube face size S_B of computed SHRMs (0: ~10 F_B)")
       ->capture_default_str()
       ->check(CLI::Range(0, 2048));

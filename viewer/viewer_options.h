@@ -1,11 +1,12 @@
 // Command line of `shrm-view` (docs/viewer.md). Every argument is validated before any work
 // starts; malformed or inconsistent usage is exit code 2 with a message naming the option, as
-// the `shrm` command does (client/cli_validators.h, docs/cli.md).
+// the `shrm` command does (jobs/cli_validators.h, docs/cli.md).
 #ifndef SHRM_VIEWER_VIEWER_OPTIONS_H_
 #define SHRM_VIEWER_VIEWER_OPTIONS_H_
 
 #include <string>
 
+#include "jobs/prefilter_job.h"
 #include "viewer/camera.h"
 
 namespace shrm::viewer {
@@ -23,7 +24,7 @@ struct ViewerOptions {
   std::string env;        // environment map (background, embedded compute, ground truth)
   std::string brdf;       // BRDF spec; default: the file's shrm:brdf
   std::string server;     // compute through shrmd (host:port)
-  double epsilon = 0.03;
+  double epsilon = jobs::kDefaultEpsilon;
   int f = -1, p = -1;           // --orders F,P
   int face_size = 0;            // --face-size S_B (0 = about 10 F_B)
   std::string mesh = "sphere";  // sphere | torus | PATH.obj

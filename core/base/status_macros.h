@@ -6,6 +6,9 @@
 #ifndef SHRM_CORE_BASE_STATUS_MACROS_H_
 #define SHRM_CORE_BASE_STATUS_MACROS_H_
 
+#include <string>
+#include <utility>
+
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 
@@ -26,5 +29,19 @@
   auto statusor = (rexpr);                                \
   if (!statusor.ok()) return statusor.status();           \
   lhs = std::move(statusor).value()
+
+namespace shrm {
+
+// `status` with its message replaced by `message` (code and payloads kept: the wire's error
+// details travel as payloads, proto/status_details.h). OK stays OK.
+inline absl::Status WithMessage(const absl::Status& status, std::string message) {
+  if (status.ok()) return status;
+  absl::Status out(status.code(), std::move(message));
+  status.ForEachPayload(
+      [&](absl::string_view url, const absl::Cord& payload) { out.SetPayload(url, payload); });
+  return out;
+}
+
+}  // namespace shrm
 
 #endif  // SHRM_CORE_BASE_STATUS_MACROS_H_

@@ -232,13 +232,27 @@ absl::StatusOr<std::unique_ptr<Brdf>> ParseLafortune(absl::string_view text) {
 
 }  // namespace
 
-absl::StatusOr<std::unique_ptr<Brdf>> ParseBrdfSpec(std::string_view spec_in) {
+BrdfSpecParts SplitBrdfSpec(std::string_view spec_in) {
   const absl::string_view spec =
       absl::StripAsciiWhitespace(absl::string_view(spec_in.data(), spec_in.size()));
   const size_t colon = spec.find(':');
-  const std::string name(absl::StripAsciiWhitespace(spec.substr(0, colon)));
-  const absl::string_view rest =
-      colon == absl::string_view::npos ? absl::string_view() : spec.substr(colon + 1);
+  BrdfSpecParts parts;
+  parts.model = std::string(absl::StripAsciiWhitespace(spec.substr(0, colon)));
+  if (colon != absl::string_view::npos) parts.rest = std::string(spec.substr(colon + 1));
+  return parts;
+}
+
+std::optional<std::string> BrdfSpecFile(std::string_view spec, std::string* model) {
+  BrdfSpecParts parts = SplitBrdfSpec(spec);
+  if (parts.model != "table" && parts.model != "merl") return std::nullopt;
+  if (model != nullptr) *model = parts.model;
+  return std::string(absl::StripAsciiWhitespace(parts.rest));
+}
+
+absl::StatusOr<std::unique_ptr<Brdf>> ParseBrdfSpec(std::string_view spec_in) {
+  const BrdfSpecParts parts = SplitBrdfSpec(spec_in);
+  const std::string& name = parts.model;
+  const absl::string_view rest = parts.rest;
   if (name == "table" || name == "merl") {
     const std::string path(absl::StripAsciiWhitespace(rest));
     if (path.empty()) {
@@ -281,8 +295,10 @@ absl::StatusOr<std::unique_ptr<Brdf>> ParseBrdfSpec(std::string_view spec_in) {
   }
   std::vector<std::string> names;
   for (const BrdfModelInfo& m : ListBrdfModels()) names.push_back(m.name);
-  return absl::InvalidArgumentError(absl::StrCat("unknown brdf model '", name, "' in spec '", spec,
-                                                 "'; valid models: ", absl::StrJoin(names, ", ")));
+  return absl::InvalidArgumentError(
+      absl::StrCat("unknown brdf model '", name, "' in spec '",
+                   absl::StripAsciiWhitespace(absl::string_view(spec_in.data(), spec_in.size())),
+                   "'; valid models: ", absl::StrJoin(names, ", ")));
 }
 
 namespace {

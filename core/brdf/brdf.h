@@ -14,6 +14,7 @@
 #define SHRM_CORE_BRDF_BRDF_H_
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -78,6 +79,17 @@ void ReparamAngles(ReparamKind kind, const Vec3& n, const Vec3& v, const Vec3& w
 // Parses a spec string such as "phong:s=32" (docs/brdf.md). Errors are InvalidArgument naming
 // the model, the parameter and its valid range (or the file problem).
 absl::StatusOr<std::unique_ptr<Brdf>> ParseBrdfSpec(std::string_view spec);
+
+// A spec split as ParseBrdfSpec reads it: the model name (surrounding whitespace stripped) and
+// the text after the first ':' (as written; "" without a ':').
+struct BrdfSpecParts {
+  std::string model;
+  std::string rest;
+};
+BrdfSpecParts SplitBrdfSpec(std::string_view spec);
+// The file of a file-based spec ("table:PATH", "merl:PATH"; the path stripped of surrounding
+// whitespace), or nullopt for analytic models. `model` gets "table" or "merl".
+std::optional<std::string> BrdfSpecFile(std::string_view spec, std::string* model = nullptr);
 
 struct BrdfParamInfo {
   std::string name;

@@ -69,4 +69,12 @@ absl::StatusOr<std::string> Sha256OfFile(const std::string& path) {
   return Hex(md.data(), n);
 }
 
+bool IsSha256Hex(std::string_view s) {
+  if (s.size() != 64) return false;
+  for (char c : s) {
+    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
+  }
+  return true;
+}
+
 }  // namespace shrm

@@ -11,6 +11,8 @@
 namespace shrm {
 
 std::string Sha256Hex(std::string_view bytes);
+// True for 64 lowercase hex digits (the form hashes travel in: docs/server.md).
+bool IsSha256Hex(std::string_view s);
 
 // Incremental SHA-256: Update() with consecutive pieces, then Hex() once (the service hashes
 // file chunks as they are sent or received, overlapping the hash with the transfer).

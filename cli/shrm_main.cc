@@ -6,8 +6,8 @@
 #include <string>
 
 #include "absl/status/status.h"
-#include "client/cli_common.h"
-#include "client/commands.h"
+#include "cli/cli_common.h"
+#include "cli/commands.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"shrm: frequency-space prefiltering of HDR environment maps (SHRMs)"};

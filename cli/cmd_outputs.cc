@@ -6,16 +6,17 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
-#include "client/cli_common.h"
-#include "client/cli_validators.h"
-#include "client/commands.h"
-#include "client/report.h"
+#include "cli/cli_common.h"
+#include "cli/commands.h"
 #include "client/shrm_client.h"
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
 #include "core/sh/sh.h"
 #include "core/shrm/shrm_explicit.h"
 #include "core/shrm/shrm_file.h"
+#include "jobs/cli_validators.h"
+#include "jobs/point_jobs.h"
+#include "jobs/report.h"
 
 namespace shrm::cli {
 namespace {
@@ -78,7 +79,7 @@ absl::Status RunExplicit(const OutputArgs& a) {
 absl::Status RunIrradiance(const OutputArgs& a) {
   if (a.size < 1) return absl::InvalidArgumentError("--size must be >= 1");
   SHRM_RETURN_IF_ERROR(CheckOutputPath(a.output, "--output"));
-  SHRM_ASSIGN_OR_RETURN(Mat3 rot, EnvRotation(a.env));
+  SHRM_ASSIGN_OR_RETURN(const jobs::EnvironmentSpec spec, EnvSpecFromArgs(a.env));
   std::vector<double> e9;
   if (!a.server.empty()) {
     // The coefficients from shrmd (decode + transform there); the cube is built here from them,
@@ -86,21 +87,23 @@ absl::Status RunIrradiance(const OutputArgs& a) {
     SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> c, ConnectServer(a.server));
     v1::IrradianceRequest req;
     v1::IrradianceResponse resp;
-    SHRM_RETURN_IF_ERROR(RunRemoteJob(c.get(), a.env, a.server, /*quiet=*/false, [&] {
-      SHRM_RETURN_IF_ERROR(RemoteEnvironment(a.env, c.get(), req.mutable_environment()));
-      SHRM_ASSIGN_OR_RETURN(resp, c->Irradiance(req));
-      return absl::OkStatus();
-    }));
-    if (resp.coefficients_size() != 27) {
+    SHRM_RETURN_IF_ERROR(client::RunRemoteJob(
+        c.get(), spec, a.server,
+        [&] {
+          SHRM_RETURN_IF_ERROR(client::UploadEnvironment(spec, c.get(), req.mutable_environment()));
+          SHRM_ASSIGN_OR_RETURN(resp, c->Irradiance(req));
+          return absl::OkStatus();
+        },
+        RetryReporter(a.server, /*quiet=*/false)));
+    if (resp.coefficients_size() != jobs::kIrradianceCoefficientCount) {
       return absl::DataLossError(absl::StrCat("the server sent ", resp.coefficients_size(),
                                               " irradiance values, expected 27"));
     }
     e9.assign(resp.coefficients().begin(), resp.coefficients().end());
   } else {
-    SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(a.env));
-    SHRM_ASSIGN_OR_RETURN(std::vector<double> light,
-                          LightingCoefficients(env, 2, rot, ResolveThreads(a.threads)));
-    SHRM_ASSIGN_OR_RETURN(e9, IrradianceCoefficients(2, 3, light));
+    SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(spec));
+    SHRM_ASSIGN_OR_RETURN(
+        e9, jobs::IrradianceSh9(env, jobs::EnvironmentRotation(spec), ResolveThreads(a.threads)));
   }
   if (!a.output.empty()) {
     SHRM_ASSIGN_OR_RETURN(RadianceCube cube, IrradianceCube(e9, 3, a.size));
@@ -140,7 +143,7 @@ void RegisterRender(CLI::App& app, absl::Status* status) {
   sub->add_option("--shrm", args->shrm, "SHRM file")->required();
   sub->add_option("--view", args->view, "view direction V (towards the viewer) as x,y,z")
       ->required()
-      ->check(kDirection);
+      ->check(jobs::kDirection);
   sub->add_option("-o,--output", args->output, "output EXR (horizontal cross)")->required();
   sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
       ->check(CLI::NonNegativeNumber);

@@ -1,7 +1,8 @@
-// Shared pieces of the `shrm` subcommands: environment-map options, vector parsing, progress
-// lines, and writing radiance cubes. docs/cli.md documents every option.
-#ifndef SHRM_CLIENT_CLI_COMMON_H_
-#define SHRM_CLIENT_CLI_COMMON_H_
+// Shared pieces of the `shrm` subcommands: environment-map options (mapped onto the job layer's
+// EnvironmentSpec), --server, progress lines, output transactions and radiance-cube files.
+// docs/cli.md documents every option.
+#ifndef SHRM_CLI_CLI_COMMON_H_
+#define SHRM_CLI_CLI_COMMON_H_
 
 #include <CLI/CLI.hpp>
 #include <chrono>
@@ -11,10 +12,12 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "client/remote_jobs.h"
 #include "client/shrm_client.h"
 #include "core/base/geometry.h"
 #include "core/envmap/envmap.h"
 #include "core/shrm/radiance_cube.h"
+#include "jobs/environment.h"
 
 namespace shrm::cli {
 
@@ -27,20 +30,21 @@ struct EnvArgs {
   std::vector<std::string> files;  // one map, or six cube faces (+X -X +Y -Y +Z -Z)
   std::string layout = "auto";
   std::string colour_space;  // "" = from the file's pixel type
-  std::string working_space = "lin_rec709";
+  std::string working_space = jobs::kDefaultWorkingSpace;
   std::string ocio_config;
   std::vector<double> rotate;  // yaw, pitch, roll in degrees
   bool replace_non_finite = false;
 };
 
 // Adds --env (repeatable for six faces), --layout, --colour-space, --working-space,
-// --ocio-config, --rotate, --replace-non-finite.
+// --ocio-config, --rotate, --replace-non-finite (help texts: jobs/job_options.h).
 void AddEnvOptions(CLI::App* app, EnvArgs* args, bool required);
-absl::StatusOr<EnvMap> LoadEnv(const EnvArgs& args);
-// The --rotate lighting rotation (identity when absent); errors for a wrong count or non-finite.
-absl::StatusOr<Mat3> EnvRotation(const EnvArgs& args);
-// SHA-256 of the input files (one hash, or the hash of the six hashes joined by ',').
-absl::StatusOr<std::string> EnvSourceHash(const EnvArgs& args);
+// The flags as the job layer's environment (InvalidArgument naming the flag).
+absl::StatusOr<jobs::EnvironmentSpec> EnvSpecFromArgs(const EnvArgs& args);
+// Decodes the map (a warning on stderr for replaced non-finite pixels).
+absl::StatusOr<EnvMap> LoadEnv(const jobs::EnvironmentSpec& env);
+// The warning for `count` NaN/Inf pixels replaced by 0 (nothing for 0).
+void WarnReplacedNonFinite(int64_t count);
 
 // --server host:port (or dns:///host:port): run the subcommand on an shrmd service; also the
 // connection's security flags --token-file, --tls-ca, --tls-cert, --tls-key, --tls-server-name
@@ -48,21 +52,8 @@ absl::StatusOr<std::string> EnvSourceHash(const EnvArgs& args);
 void AddServerOption(CLI::App* app, std::string* server);
 // A client for --server with the security flags given to this process.
 absl::StatusOr<std::unique_ptr<client::ShrmClient>> ConnectServer(const std::string& server);
-// Uploads the --env files the server lacks and describes them for a request (docs/server.md).
-// Options a server cannot honour (--ocio-config) are refused.
-absl::Status RemoteEnvironment(const EnvArgs& args, client::ShrmClient* client,
-                               shrm::v1::Environment* env);
-
-// Runs one idempotent remote job: `attempt` uploads what the server lacks (RemoteEnvironment,
-// ResolveRemoteBrdf), then calls it. Retried whole, with backoff, on transient errors, on
-// RESOURCE_EXHAUSTED with a retry-after-ms hint (every job slot busy; waits the hint too) and on
-// NOT_FOUND for a blob (behind a load balancer the call may reach a replica the inputs were never
-// uploaded to; after k such answers k + 1 copies are uploaded). The map's SHA-256 (one --env
-// file) is the call's affinity key. `retries` (optional) gets the attempts beyond the first;
-// unless `quiet`, each retry is reported on stderr. Errors are prefixed with the server.
-absl::Status RunRemoteJob(client::ShrmClient* client, const EnvArgs& env, const std::string& server,
-                          bool quiet, const std::function<absl::Status()>& attempt,
-                          int* retries = nullptr);
+// Prints each retry of a remote job on stderr unless `quiet`.
+client::RetryCallback RetryReporter(const std::string& server, bool quiet);
 
 // Parses "x,y,z" into a unit vector; errors name `what` (e.g. "--normal").
 absl::StatusOr<Vec3> ParseDirection(const std::string& text, const char* what);
@@ -114,4 +105,4 @@ absl::Status WriteRadianceCross(const std::string& path, const RadianceCube& cub
 
 }  // namespace shrm::cli
 
-#endif  // SHRM_CLIENT_CLI_COMMON_H_
+#endif  // SHRM_CLI_CLI_COMMON_H_

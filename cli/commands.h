@@ -1,7 +1,7 @@
 // The subcommands of `shrm` (embedded mode). Each Register* adds one subcommand whose callback
 // stores its outcome in *status; main() turns that into the exit code (docs/cli.md).
-#ifndef SHRM_CLIENT_COMMANDS_H_
-#define SHRM_CLIENT_COMMANDS_H_
+#ifndef SHRM_CLI_COMMANDS_H_
+#define SHRM_CLI_COMMANDS_H_
 
 #include <CLI/CLI.hpp>
 
@@ -21,4 +21,4 @@ void RegisterBatch(CLI::App& app, absl::Status* status);
 
 }  // namespace shrm::cli
 
-#endif  // SHRM_CLIENT_COMMANDS_H_
+#endif  // SHRM_CLI_COMMANDS_H_

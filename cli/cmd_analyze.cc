@@ -5,10 +5,8 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
-#include "client/cli_common.h"
-#include "client/cli_validators.h"
-#include "client/commands.h"
-#include "client/report.h"
+#include "cli/cli_common.h"
+#include "cli/commands.h"
 #include "core/base/status_macros.h"
 #include "core/brdf/brdf.h"
 #include "core/brdf/brdf_projection.h"
@@ -17,6 +15,10 @@
 #include "core/shrm/orders.h"
 #include "core/shrm/prefilter.h"
 #include "core/transform/sht.h"
+#include "jobs/analyze_job.h"
+#include "jobs/cli_validators.h"
+#include "jobs/prefilter_job.h"
+#include "jobs/report.h"
 
 namespace shrm::cli {
 namespace {
@@ -27,7 +29,7 @@ constexpr int kDefaultMaxDegree = 255;
 struct AnalyzeArgs {
   EnvArgs env;
   std::string brdf;
-  std::vector<double> epsilons = {0.2, 0.1, 0.05, 0.01};
+  std::vector<double> epsilons = jobs::kDefaultAnalyzeEpsilons;
   int lmax = -1;
   int print_lmax = 2;
   int threads = 0;
@@ -36,22 +38,14 @@ struct AnalyzeArgs {
   std::string server;
 };
 
-absl::Status CheckEpsilons(const std::vector<double>& eps) {
-  for (double e : eps)
-    if (!(e > 0 && e < 1)) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("--epsilon values must be in (0, 1), got ", e));
-    }
-  return absl::OkStatus();
-}
-
 // Lighting only: coefficients, captured fraction per F, F_L per epsilon (eqs. 5.15-5.16).
 absl::Status AnalyzeLighting(const AnalyzeArgs& a) {
   const int threads = ResolveThreads(a.threads);
   Progress progress(a.verbose);
   progress.Begin("decode");
-  SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(a.env));
-  SHRM_ASSIGN_OR_RETURN(Mat3 rot, EnvRotation(a.env));
+  SHRM_ASSIGN_OR_RETURN(const jobs::EnvironmentSpec spec, EnvSpecFromArgs(a.env));
+  SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(spec));
+  const Mat3 rot = jobs::EnvironmentRotation(spec);
   const double decode_ms = progress.End();
   const int native = env.NativeLatLongWidth();
   const int resolvable = ShtMaxDegree({native, native / 2, ShtGridKind::kEquiangular});
@@ -146,15 +140,7 @@ absl::Status AnalyzeBrdf(const AnalyzeArgs& a, const Brdf& brdf) {
     SHRM_ASSIGN_OR_RETURN(BrdfOrders o, SelectBrdfOrders(brdf, e));
     const double eps = 1 - o.captured;
     if (a.json) {
-      all.push_back({{"epsilon", e},
-                     {"F_rho", o.F},
-                     {"P_rho", o.P},
-                     {"eps_brdf", eps},
-                     {"F_L", nullptr},
-                     {"F_B", o.F},
-                     {"P_B", o.P},
-                     {"eps_light", nullptr},
-                     {"eps_bound", nullptr}});
+      all.push_back(jobs::BrdfOrdersJson(e, o.F, o.P, eps));
     } else {
       std::printf("  %-10g %6d %6d %12.6g\n", e, o.F, o.P, eps);
     }
@@ -172,19 +158,19 @@ absl::Status AnalyzeBrdf(const AnalyzeArgs& a, const Brdf& brdf) {
 absl::Status AnalyzeBoth(const AnalyzeArgs& a, const Brdf& brdf) {
   Progress progress(a.verbose);
   progress.Begin("decode");
-  SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(a.env));
-  SHRM_ASSIGN_OR_RETURN(Mat3 rot, EnvRotation(a.env));
+  SHRM_ASSIGN_OR_RETURN(const jobs::EnvironmentSpec spec, EnvSpecFromArgs(a.env));
+  SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(spec));
   progress.End();
   nlohmann::json all = nlohmann::json::array();
   for (double e : a.epsilons) {
-    PrefilterOptions opt;
-    opt.epsilon = e;
-    opt.rotation = rot;
-    opt.threads = ResolveThreads(a.threads);
+    jobs::PrefilterJob job;
+    job.env = spec;
+    job.epsilon = e;
+    PrefilterOptions opt = jobs::CorePrefilterOptions(job, ResolveThreads(a.threads));
     opt.synthesize = false;
     SHRM_ASSIGN_OR_RETURN(PrefilterResult r, Prefilter(env, brdf, opt));
-    nlohmann::json j = AnalysisJson(r.analysis);
-    j["timings"] = TimingsJson(r.timings);
+    nlohmann::json j = jobs::AnalysisJson(r.analysis);
+    j["timings"] = jobs::TimingsJson(r.timings);
     if (a.json) {
       all.push_back(j);
       continue;
@@ -216,7 +202,8 @@ absl::Status AnalyzeRemote(const AnalyzeArgs& a) {
   req.set_brdf_display_spec(brdf.display_spec);
   for (double e : a.epsilons) req.add_epsilon(e);
   if (!a.env.files.empty()) {
-    SHRM_RETURN_IF_ERROR(RemoteEnvironment(a.env, client.get(), req.mutable_environment()));
+    SHRM_ASSIGN_OR_RETURN(const jobs::EnvironmentSpec spec, EnvSpecFromArgs(a.env));
+    SHRM_RETURN_IF_ERROR(client::UploadEnvironment(spec, client.get(), req.mutable_environment()));
   }
   absl::StatusOr<shrm::v1::AnalyzeResponse> resp = client->Analyze(req);
   if (!resp.ok()) {
@@ -233,15 +220,7 @@ absl::Status AnalyzeRemote(const AnalyzeArgs& a) {
       if (with_env) {
         all.push_back(nlohmann::json::parse(r.analysis_json(), nullptr, false));
       } else {
-        all.push_back({{"epsilon", r.epsilon()},
-                       {"F_rho", r.f_brdf()},
-                       {"P_rho", r.p_brdf()},
-                       {"eps_brdf", r.eps_brdf()},
-                       {"F_L", nullptr},
-                       {"F_B", r.f_b()},
-                       {"P_B", r.p_b()},
-                       {"eps_light", nullptr},
-                       {"eps_bound", nullptr}});
+        all.push_back(jobs::BrdfOrdersJson(r.epsilon(), r.f_brdf(), r.p_brdf(), r.eps_brdf()));
       }
       continue;
     }
@@ -270,7 +249,9 @@ absl::Status AnalyzeRemote(const AnalyzeArgs& a) {
 }
 
 absl::Status RunAnalyze(const AnalyzeArgs& a) {
-  SHRM_RETURN_IF_ERROR(CheckEpsilons(a.epsilons));
+  if (absl::Status s = jobs::ValidateAnalyzeEpsilons(a.epsilons); !s.ok()) {
+    return WithMessage(s, absl::StrCat("--", s.message()));
+  }
   if (a.print_lmax < 0) return absl::InvalidArgumentError("--print-lmax must be >= 0");
   if (a.threads < 0) return absl::InvalidArgumentError("--threads must be >= 0");
   if (!a.server.empty()) return AnalyzeRemote(a);
@@ -294,7 +275,7 @@ void RegisterAnalyze(CLI::App& app, absl::Status* status) {
   sub->add_option("--brdf", args->brdf, "BRDF spec, e.g. phong:s=32 (docs/brdf.md)");
   sub->add_option("--epsilon", args->epsilons, "tolerance(s), each in (0, 1)")
       ->capture_default_str()
-      ->check(kOpenUnitInterval);
+      ->check(jobs::kOpenUnitInterval);
   sub->add_option("--lmax", args->lmax,
                   "lighting-only: maximum degree (default: what the map resolves, at most 255)");
   sub->add_option("--print-lmax", args->print_lmax, "lighting-only: print L_lm up to this degree")

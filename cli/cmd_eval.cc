@@ -6,10 +6,8 @@
 #include <string>
 
 #include "absl/strings/str_cat.h"
-#include "client/cli_common.h"
-#include "client/cli_validators.h"
-#include "client/commands.h"
-#include "client/report.h"
+#include "cli/cli_common.h"
+#include "cli/commands.h"
 #include "client/shrm_client.h"
 #include "core/base/status_macros.h"
 #include "core/brdf/brdf.h"
@@ -17,6 +15,7 @@
 #include "core/shrm/shrm_file.h"
 #include "core/shrm/shrm_reference.h"
 #include "core/shrm/shrm_synthesis.h"
+#include "jobs/cli_validators.h"
 
 namespace shrm::cli {
 namespace {
@@ -69,7 +68,7 @@ absl::Status RunReference(const PointArgs& a) {
   SHRM_ASSIGN_OR_RETURN(std::unique_ptr<Brdf> brdf, ParseBrdfSpec(a.brdf));
   Vec3 index, v;
   SHRM_RETURN_IF_ERROR(ParseGeometry(a, brdf->reparam() == ReparamKind::kTangent, &index, &v));
-  SHRM_ASSIGN_OR_RETURN(Mat3 rot, EnvRotation(a.env));
+  SHRM_ASSIGN_OR_RETURN(const jobs::EnvironmentSpec spec, EnvSpecFromArgs(a.env));
   if (!a.server.empty()) {
     // The same sum on shrmd (the map and a BRDF file uploaded when it lacks them).
     SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> c, ConnectServer(a.server));
@@ -82,20 +81,24 @@ absl::Status RunReference(const PointArgs& a) {
     set(index, req.mutable_index());
     set(v, req.mutable_view());
     v1::ReferenceResponse resp;
-    SHRM_RETURN_IF_ERROR(RunRemoteJob(c.get(), a.env, a.server, /*quiet=*/false, [&] {
-      SHRM_RETURN_IF_ERROR(RemoteEnvironment(a.env, c.get(), req.mutable_environment()));
-      SHRM_ASSIGN_OR_RETURN(client::RemoteBrdf b, client::ResolveRemoteBrdf(a.brdf, c.get()));
-      req.set_brdf(b.spec);
-      req.set_brdf_blob_sha256(b.blob_sha256);
-      SHRM_ASSIGN_OR_RETURN(resp, c->Reference(req));
-      return absl::OkStatus();
-    }));
+    SHRM_RETURN_IF_ERROR(client::RunRemoteJob(
+        c.get(), spec, a.server,
+        [&] {
+          SHRM_RETURN_IF_ERROR(client::UploadEnvironment(spec, c.get(), req.mutable_environment()));
+          SHRM_ASSIGN_OR_RETURN(client::RemoteBrdf b, client::ResolveRemoteBrdf(a.brdf, c.get()));
+          req.set_brdf(b.spec);
+          req.set_brdf_blob_sha256(b.blob_sha256);
+          SHRM_ASSIGN_OR_RETURN(resp, c->Reference(req));
+          return absl::OkStatus();
+        },
+        RetryReporter(a.server, /*quiet=*/false)));
     if (resp.rgb_size() != 3) return absl::DataLossError("the server's answer lacks 3 values");
     PrintRgb({resp.rgb(0), resp.rgb(1), resp.rgb(2)}, a.json);
     return absl::OkStatus();
   }
-  SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(a.env));
-  PrintRgb(BrdfReferenceRadiance(env.samples(), *brdf, rot, index, v), a.json);
+  SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(spec));
+  PrintRgb(BrdfReferenceRadiance(env.samples(), *brdf, jobs::EnvironmentRotation(spec), index, v),
+           a.json);
   return absl::OkStatus();
 }
 
@@ -134,12 +137,12 @@ void RegisterEval(CLI::App& app, absl::Status* status) {
   CLI::App* sub = app.add_subcommand("eval", "reflected radiance from an SHRM file at one (N, V)");
   sub->add_option("--shrm", args->shrm, "SHRM file")->required();
   sub->add_option("--normal", args->normal, "unit normal N as x,y,z (world, +Y up)")
-      ->check(kDirection);
+      ->check(jobs::kDirection);
   sub->add_option("--tangent", args->tangent, "tangent T (Kajiya-Kay SHRMs) as x,y,z")
-      ->check(kDirection);
+      ->check(jobs::kDirection);
   sub->add_option("--view", args->view, "view direction V (towards the viewer) as x,y,z")
       ->required()
-      ->check(kDirection);
+      ->check(jobs::kDirection);
   sub->add_flag("--json", args->json, "print {\"rgb\": [r, g, b]}");
   sub->callback([args, status] { *status = RunEval(*args); });
 }
@@ -151,11 +154,12 @@ void RegisterReference(CLI::App& app, absl::Status* status) {
   AddEnvOptions(sub, &args->env, /*required=*/true);
   sub->add_option("--brdf", args->brdf, "BRDF spec (docs/brdf.md)")->required();
   sub->add_option("--normal", args->normal, "unit normal N as x,y,z (world, +Y up)")
-      ->check(kDirection);
-  sub->add_option("--tangent", args->tangent, "tangent T (Kajiya-Kay) as x,y,z")->check(kDirection);
+      ->check(jobs::kDirection);
+  sub->add_option("--tangent", args->tangent, "tangent T (Kajiya-Kay) as x,y,z")
+      ->check(jobs::kDirection);
   sub->add_option("--view", args->view, "view direction V (towards the viewer) as x,y,z")
       ->required()
-      ->check(kDirection);
+      ->check(jobs::kDirection);
   sub->add_flag("--json", args->json, "print {\"rgb\": [r, g, b]}");
   AddServerOption(sub, &args->server);
   sub->callback([args, status] { *status = RunReference(*args); });

@@ -25,16 +25,19 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_replace.h"
 #include "absl/strings/str_split.h"
-#include "client/cli_common.h"
-#include "client/commands.h"
-#include "client/prefilter_job.h"
+#include "cli/batch_manifest.h"
+#include "cli/cli_common.h"
+#include "cli/commands.h"
+#include "cli/prefilter_job.h"
 #include "core/brdf/brdf.h"
 #include "core/shrm/shrm_file.h"
+#include "jobs/option_text.h"
 
 namespace shrm::cli {
-namespace {
 
 namespace fs = std::filesystem;
+
+namespace {
 
 struct BatchArgs {
   std::string manifest;
@@ -43,32 +46,6 @@ struct BatchArgs {
   std::string server;
   bool force = false;
   bool json = false;
-};
-
-struct BatchOptions {
-  double epsilon = 0.03;
-  std::string kind = "global";
-  int size = 0;
-  std::string orders;  // "F,P", normalized
-  bool half = false;
-  std::vector<double> rotate;
-  bool report = false;
-  bool preview = false;
-};
-
-struct Job {
-  int index = 0;
-  std::string map;        // as resolved (manifest folder / entry)
-  std::string map_entry;  // as written in the manifest
-  std::string brdf;       // as written
-  std::string canonical_brdf;
-  std::string output, report, preview;
-  // Outcome.
-  std::string status = "pending";  // ok, skipped, failed
-  std::string orders;
-  double seconds = 0;
-  int retries = 0;  // remote: attempts beyond the first
-  std::string message;
 };
 
 // {brdf}: the spec with every character outside [A-Za-z0-9_.-] replaced by '_'.
@@ -97,9 +74,25 @@ std::string Resolve(const fs::path& dir, const std::string& entry) {
   return (dir / p).lexically_normal().string();
 }
 
-// Reads and validates the manifest; every problem is appended to *errors with its JSON path.
+// Why an existing output must be recomputed ("" when it matches the job; then *orders is the
+// file's "F_B,P_B").
+std::string Mismatch(const BatchJob& job, const std::string& source_sha256, std::string* orders) {
+  std::error_code ec;
+  if (!fs::exists(job.output, ec)) return "new";
+  if (!job.report.empty() && !fs::exists(job.report, ec)) return "report missing";
+  if (!job.preview.empty() && !fs::exists(job.preview, ec)) return "preview missing";
+  absl::StatusOr<ShrmFile> file = ReadShrmFile(job.output);
+  if (!file.ok()) return absl::StrCat("existing output unreadable (", file.status().message(), ")");
+  if (auto it = file->attributes.find("shrm:orders"); it != file->attributes.end()) {
+    *orders = it->second;
+  }
+  return jobs::WhyFileDiffers(job.job, job.canonical_brdf, source_sha256, *file);
+}
+
+}  // namespace
+
 void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* opt,
-                   std::vector<Job>* jobs, std::vector<std::string>* errors) {
+                   std::vector<BatchJob>* jobs, std::vector<std::string>* errors) {
   auto err = [&](const std::string& path, const std::string& what) {
     errors->push_back(absl::StrCat(path, ": ", what));
   };
@@ -161,31 +154,32 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
           if (!v.is_number() || !(v.get<double>() > 0 && v.get<double>() < 1))
             err(path, "must be a number in (0, 1)");
           else
-            opt->epsilon = v.get<double>();
+            opt->job.epsilon = v.get<double>();
         } else if (key == "kind") {
           if (!v.is_string() || (v != "global" && v != "local"))
             err(path, "must be \"global\" or \"local\"");
           else
-            opt->kind = v.get<std::string>();
+            opt->job.kind = *jobs::ParseShrmKind(v.get<std::string>());
         } else if (key == "size") {
-          if (!v.is_number_integer() || v.get<long long>() < 0 || v.get<long long>() > 4096)
-            err(path, "must be an integer >= 0 (0: about 10 F_B)");
+          if (!v.is_number_integer() || v.get<long long>() < 0 ||
+              v.get<long long>() > jobs::kMaxFaceSize)
+            err(path, absl::StrCat("must be an integer in [0, ", jobs::kMaxFaceSize,
+                                   "] (0: about 10 F_B)"));
           else
-            opt->size = v.get<int>();
+            opt->job.face_size = v.get<int>();
         } else if (key == "orders") {
-          std::vector<std::string> parts;
-          int f = -1, p = -1;
-          if (v.is_string()) parts = absl::StrSplit(v.get<std::string>(), ',');
-          if (parts.size() != 2 || !absl::SimpleAtoi(parts[0], &f) ||
-              !absl::SimpleAtoi(parts[1], &p) || f < 0 || p < 0)
+          absl::StatusOr<jobs::Orders> o =
+              v.is_string() ? jobs::ParseOrdersText(v.get<std::string>(), "orders")
+                            : absl::InvalidArgumentError("not a string");
+          if (!o.ok())
             err(path, "must be a string \"F,P\" with integers F, P >= 0");
           else
-            opt->orders = absl::StrCat(f, ",", p);
+            opt->job.orders = *o;
         } else if (key == "half" || key == "report" || key == "preview") {
           if (!v.is_boolean()) {
             err(path, "must be true or false");
           } else {
-            (key == "half"     ? opt->half
+            (key == "half"     ? opt->job.half
              : key == "report" ? opt->report
                                : opt->preview) = v.get<bool>();
           }
@@ -197,7 +191,8 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
           if (!good)
             err(path, "must be [yaw, pitch, roll] in degrees (three finite numbers)");
           else
-            for (const auto& x : v) opt->rotate.push_back(x.get<double>());
+            opt->job.env.rotate_ypr_deg =
+                std::array<double, 3>{v[0].get<double>(), v[1].get<double>(), v[2].get<double>()};
         } else {
           err(path,
               "unknown option (expected epsilon, kind, size, orders, half, rotate, report, "
@@ -233,12 +228,15 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
   std::map<std::string, int> seen;
   for (size_t i = 0; i < maps.size(); ++i) {
     for (size_t j = 0; j < brdfs.size(); ++j) {
-      Job job;
+      BatchJob job;
       job.index = static_cast<int>(jobs->size());
       job.map_entry = maps[i];
       job.map = Resolve(dir, maps[i]);
       job.brdf = brdfs[j];
       job.canonical_brdf = canonical[j];
+      job.job = opt->job;
+      job.job.env.files = {job.map};
+      job.job.brdf = brdfs[j];
       std::string stem = fs::path(maps[i]).filename().string();
       stem = stem.substr(0, stem.find('.'));
       const std::string name = absl::StrReplaceAll(pattern, {{"{map}", stem},
@@ -257,44 +255,7 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
   }
 }
 
-// Why an existing output must be recomputed ("" when it matches the job; then *orders is the
-// file's "F_B,P_B").
-std::string Mismatch(const Job& job, const BatchOptions& opt, const std::string& source_sha256,
-                     std::string* orders) {
-  std::error_code ec;
-  if (!fs::exists(job.output, ec)) return "new";
-  if (!job.report.empty() && !fs::exists(job.report, ec)) return "report missing";
-  if (!job.preview.empty() && !fs::exists(job.preview, ec)) return "preview missing";
-  absl::StatusOr<ShrmFile> file = ReadShrmFile(job.output);
-  if (!file.ok()) return absl::StrCat("existing output unreadable (", file.status().message(), ")");
-  const std::map<std::string, std::string>& a = file->attributes;
-  if (auto it = a.find("shrm:orders"); it != a.end()) *orders = it->second;
-  auto get = [&](const char* key) {
-    auto it = a.find(key);
-    return it == a.end() ? std::string("(none)") : it->second;
-  };
-  auto differs = [&](const char* key, const std::string& want) -> std::string {
-    const std::string have = get(key);
-    return have == want ? "" : absl::StrCat(key, " ", have, " != ", want);
-  };
-  std::string why;
-  if (!(why = differs("shrm:brdf", job.canonical_brdf)).empty()) return why;
-  if (!(why = differs("shrm:source_sha256", source_sha256)).empty()) return "source changed";
-  if (!(why = differs("shrm:epsilon",
-                      opt.orders.empty() ? absl::StrCat(opt.epsilon) : "explicit orders"))
-           .empty())
-    return why;
-  if (!opt.orders.empty() && !(why = differs("shrm:orders", opt.orders)).empty()) return why;
-  if (!(why = differs("shrm:rotate_ypr_deg",
-                      opt.rotate.empty() ? "(none)" : absl::StrJoin(opt.rotate, ",")))
-           .empty())
-    return why;
-  const ShrmKind kind = opt.kind == "local" ? ShrmKind::kLocal : ShrmKind::kGlobal;
-  if (file->cube.kind != kind) return absl::StrCat("kind != ", opt.kind);
-  if (opt.size > 0 && file->cube.face_size != opt.size)
-    return absl::StrCat("size ", file->cube.face_size, " != ", opt.size);
-  return "";
-}
+namespace {
 
 absl::Status RunBatch(const BatchArgs& args) {
   if (args.jobs < 1) return absl::InvalidArgumentError("--jobs must be >= 1");
@@ -309,7 +270,7 @@ absl::Status RunBatch(const BatchArgs& args) {
     return absl::InvalidArgumentError(absl::StrCat(args.manifest, ": not JSON: ", e.what()));
   }
   BatchOptions opt;
-  std::vector<Job> jobs;
+  std::vector<BatchJob> jobs;
   std::vector<std::string> errors;
   ParseManifest(manifest, fs::path(args.manifest).parent_path(), &opt, &jobs, &errors);
   if (!errors.empty()) {
@@ -318,7 +279,7 @@ absl::Status RunBatch(const BatchArgs& args) {
     return absl::InvalidArgumentError(absl::StrCat(args.manifest, ": ", errors.size(),
                                                    " problem(s) in the manifest; no job was run"));
   }
-  for (const Job& job : jobs) {
+  for (const BatchJob& job : jobs) {
     std::error_code ec;
     for (const std::string& out : {job.output, job.report, job.preview}) {
       const fs::path parent = fs::path(out).parent_path();
@@ -331,7 +292,7 @@ absl::Status RunBatch(const BatchArgs& args) {
     // left to the jobs to report.
     absl::StatusOr<std::unique_ptr<client::ShrmClient>> c = ConnectServer(args.server);
     std::set<std::string> uploaded;
-    for (const Job& job : jobs) {
+    for (const BatchJob& job : jobs) {
       if (c.ok() && uploaded.insert(job.map).second) (void)(*c)->UploadIfMissing(job.map);
     }
   }
@@ -350,13 +311,10 @@ absl::Status RunBatch(const BatchArgs& args) {
   std::atomic<size_t> next{0};
   auto work = [&] {
     for (size_t k; (k = next.fetch_add(1)) < jobs.size();) {
-      Job& job = jobs[k];
+      BatchJob& job = jobs[k];
       const auto start = std::chrono::steady_clock::now();
       std::string status, message, orders;
       int retries = 0;
-      EnvArgs env;
-      env.files = {job.map};
-      env.rotate = opt.rotate;
       std::string reason = "forced";
       if (!args.force) {
         std::string hash;
@@ -366,35 +324,28 @@ absl::Status RunBatch(const BatchArgs& args) {
           if (it != hashes.end()) hash = it->second;
         }
         if (hash.empty()) {
-          absl::StatusOr<std::string> h = EnvSourceHash(env);
+          absl::StatusOr<jobs::SourceIdentity> h = jobs::LocalSourceIdentity(job.job.env);
           if (h.ok()) {
-            hash = *h;
+            hash = h->sha256;
             std::lock_guard<std::mutex> lock(mu);
             hashes[job.map] = hash;
           }
         }
-        reason = hash.empty() ? "new" : Mismatch(job, opt, hash, &orders);
+        reason = hash.empty() ? "new" : Mismatch(job, hash, &orders);
       }
       if (reason.empty()) {
         status = "skipped";
         message = "up to date";
       } else {
-        PrefilterArgs a;
-        a.env = env;
-        a.brdf = job.brdf;
-        a.epsilon = opt.epsilon;
-        a.orders = opt.orders;
-        a.kind = opt.kind;
-        a.size = opt.size;
-        a.output = job.output;
-        a.report = job.report;
-        a.preview = job.preview;
-        a.half = opt.half;
-        a.threads = threads;
-        a.server = args.server;
-        a.quiet = true;
+        PrefilterRun run;
+        run.output = job.output;
+        run.report = job.report;
+        run.preview = job.preview;
+        run.threads = threads;
+        run.server = args.server;
+        run.quiet = true;
         PrefilterJobOutcome outcome;
-        const absl::Status s = RunPrefilterJob(a, &outcome);
+        const absl::Status s = RunPrefilterJob(job.job, run, &outcome);
         retries = outcome.retries;
         if (s.ok()) {
           status = "ok";
@@ -426,7 +377,7 @@ absl::Status RunBatch(const BatchArgs& args) {
   if (tty) std::fprintf(stderr, "\n");
 
   int ok = 0, skipped = 0, retries = 0;
-  for (const Job& j : jobs) {
+  for (const BatchJob& j : jobs) {
     ok += j.status == "ok";
     skipped += j.status == "skipped";
     retries += j.retries;
@@ -439,7 +390,7 @@ absl::Status RunBatch(const BatchArgs& args) {
     out["failed"] = failed;
     out["retries"] = retries;
     out["jobs"] = nlohmann::json::array();
-    for (const Job& j : jobs) {
+    for (const BatchJob& j : jobs) {
       out["jobs"].push_back({{"index", j.index},
                              {"map", j.map},
                              {"brdf", j.brdf},
@@ -453,10 +404,10 @@ absl::Status RunBatch(const BatchArgs& args) {
     std::printf("%s\n", out.dump(2).c_str());
   } else {
     size_t width = 3;
-    for (const Job& j : jobs) width = std::max(width, j.output.size());
+    for (const BatchJob& j : jobs) width = std::max(width, j.output.size());
     std::printf("%-3s  %-*s  %-7s  %-7s  %8s  %7s  %s\n", "#", static_cast<int>(width), "job",
                 "status", "orders", "seconds", "retries", "message");
-    for (const Job& j : jobs) {
+    for (const BatchJob& j : jobs) {
       std::printf("%-3d  %-*s  %-7s  %-7s  %8.2f  %7d  %s\n", j.index, static_cast<int>(width),
                   j.output.c_str(), j.status.c_str(), j.orders.empty() ? "-" : j.orders.c_str(),
                   j.seconds, j.retries, j.message.c_str());

@@ -1,8 +1,8 @@
-#include "client/report.h"
+#include "jobs/report.h"
 
 #include "core/io/atomic_file.h"
 
-namespace shrm::cli {
+namespace shrm::jobs {
 
 nlohmann::json AnalysisJson(const ShrmAnalysis& a) {
   nlohmann::json j;
@@ -45,4 +45,4 @@ absl::Status WriteJsonFile(const std::string& path, const nlohmann::json& j) {
   return WriteFileAtomically(path, j.dump(2) + "\n");
 }
 
-}  // namespace shrm::cli
+}  // namespace shrm::jobs

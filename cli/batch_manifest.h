@@ -1,0 +1,46 @@
+// The manifest of `shrm batch` (docs/cli.md "batch"): maps x BRDFs, job options, output naming.
+// Each job is a prefilter job of the job layer (jobs/prefilter_job.h) with its output paths.
+#ifndef SHRM_CLI_BATCH_MANIFEST_H_
+#define SHRM_CLI_BATCH_MANIFEST_H_
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "jobs/prefilter_job.h"
+
+namespace shrm::cli {
+
+// "options" of the manifest: the job options every job shares, and which outputs to write.
+struct BatchOptions {
+  jobs::PrefilterJob job;  // env.files and brdf are per job
+  bool report = false;
+  bool preview = false;
+};
+
+struct BatchJob {
+  int index = 0;
+  std::string map;        // as resolved (manifest folder / entry)
+  std::string map_entry;  // as written in the manifest
+  std::string brdf;       // as written
+  std::string canonical_brdf;
+  jobs::PrefilterJob job;
+  std::string output, report, preview;
+  // Outcome.
+  std::string status = "pending";  // ok, skipped, failed
+  std::string orders;
+  double seconds = 0;
+  int retries = 0;  // remote: attempts beyond the first
+  std::string message;
+};
+
+// Reads and validates a manifest whose relative paths are relative to `dir`; every problem is
+// appended to *errors with its JSON path ("$.options.epsilon: ..."), and no job is made then.
+void ParseManifest(const nlohmann::json& manifest, const std::filesystem::path& dir,
+                   BatchOptions* options, std::vector<BatchJob>* jobs,
+                   std::vector<std::string>* errors);
+
+}  // namespace shrm::cli
+
+#endif  // SHRM_CLI_BATCH_MANIFEST_H_

@@ -1,0 +1,221 @@
+#include "cli/cli_common.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <thread>
+
+#include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
+#include "absl/time/clock.h"
+#include "core/base/cubemap.h"
+#include "core/base/status_macros.h"
+#include "core/envmap/lighting.h"
+#include "core/io/atomic_file.h"
+#include "core/io/image.h"
+#include "core/io/sha256.h"
+#include "jobs/job_options.h"
+#include "jobs/option_text.h"
+
+namespace shrm::cli {
+
+namespace {
+
+std::string Help(std::string_view option) {
+  const jobs::JobOption* o = jobs::FindPrefilterJobOption(option);
+  return o != nullptr ? std::string(o->help) : std::string();
+}
+
+}  // namespace
+
+void AddEnvOptions(CLI::App* app, EnvArgs* args, bool required) {
+  auto* env = app->add_option("--env", args->files, Help("env"))->expected(1, 6)->take_all();
+  if (required) env->required();
+  app->add_option("--layout", args->layout, Help("layout"))->capture_default_str();
+  app->add_option("--colour-space", args->colour_space, Help("colour_space"));
+  app->add_option("--working-space", args->working_space, Help("working_space"))
+      ->capture_default_str();
+  app->add_option("--ocio-config", args->ocio_config, Help("ocio_config"));
+  app->add_option("--rotate", args->rotate, Help("rotate"))->delimiter(',')->expected(3);
+  app->add_flag("--replace-non-finite", args->replace_non_finite, Help("replace_non_finite"));
+}
+
+absl::StatusOr<jobs::EnvironmentSpec> EnvSpecFromArgs(const EnvArgs& args) {
+  jobs::EnvironmentSpec env;
+  env.files = args.files;
+  SHRM_ASSIGN_OR_RETURN(env.layout, ParseEnvLayout(args.layout));
+  env.input_colour_space = args.colour_space;
+  env.working_colour_space = args.working_space;
+  env.ocio_config = args.ocio_config;
+  if (!args.rotate.empty()) {
+    if (args.rotate.size() != 3) {
+      return absl::InvalidArgumentError("--rotate takes yaw,pitch,roll (three numbers, degrees)");
+    }
+    for (double a : args.rotate) {
+      if (!std::isfinite(a)) return absl::InvalidArgumentError("--rotate angles must be finite");
+    }
+    env.rotate_ypr_deg = std::array<double, 3>{args.rotate[0], args.rotate[1], args.rotate[2]};
+  }
+  env.replace_non_finite = args.replace_non_finite;
+  return env;
+}
+
+absl::StatusOr<EnvMap> LoadEnv(const jobs::EnvironmentSpec& spec) {
+  SHRM_ASSIGN_OR_RETURN(EnvMap env, EnvMap::Load(jobs::EnvMapOptionsFor(spec)));
+  WarnReplacedNonFinite(env.replaced_non_finite());
+  return env;
+}
+
+void WarnReplacedNonFinite(int64_t count) {
+  if (count > 0) {
+    std::fprintf(stderr, "shrm: warning: %lld non-finite values replaced by 0\n",
+                 static_cast<long long>(count));
+  }
+}
+
+namespace {
+// The security flags of --server (one subcommand runs per process).
+client::ClientOptions& ServerFlags() {
+  static client::ClientOptions options;
+  return options;
+}
+}  // namespace
+
+void AddServerOption(CLI::App* app, std::string* server) {
+  app->add_option("--server", *server,
+                  "run on an shrmd service at host:port (or dns:///host:port) instead of "
+                  "in-process; the map files are uploaded when the server lacks them");
+  client::ClientOptions& o = ServerFlags();
+  app->add_option("--token-file", o.token_file,
+                  "with --server: file whose first line is the bearer token (else "
+                  "$SHRM_TOKEN_FILE)")
+      ->check(CLI::ExistingFile);
+  app->add_option(
+         "--tls-ca", o.tls_ca_file,
+         "with --server: PEM CA of the server certificate; enables TLS (else $SHRM_TLS_CA)")
+      ->check(CLI::ExistingFile);
+  app->add_option("--tls-cert", o.tls_cert_file,
+                  "with --server: PEM client certificate for mutual TLS (else $SHRM_TLS_CERT)")
+      ->check(CLI::ExistingFile);
+  app->add_option("--tls-key", o.tls_key_file,
+                  "with --server: PEM key of --tls-cert (else $SHRM_TLS_KEY)")
+      ->check(CLI::ExistingFile);
+  app->add_option("--tls-server-name", o.tls_server_name,
+                  "with --server: the name checked against the server certificate");
+}
+
+absl::StatusOr<std::unique_ptr<client::ShrmClient>> ConnectServer(const std::string& server) {
+  const client::ClientOptions& o = ServerFlags();
+  if (!o.tls_cert_file.empty() != !o.tls_key_file.empty()) {
+    return absl::InvalidArgumentError("--tls-cert and --tls-key go together");
+  }
+  absl::StatusOr<std::unique_ptr<client::ShrmClient>> c = client::ShrmClient::Connect(server, o);
+  if (!c.ok()) return WithMessage(c.status(), absl::StrCat("--server: ", c.status().message()));
+  return c;
+}
+
+client::RetryCallback RetryReporter(const std::string& server, bool quiet) {
+  if (quiet) return nullptr;
+  return [server](const absl::Status& s, int attempt, int max_attempts) {
+    std::fprintf(stderr, "shrm: %s: %s; retrying (attempt %d of %d)\n", server.c_str(),
+                 std::string(s.message()).c_str(), attempt, max_attempts);
+  };
+}
+
+absl::StatusOr<Vec3> ParseDirection(const std::string& text, const char* what) {
+  return jobs::ParseDirectionText(text, what);
+}
+
+int ResolveThreads(int requested) {
+  return requested > 0 ? requested
+                       : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+Progress::Progress(bool verbose, bool quiet) : enabled_(!quiet && (verbose || ::isatty(2))) {}
+
+void Progress::Begin(const std::string& stage) {
+  stage_ = stage;
+  start_ = std::chrono::steady_clock::now();
+  if (enabled_) std::fprintf(stderr, "[shrm] %-28s ...", stage.c_str());
+}
+
+double Progress::End() {
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count();
+  if (enabled_) std::fprintf(stderr, " %9.1f ms\n", ms);
+  return ms;
+}
+
+absl::Status CheckOutputPath(const std::string& path, const char* option) {
+  if (path.empty()) return absl::OkStatus();
+  namespace fs = std::filesystem;
+  const fs::path p(path);
+  const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
+  std::error_code ec;
+  if (!fs::exists(dir, ec)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(option, " ", path, ": folder ", dir.string(), " does not exist"));
+  }
+  if (!fs::is_directory(dir, ec)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(option, " ", path, ": ", dir.string(), " is not a folder"));
+  }
+  if (fs::is_directory(p, ec)) {
+    return absl::InvalidArgumentError(absl::StrCat(option, " ", path, " is a folder"));
+  }
+  const std::string probe = TempPathFor(path);
+  std::FILE* f = std::fopen(probe.c_str(), "wb");
+  if (f == nullptr) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(option, " ", path, ": cannot create files in ", dir.string()));
+  }
+  std::fclose(f);
+  DiscardTempFile(probe);
+  return absl::OkStatus();
+}
+
+OutputTransaction::~OutputTransaction() {
+  if (committed_) return;
+  for (const auto& [tmp, final_path] : files_) DiscardTempFile(tmp);
+}
+
+std::string OutputTransaction::Temp(const std::string& final_path) {
+  files_.emplace_back(TempPathFor(final_path), final_path);
+  return files_.back().first;
+}
+
+absl::Status OutputTransaction::Commit() {
+  for (const auto& [tmp, final_path] : files_) {
+    absl::Status s = CommitTempFile(tmp, final_path);
+    if (!s.ok()) return s;  // the destructor removes the temporaries not yet renamed
+  }
+  committed_ = true;
+  return absl::OkStatus();
+}
+
+absl::Status WriteRadianceCross(const std::string& path, const RadianceCube& cube) {
+  const int s = cube.face_size;
+  Image img;
+  img.width = 4 * s;
+  img.height = 3 * s;
+  img.channels = 3;
+  img.pixels.assign(static_cast<size_t>(img.width) * img.height * 3, 0.0f);
+  // (column, row) cell of each GL face in the horizontal cross.
+  constexpr int kCell[6][2] = {{2, 1}, {0, 1}, {1, 0}, {1, 2}, {1, 1}, {3, 1}};
+  for (int f = 0; f < kCubeFaceCount; ++f)
+    for (int y = 0; y < s; ++y)
+      for (int x = 0; x < s; ++x)
+        for (int c = 0; c < 3; ++c)
+          img.pixels[((static_cast<size_t>(kCell[f][1]) * s + y) * img.width + kCell[f][0] * s +
+                      x) *
+                         3 +
+                     c] = cube.data[cube.Index(f, x, y, std::min(c, cube.channels - 1))];
+  return WriteExr(path, img);
+}
+
+}  // namespace shrm::cli

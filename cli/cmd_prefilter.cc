@@ -1,0 +1,323 @@
+// `shrm prefilter`: the SHRM of a map and a BRDF, written as an SHRM file with an optional JSON
+// report and PNG preview (SHRM paper sec. 5.6.2).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "cli/cli_common.h"
+#include "cli/commands.h"
+#include "cli/prefilter_job.h"
+#include "client/remote_jobs.h"
+#include "core/base/status_macros.h"
+#include "core/io/atomic_file.h"
+#include "core/io/image.h"
+#include "core/shrm/shrm_file.h"
+#include "core/shrm/shrm_synthesis.h"
+#include "jobs/cli_validators.h"
+#include "jobs/job_options.h"
+#include "jobs/option_text.h"
+#include "jobs/report.h"
+
+namespace shrm::cli {
+namespace {
+
+// Preview: three spheres seen from these directions (front, side, above).
+constexpr int kPreviewSize = 256;
+
+// Orthographic renders of a unit sphere carrying the SHRM, seen from three views, side by side;
+// exposure chosen so that the mean is mid-grey.
+Image RenderSpheres(const ShrmCube& cube) {
+  const Vec3 views[3] = {{0, 0, 1}, {1, 0, 0}, Vec3{0, 0.7, 0.7}.Normalized()};
+  Image img;
+  img.width = 3 * kPreviewSize;
+  img.height = kPreviewSize;
+  img.channels = 3;
+  img.pixels.assign(static_cast<size_t>(img.width) * img.height * 3, 0.0f);
+  for (int s = 0; s < 3; ++s) {
+    const Vec3 v = views[s];
+    const Vec3 up0 = std::abs(v.y) > 0.99 ? Vec3{0, 0, -1} : Vec3{0, 1, 0};
+    const Vec3 right = up0.Cross(v).Normalized();
+    const Vec3 up = v.Cross(right);
+    for (int y = 0; y < kPreviewSize; ++y)
+      for (int x = 0; x < kPreviewSize; ++x) {
+        const double px = 2 * (x + 0.5) / kPreviewSize - 1, py = 1 - 2 * (y + 0.5) / kPreviewSize;
+        const double r2 = px * px + py * py;
+        if (r2 >= 1) continue;
+        const Vec3 n = right * px + up * py + v * std::sqrt(1 - r2);
+        Vec3 index = n;
+        if (cube.index == ReparamKind::kTangent) {  // hair-like tangents along latitudes
+          const Vec3 t = Vec3{0, 1, 0}.Cross(n);
+          index = t.Norm() > 1e-6 ? t.Normalized() : Vec3{1, 0, 0};
+        }
+        const std::array<double, 3> b = ShrmEval(cube, index, v);
+        for (int c = 0; c < 3; ++c)
+          img.pixels[(static_cast<size_t>(y) * img.width + s * kPreviewSize + x) * 3 + c] =
+              static_cast<float>(b[c]);
+      }
+  }
+  return img;
+}
+
+double AutoExposure(const Image& img) {
+  double sum = 0;
+  size_t n = 0;
+  for (size_t i = 0; i < img.pixels.size(); i += 3) {
+    const double lum =
+        0.2126 * img.pixels[i] + 0.7152 * img.pixels[i + 1] + 0.0722 * img.pixels[i + 2];
+    if (lum > 0) {
+      sum += lum;
+      ++n;
+    }
+  }
+  return n > 0 && sum > 0 ? std::log2(0.18 * n / sum) : 0.0;
+}
+
+// Prints the summary lines of a run (both modes).
+void PrintSummary(const jobs::PrefilterJob& job, const PrefilterRun& run,
+                  const std::string& brdf_spec, int face_size, const ShrmAnalysis& an,
+                  const nlohmann::json& timings) {
+  std::printf("wrote %s: %s SHRM, %d x %d x 6 texels, (F_B, P_B) = (%d, %d)\n", run.output.c_str(),
+              jobs::ShrmKindName(job.kind), face_size, face_size, an.f_b, an.p_b);
+  std::printf("  BRDF %s: (F_rho, P_rho) = (%d, %d), eps_brdf %.4g\n", brdf_spec.c_str(), an.f_brdf,
+              an.p_brdf, an.eps_brdf);
+  std::printf("  lighting: F_L %s, eps_light %.4g; eq. 5.19 bound %.4g\n",
+              an.f_light >= 0 ? std::to_string(an.f_light).c_str() : "not reached", an.eps_light,
+              an.eps_bound);
+  std::printf("  time:");
+  for (const auto& [k, v] : timings.items()) std::printf(" %s %.1f", k.c_str(), v.get<double>());
+  std::printf("\n");
+}
+
+// Stage lines of a remote run: each stage ends when the next one starts.
+class StageLines {
+ public:
+  explicit StageLines(Progress* progress) : progress_(progress) {}
+  void Begin(const std::string& stage) {
+    End();
+    progress_->Begin(stage);
+    open_ = true;
+  }
+  double End() {
+    if (!open_) return 0;
+    open_ = false;
+    return progress_->End();
+  }
+
+ private:
+  Progress* progress_;
+  bool open_ = false;
+};
+
+// --server: the same job on shrmd; the SHRM file it returns is byte-identical to the embedded
+// run's (tests/service_test.cc).
+absl::Status RunPrefilterRemote(const jobs::PrefilterJob& job, const PrefilterRun& run,
+                                PrefilterJobOutcome* outcome) {
+  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> client, ConnectServer(run.server));
+  Progress progress(run.verbose, run.quiet);
+  StageLines lines(&progress);
+  double upload_ms = 0;
+  client::RemotePrefilterOptions options;
+  options.on_upload_start = [&] { lines.Begin("upload"); };
+  options.on_upload_end = [&] { upload_ms += lines.End(); };
+  options.progress = [&](const shrm::v1::PrefilterProgress& p) {
+    lines.Begin("remote " + p.stage());
+  };
+  options.on_retry = RetryReporter(run.server, run.quiet);
+  int retries = 0;
+  absl::StatusOr<client::RemotePrefilterResult> remote =
+      client::RunRemotePrefilter(client.get(), run.server, job, options, &retries);
+  lines.End();
+  if (outcome != nullptr) outcome->retries = retries;
+  if (!remote.ok()) return remote.status();
+  const client::PrefilterOutcome& out = remote->outcome;
+  OutputTransaction outputs;
+  const std::string shrm_tmp = outputs.Temp(run.output);
+  progress.Begin("write");
+  SHRM_RETURN_IF_ERROR(WriteFileAtomically(shrm_tmp, out.shrm_file));
+  const double write_ms = progress.End();
+  const shrm::v1::PrefilterReport& rep = out.report;
+  nlohmann::json report = nlohmann::json::parse(rep.report_json(), nullptr, false);
+  if (report.is_discarded()) return absl::DataLossError("the server's report is not JSON");
+  report["output"] = run.output;
+  report["source"] = job.env.files;
+  report["server"] = run.server;
+  report["timings"]["upload_ms"] = upload_ms;
+  report["retries"] = retries;
+  report["timings"]["local_write_ms"] = write_ms;
+  if (!run.preview.empty()) {
+    progress.Begin("preview");
+    SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrmFile(shrm_tmp));
+    const Image spheres = RenderSpheres(file.cube);
+    SHRM_RETURN_IF_ERROR(
+        WritePreviewPng(outputs.Temp(run.preview), spheres, AutoExposure(spheres)));
+    report["timings"]["preview_ms"] = progress.End();
+  }
+  if (!run.report.empty())
+    SHRM_RETURN_IF_ERROR(jobs::WriteJsonFile(outputs.Temp(run.report), report));
+  SHRM_RETURN_IF_ERROR(outputs.Commit());
+  if (outcome != nullptr) {
+    outcome->f_b = rep.f_b();
+    outcome->p_b = rep.p_b();
+  }
+  if (run.quiet) return absl::OkStatus();
+  if (run.json) {
+    std::printf("%s\n", report.dump(2).c_str());
+    return absl::OkStatus();
+  }
+  ShrmAnalysis an;
+  an.f_light = rep.f_light();
+  an.f_brdf = rep.f_brdf();
+  an.p_brdf = rep.p_brdf();
+  an.f_b = rep.f_b();
+  an.p_b = rep.p_b();
+  an.eps_light = rep.eps_light();
+  an.eps_brdf = rep.eps_brdf();
+  an.eps_bound = rep.eps_bound();
+  PrintSummary(job, run, rep.brdf(), rep.face_size(), an, report["timings"]);
+  std::printf("  server %s: lighting cache %s, BRDF cache %s\n", run.server.c_str(),
+              rep.cache().lighting_hit() ? "hit" : "miss", rep.cache().brdf_hit() ? "hit" : "miss");
+  return absl::OkStatus();
+}
+
+absl::Status RunPrefilterEmbedded(const jobs::PrefilterJob& job, const PrefilterRun& run,
+                                  PrefilterJobOutcome* outcome) {
+  Progress progress(run.verbose, run.quiet);
+  bool first = true;
+  auto on_stage = [&](std::string_view stage) {
+    if (!first) progress.End();
+    first = false;
+    progress.Begin(std::string(stage));
+    return absl::OkStatus();
+  };
+  absl::StatusOr<jobs::PrefilterRun> r =
+      jobs::RunPrefilterJob(job, ResolveThreads(run.threads), on_stage);
+  if (!first) progress.End();
+  if (!r.ok()) return r.status();
+  WarnReplacedNonFinite(r->replaced_non_finite);
+  const ShrmAnalysis& an = r->result.analysis;
+  OutputTransaction outputs;
+  progress.Begin("write");
+  SHRM_RETURN_IF_ERROR(
+      WriteShrmFile(outputs.Temp(run.output), r->result.cube, r->attributes, job.half));
+  const double write_ms = progress.End();
+
+  nlohmann::json report = r->report;
+  report["output"] = run.output;
+  report["source"] = job.env.files;
+  nlohmann::json timings = jobs::TimingsJson(r->result.timings);
+  timings["decode_ms"] = r->decode_ms;
+  timings["write_ms"] = write_ms;
+  if (!run.preview.empty()) {
+    progress.Begin("preview");
+    const Image spheres = RenderSpheres(r->result.cube);
+    SHRM_RETURN_IF_ERROR(
+        WritePreviewPng(outputs.Temp(run.preview), spheres, AutoExposure(spheres)));
+    timings["preview_ms"] = progress.End();
+  }
+  report["timings"] = timings;
+  if (!run.report.empty())
+    SHRM_RETURN_IF_ERROR(jobs::WriteJsonFile(outputs.Temp(run.report), report));
+  SHRM_RETURN_IF_ERROR(outputs.Commit());
+  if (outcome != nullptr) {
+    outcome->f_b = an.f_b;
+    outcome->p_b = an.p_b;
+  }
+  if (run.quiet) return absl::OkStatus();
+  if (run.json) {
+    std::printf("%s\n", report.dump(2).c_str());
+  } else {
+    PrintSummary(job, run, r->provenance.brdf_spec, r->result.cube.face_size, an, timings);
+  }
+  return absl::OkStatus();
+}
+
+std::string Help(std::string_view option) {
+  return std::string(jobs::FindPrefilterJobOption(option)->help);
+}
+
+}  // namespace
+
+void AddPrefilterJobOptions(CLI::App* sub, PrefilterArgs* args) {
+  AddEnvOptions(sub, &args->env, /*required=*/true);
+  sub->add_option("--brdf", args->brdf, Help("brdf"))->required();
+  sub->add_option("--epsilon", args->epsilon, Help("epsilon"))
+      ->capture_default_str()
+      ->check(jobs::kOpenUnitInterval);
+  sub->add_option("--orders", args->orders, Help("orders"))->check(jobs::kOrders);
+  sub->add_option("--kind", args->kind, Help("kind"))
+      ->capture_default_str()
+      ->check(CLI::IsMember({"global", "local"}));
+  sub->add_option("--size", args->size, Help("size"))
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  sub->add_flag("--half", args->half, Help("half"));
+}
+
+absl::StatusOr<jobs::PrefilterJob> PrefilterJobFromArgs(const PrefilterArgs& a) {
+  jobs::PrefilterJob job;
+  SHRM_ASSIGN_OR_RETURN(job.env, EnvSpecFromArgs(a.env));
+  job.brdf = a.brdf;
+  job.epsilon = a.epsilon;
+  if (!a.orders.empty()) {
+    SHRM_ASSIGN_OR_RETURN(job.orders, jobs::ParseOrdersText(a.orders, "--orders"));
+  }
+  absl::StatusOr<ShrmKind> kind = jobs::ParseShrmKind(a.kind);
+  if (!kind.ok()) return WithMessage(kind.status(), absl::StrCat("--", kind.status().message()));
+  job.kind = *kind;
+  job.face_size = a.size;
+  job.half = a.half;
+  return job;
+}
+
+absl::StatusOr<jobs::PrefilterJob> ParsePrefilterCommandLine(std::vector<std::string> args) {
+  CLI::App app;
+  PrefilterArgs a;
+  PrefilterRun run;
+  CLI::App* sub = app.add_subcommand("prefilter");
+  AddPrefilterJobOptions(sub, &a);
+  sub->add_option("-o,--output", run.output)->required();
+  std::reverse(args.begin(), args.end());  // CLI11 parses a reversed vector
+  try {
+    app.parse(args);
+  } catch (const CLI::ParseError& e) {
+    return absl::InvalidArgumentError(e.what());
+  }
+  return PrefilterJobFromArgs(a);
+}
+
+absl::Status RunPrefilterJob(const jobs::PrefilterJob& job, const PrefilterRun& run,
+                             PrefilterJobOutcome* outcome) {
+  SHRM_RETURN_IF_ERROR(jobs::ValidatePrefilterJob(job));
+  if (run.threads < 0) return absl::InvalidArgumentError("--threads must be >= 0");
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.output, "--output"));
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.preview, "--preview"));
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.report, "--report"));
+  if (!run.server.empty()) return RunPrefilterRemote(job, run, outcome);
+  return RunPrefilterEmbedded(job, run, outcome);
+}
+
+void RegisterPrefilter(CLI::App& app, absl::Status* status) {
+  auto args = std::make_shared<PrefilterArgs>();
+  auto run = std::make_shared<PrefilterRun>();
+  CLI::App* sub = app.add_subcommand("prefilter", "compute the SHRM of a map and a BRDF");
+  AddPrefilterJobOptions(sub, args.get());
+  sub->add_option("-o,--output", run->output, "output SHRM file (.shrm.exr)")->required();
+  sub->add_option("--report", run->report, "write a JSON report here");
+  sub->add_option("--preview", run->preview, "write a PNG preview (three spheres) here");
+  sub->add_option("--threads", run->threads, "worker threads (0: all cores)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  sub->add_flag("--json", run->json, "print the report as JSON on stdout");
+  sub->add_flag("--verbose", run->verbose, "stage timings on stderr");
+  AddServerOption(sub, &run->server);
+  sub->callback([args, run, status] {
+    absl::StatusOr<jobs::PrefilterJob> job = PrefilterJobFromArgs(*args);
+    *status = job.ok() ? RunPrefilterJob(*job, *run) : job.status();
+  });
+}
+
+}  // namespace shrm::cli

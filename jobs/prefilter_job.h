@@ -1,0 +1,107 @@
+// The prefilter job (`shrm prefilter`, `shrm batch`, the service's Prefilter call, the viewer's
+// recomputation): an environment map and a BRDF in, an SHRM file out (SHRM paper sec. 5.6.2).
+// This header is the one description of the job: its options and their defaults and limits,
+// their validation, the SHRM file's attributes (docs/formats.md), the report's keys, the check a
+// resumed batch makes against an existing output, and the embedded run. Every front end maps its
+// own syntax (flags, manifest keys, request fields) onto PrefilterJob and nothing else.
+#ifndef SHRM_JOBS_PREFILTER_JOB_H_
+#define SHRM_JOBS_PREFILTER_JOB_H_
+
+#include <functional>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "core/brdf/brdf.h"
+#include "core/brdf/brdf_coefficients.h"
+#include "core/brdf/brdf_projection.h"
+#include "core/shrm/prefilter.h"
+#include "core/shrm/shrm_file.h"
+#include "jobs/environment.h"
+
+namespace shrm::jobs {
+
+// The tolerance of the order selection when none is given (SHRM paper sec. 5.5).
+inline constexpr double kDefaultEpsilon = 0.03;
+// Limits of a job's request: P_B <= 31 is what the SHRM file holds ((P + 1)^2 <= 1024 channel
+// triples, core/io/cube_exr.cc); F_B up to the BRDF projection's degree; faces up to 2048.
+inline constexpr int kMaxOrderF = kMaxBrdfLmax;
+inline constexpr int kMaxOrderP = 31;
+inline constexpr int kMaxFaceSize = 2048;
+// shrm:epsilon of a job with explicit orders.
+inline constexpr char kExplicitOrdersAttribute[] = "explicit orders";
+
+struct Orders {
+  int f = 0;  // F_B
+  int p = 0;  // P_B
+  bool operator==(const Orders&) const = default;
+};
+
+struct PrefilterJob {
+  EnvironmentSpec env;
+  std::string brdf;                  // BRDF spec (docs/brdf.md)
+  double epsilon = kDefaultEpsilon;  // tolerance, in (0, 1); unused with explicit orders
+  std::optional<Orders> orders;      // explicit (F_B, P_B) instead of the selection
+  ShrmKind kind = ShrmKind::kGlobal;
+  int face_size = 0;  // S_B; 0 = about 10 F_B in [16, 512]
+  bool half = false;  // half floats in the SHRM file
+
+  bool operator==(const PrefilterJob&) const = default;
+};
+
+// "global" / "local", and back (InvalidArgument naming the accepted values).
+const char* ShrmKindName(ShrmKind kind);
+absl::StatusOr<ShrmKind> ParseShrmKind(absl::string_view name);
+
+// Every option within its range (names as in docs/cli.md without the dashes); the BRDF spec is
+// checked when it is parsed (ParseBrdfSpec).
+[[nodiscard]] absl::Status ValidatePrefilterJob(const PrefilterJob& job);
+// The core pipeline's options for the job.
+PrefilterOptions CorePrefilterOptions(const PrefilterJob& job, int threads);
+
+// What a run of the job produced, beyond the cube: what its outputs record.
+struct PrefilterProvenance {
+  std::string brdf_spec;  // canonical spec (file-based BRDFs: "table:PATH" as the user gave it)
+  SourceIdentity source;
+  EnvLayout layout = EnvLayout::kAuto;  // the resolved layout of the decoded map
+};
+
+// shrm:epsilon: the tolerance, or "explicit orders".
+std::string EpsilonAttribute(const PrefilterJob& job);
+// The SHRM file's attributes (docs/formats.md): shrm:brdf, shrm:epsilon, shrm:orders,
+// shrm:brdf_orders, shrm:eps_light, shrm:eps_brdf, shrm:eps_bound, shrm:source,
+// shrm:source_sha256, shrm:working_space, shrm:layout and, when rotated, shrm:rotate_ypr_deg.
+std::map<std::string, std::string> PrefilterFileAttributes(const PrefilterJob& job,
+                                                           const PrefilterProvenance& provenance,
+                                                           const ShrmAnalysis& analysis);
+// The report (docs/cli.md "--report"): the analysis (AnalysisJson) with brdf, kind, face_size,
+// source_sha256 and layout. Front ends add what only they know (output, source, timings, cache).
+nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProvenance& provenance,
+                                   const ShrmAnalysis& analysis, int face_size);
+
+// Why an existing SHRM file was not made by `job` from a source with `source_sha256` and a BRDF
+// whose canonical spec is `canonical_brdf` ("" when it was): a resumed batch recomputes it then.
+std::string WhyFileDiffers(const PrefilterJob& job, const std::string& canonical_brdf,
+                           const std::string& source_sha256, const ShrmFile& file);
+
+// The embedded run: parse the BRDF, decode and hash the map, run the pipeline (`progress` is
+// called at each stage, "decode" first), and describe the file to write.
+struct PrefilterRun {
+  PrefilterResult result;
+  PrefilterProvenance provenance;
+  std::map<std::string, std::string> attributes;  // PrefilterFileAttributes
+  nlohmann::json report;                          // PrefilterReportJson, timings not included
+  double decode_ms = 0;                           // decode and hash
+  int64_t replaced_non_finite = 0;                // pixels set to 0 (replace_non_finite)
+};
+absl::StatusOr<PrefilterRun> RunPrefilterJob(const PrefilterJob& job, int threads,
+                                             const PrefilterProgress& progress = nullptr);
+
+}  // namespace shrm::jobs
+
+#endif  // SHRM_JOBS_PREFILTER_JOB_H_

@@ -1,0 +1,163 @@
+#include "proto/job_codec.h"
+
+#include <cmath>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
+#include "core/io/sha256.h"
+
+namespace shrm::wire {
+namespace {
+
+namespace v1 = ::shrm::v1;
+
+constexpr std::pair<EnvLayout, v1::Layout> kLayouts[] = {
+    {EnvLayout::kAuto, v1::LAYOUT_UNSPECIFIED},
+    {EnvLayout::kLatLong, v1::LAYOUT_LATLONG},
+    {EnvLayout::kCubeFaces, v1::LAYOUT_CUBE_FACES},
+    {EnvLayout::kHorizontalCross, v1::LAYOUT_HCROSS},
+    {EnvLayout::kVerticalCross, v1::LAYOUT_VCROSS},
+    {EnvLayout::kHorizontalStrip, v1::LAYOUT_HSTRIP},
+    {EnvLayout::kVerticalStrip, v1::LAYOUT_VSTRIP},
+    {EnvLayout::kAngular, v1::LAYOUT_ANGULAR}};
+
+}  // namespace
+
+absl::StatusOr<EnvLayout> LayoutFromProto(v1::Layout layout) {
+  for (const auto& [core, proto] : kLayouts)
+    if (proto == layout) return core;
+  return absl::InvalidArgumentError(
+      absl::StrCat("environment.layout: unknown value ", static_cast<int>(layout)));
+}
+
+v1::Layout LayoutToProto(EnvLayout layout) {
+  for (const auto& [core, proto] : kLayouts)
+    if (core == layout) return proto;
+  return v1::LAYOUT_UNSPECIFIED;
+}
+
+absl::Status EncodeEnvironment(const jobs::EnvironmentSpec& env,
+                               const std::vector<std::string>& sha256, v1::Environment* out) {
+  if (!env.ocio_config.empty()) {
+    return absl::InvalidArgumentError("--ocio-config is not available with --server");
+  }
+  SHRM_RETURN_IF_ERROR(jobs::ValidateEnvironment(env));
+  out->Clear();
+  out->set_layout(LayoutToProto(env.layout));
+  if (env.rotate_ypr_deg) {
+    out->mutable_rotation()->set_yaw_deg((*env.rotate_ypr_deg)[0]);
+    out->mutable_rotation()->set_pitch_deg((*env.rotate_ypr_deg)[1]);
+    out->mutable_rotation()->set_roll_deg((*env.rotate_ypr_deg)[2]);
+  }
+  out->set_input_colour_space(env.input_colour_space);
+  out->set_working_colour_space(env.working_colour_space);
+  out->set_non_finite(env.replace_non_finite ? v1::NON_FINITE_POLICY_REPLACE_ZERO
+                                             : v1::NON_FINITE_POLICY_REJECT);
+  for (const std::string& h : sha256) out->add_sha256(h);
+  for (const std::string& f : env.files) out->add_source_names(f);
+  return absl::OkStatus();
+}
+
+absl::StatusOr<WireEnvironment> DecodeEnvironment(const v1::Environment& env) {
+  WireEnvironment w;
+  if (env.sha256_size() != 1 && env.sha256_size() != 6) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "environment.sha256: give one blob, or six cube faces; got ", env.sha256_size()));
+  }
+  for (const std::string& h : env.sha256()) {
+    if (!IsSha256Hex(h)) {
+      return absl::InvalidArgumentError(absl::StrCat("environment.sha256: '", h.substr(0, 80),
+                                                     "' is not 64 lowercase hex digits"));
+    }
+    w.sha256.push_back(h);
+  }
+  SHRM_ASSIGN_OR_RETURN(w.spec.layout, LayoutFromProto(env.layout()));
+  w.spec.input_colour_space = env.input_colour_space();
+  if (!env.working_colour_space().empty()) {
+    w.spec.working_colour_space = env.working_colour_space();
+  }
+  switch (env.non_finite()) {
+    case v1::NON_FINITE_POLICY_UNSPECIFIED:
+    case v1::NON_FINITE_POLICY_REJECT:
+      w.spec.replace_non_finite = false;
+      break;
+    case v1::NON_FINITE_POLICY_REPLACE_ZERO:
+      w.spec.replace_non_finite = true;
+      break;
+    default:
+      return absl::InvalidArgumentError("environment.non_finite: unknown value");
+  }
+  if (env.has_rotation()) {
+    const v1::Rotation& r = env.rotation();
+    const std::array<double, 3> ypr = {r.yaw_deg(), r.pitch_deg(), r.roll_deg()};
+    for (double a : ypr) {
+      if (!std::isfinite(a)) {
+        return absl::InvalidArgumentError("environment.rotation: angles must be finite");
+      }
+    }
+    w.spec.rotate_ypr_deg = ypr;
+  }
+  if (env.source_names_size() > 0) {
+    w.spec.files.assign(env.source_names().begin(), env.source_names().end());
+  } else {
+    w.spec.files = w.sha256;
+  }
+  return w;
+}
+
+v1::PrefilterRequest EncodePrefilterRequest(const jobs::PrefilterJob& job,
+                                            const v1::Environment& env, const WireBrdf& brdf) {
+  v1::PrefilterRequest req;
+  *req.mutable_environment() = env;
+  req.set_brdf(brdf.spec);
+  req.set_brdf_blob_sha256(brdf.blob_sha256);
+  req.set_brdf_display_spec(brdf.display_spec);
+  if (job.orders) {
+    req.mutable_orders()->set_f(job.orders->f);
+    req.mutable_orders()->set_p(job.orders->p);
+  } else {
+    req.set_epsilon(job.epsilon);
+  }
+  req.set_kind(job.kind == ShrmKind::kLocal ? v1::SHRM_KIND_LOCAL : v1::SHRM_KIND_GLOBAL);
+  req.set_face_size(job.face_size);
+  req.set_half(job.half);
+  return req;
+}
+
+absl::StatusOr<WirePrefilter> DecodePrefilterRequest(const v1::PrefilterRequest& request) {
+  WirePrefilter w;
+  w.brdf = {request.brdf(), request.brdf_blob_sha256(), request.brdf_display_spec()};
+  w.job.brdf = request.brdf();
+  if (request.has_orders()) {
+    w.job.orders = jobs::Orders{request.orders().f(), request.orders().p()};
+  } else if (request.order_choice_case() == v1::PrefilterRequest::kEpsilon) {
+    w.job.epsilon = request.epsilon();
+  }
+  switch (request.kind()) {
+    case v1::SHRM_KIND_UNSPECIFIED:
+    case v1::SHRM_KIND_GLOBAL:
+      w.job.kind = ShrmKind::kGlobal;
+      break;
+    case v1::SHRM_KIND_LOCAL:
+      w.job.kind = ShrmKind::kLocal;
+      break;
+    default:
+      return absl::InvalidArgumentError("kind: unknown value");
+  }
+  w.job.face_size = request.face_size();
+  w.job.half = request.half();
+  w.want_file = w.want_report = request.outputs_size() == 0;
+  for (int o : request.outputs()) {
+    if (o == v1::OUTPUT_SHRM_FILE) w.want_file = true;
+    if (o == v1::OUTPUT_REPORT) w.want_report = true;
+  }
+  if (request.brdf().empty()) return absl::InvalidArgumentError("brdf: a BRDF spec is required");
+  SHRM_ASSIGN_OR_RETURN(WireEnvironment env, DecodeEnvironment(request.environment()));
+  w.job.env = std::move(env.spec);
+  w.sha256 = std::move(env.sha256);
+  SHRM_RETURN_IF_ERROR(jobs::ValidatePrefilterJob(w.job));
+  return w;
+}
+
+}  // namespace shrm::wire

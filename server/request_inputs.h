@@ -1,0 +1,46 @@
+// A request's inputs resolved against the blob store: the BRDF (analytic, or read from a BRDF
+// blob and named by its hash) and the environment (its blobs pinned for the call, how core reads
+// them, and the cache key of everything L_lm depends on besides the degree). Messages name blobs
+// by hash, never by spool path (docs/server.md).
+#ifndef SHRM_SERVER_REQUEST_INPUTS_H_
+#define SHRM_SERVER_REQUEST_INPUTS_H_
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "core/brdf/brdf.h"
+#include "core/envmap/envmap.h"
+#include "jobs/environment.h"
+#include "proto/job_codec.h"
+#include "server/blob_store.h"
+
+namespace shrm::server {
+
+// The BRDF of a request and the spec its outputs record (shrm:brdf, report, response).
+struct RequestBrdf {
+  std::unique_ptr<Brdf> brdf;
+  std::string display_spec;
+};
+// Analytic models: the spec string. File-based models travel as blobs ("table:@" / "merl:@" with
+// blob_sha256); a spec naming a server file (table:PATH, merl:PATH) is refused.
+absl::StatusOr<RequestBrdf> ResolveRequestBrdf(const wire::WireBrdf& brdf, BlobStore* blobs);
+
+struct PinnedEnv {
+  std::vector<std::unique_ptr<BlobStore::Lease>> leases;
+  jobs::EnvironmentSpec spec;  // files: the client's names (shrm:source)
+  EnvMapOptions options;       // paths: the pinned blob files
+  jobs::SourceIdentity source;
+  std::string key;  // cache key of L_lm (without the degree)
+};
+// NOT_FOUND (reason BLOB_NOT_FOUND) for a blob the server does not hold.
+absl::StatusOr<PinnedEnv> PinEnvironment(const wire::WireEnvironment& env, BlobStore* blobs);
+
+// Core messages name the spool files; clients know blobs by hash (`env` may be null).
+absl::Status HideSpoolPaths(const absl::Status& status, const PinnedEnv* env);
+
+}  // namespace shrm::server
+
+#endif  // SHRM_SERVER_REQUEST_INPUTS_H_

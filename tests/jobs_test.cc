@@ -1,0 +1,184 @@
+// The job layer against its specification: the SHRM file's attributes (docs/formats.md), the
+// batch's resume check, validation of every option with the message naming it, and the option
+// syntax shared by the command-line front ends.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <string>
+
+#include "core/io/sha256.h"
+#include "jobs/analyze_job.h"
+#include "jobs/environment.h"
+#include "jobs/option_text.h"
+#include "jobs/point_jobs.h"
+#include "jobs/prefilter_job.h"
+
+namespace shrm {
+namespace {
+
+using jobs::PrefilterJob;
+
+ShrmAnalysis Analysis() {
+  ShrmAnalysis an;
+  an.f_b = 11;
+  an.p_b = 2;
+  an.f_brdf = 12;
+  an.p_brdf = 3;
+  an.eps_light = 0.25;
+  an.eps_brdf = 0.0125;
+  an.eps_bound = 0.5;
+  return an;
+}
+
+jobs::PrefilterProvenance Provenance() {
+  return {"phong:s=32", {"a.exr", std::string(64, 'a')}, EnvLayout::kLatLong};
+}
+
+TEST(PrefilterJob, FileAttributesAreTheDocumentedHeader) {
+  PrefilterJob job;
+  job.env.files = {"a.exr"};
+  job.brdf = "phong:s=32";
+  const std::map<std::string, std::string> want = {{"shrm:brdf", "phong:s=32"},
+                                                   {"shrm:epsilon", "0.03"},
+                                                   {"shrm:orders", "11,2"},
+                                                   {"shrm:brdf_orders", "12,3"},
+                                                   {"shrm:eps_light", "0.25"},
+                                                   {"shrm:eps_brdf", "0.0125"},
+                                                   {"shrm:eps_bound", "0.5"},
+                                                   {"shrm:source", "a.exr"},
+                                                   {"shrm:source_sha256", std::string(64, 'a')},
+                                                   {"shrm:working_space", "lin_rec709"},
+                                                   {"shrm:layout", "latlong"}};
+  EXPECT_EQ(jobs::PrefilterFileAttributes(job, Provenance(), Analysis()), want);
+  // Explicit orders and a rotation.
+  job.orders = jobs::Orders{8, 1};
+  job.env.rotate_ypr_deg = std::array<double, 3>{30, 10.5, -5};
+  const auto attrs = jobs::PrefilterFileAttributes(job, Provenance(), Analysis());
+  EXPECT_EQ(attrs.at("shrm:epsilon"), "explicit orders");
+  EXPECT_EQ(attrs.at("shrm:rotate_ypr_deg"), "30,10.5,-5");
+}
+
+TEST(PrefilterJob, ReportCarriesTheJobAndItsProvenance) {
+  PrefilterJob job;
+  job.kind = ShrmKind::kLocal;
+  const nlohmann::json r = jobs::PrefilterReportJson(job, Provenance(), Analysis(), 64);
+  EXPECT_EQ(r["kind"], "local");
+  EXPECT_EQ(r["face_size"], 64);
+  EXPECT_EQ(r["brdf"], "phong:s=32");
+  EXPECT_EQ(r["layout"], "latlong");
+  EXPECT_EQ(r["source_sha256"], std::string(64, 'a'));
+  EXPECT_EQ(r["F_B"], 11);
+  EXPECT_EQ(r["P_B"], 2);
+}
+
+TEST(PrefilterJob, WhyFileDiffersNamesTheFirstDifference) {
+  PrefilterJob job;
+  job.env.files = {"a.exr"};
+  job.brdf = "phong:s=32";
+  ShrmFile file;
+  file.attributes = jobs::PrefilterFileAttributes(job, Provenance(), Analysis());
+  file.cube.kind = ShrmKind::kGlobal;
+  file.cube.face_size = 40;
+  const std::string sha(64, 'a');
+  EXPECT_EQ(jobs::WhyFileDiffers(job, "phong:s=32", sha, file), "");
+  EXPECT_EQ(jobs::WhyFileDiffers(job, "phong:s=8", sha, file), "shrm:brdf phong:s=32 != phong:s=8");
+  EXPECT_EQ(jobs::WhyFileDiffers(job, "phong:s=32", std::string(64, 'b'), file), "source changed");
+  PrefilterJob eps = job;
+  eps.epsilon = 0.05;
+  EXPECT_EQ(jobs::WhyFileDiffers(eps, "phong:s=32", sha, file), "shrm:epsilon 0.03 != 0.05");
+  PrefilterJob rot = job;
+  rot.env.rotate_ypr_deg = std::array<double, 3>{1, 2, 3};
+  EXPECT_EQ(jobs::WhyFileDiffers(rot, "phong:s=32", sha, file),
+            "shrm:rotate_ypr_deg (none) != 1,2,3");
+  PrefilterJob local = job;
+  local.kind = ShrmKind::kLocal;
+  EXPECT_EQ(jobs::WhyFileDiffers(local, "phong:s=32", sha, file), "kind != local");
+  PrefilterJob size = job;
+  size.face_size = 32;
+  EXPECT_EQ(jobs::WhyFileDiffers(size, "phong:s=32", sha, file), "size 40 != 32");
+}
+
+TEST(PrefilterJob, ValidationNamesTheOption) {
+  PrefilterJob ok;
+  ok.env.files = {"a.exr"};
+  ok.brdf = "lambert";
+  EXPECT_TRUE(jobs::ValidatePrefilterJob(ok).ok());
+  struct Case {
+    void (*change)(PrefilterJob*);
+    const char* names;
+  };
+  const Case cases[] = {
+      {[](PrefilterJob* j) {
+         j->env.files = {"a", "b"};
+       },
+       "six cube faces"},
+      {[](PrefilterJob* j) { j->brdf.clear(); }, "brdf"},
+      {[](PrefilterJob* j) { j->epsilon = 1; }, "epsilon"},
+      {[](PrefilterJob* j) { j->epsilon = NAN; }, "epsilon"},
+      {[](PrefilterJob* j) {
+         j->orders = jobs::Orders{-1, 0};
+       },
+       "orders"},
+      {[](PrefilterJob* j) {
+         j->orders = jobs::Orders{8, jobs::kMaxOrderP + 1};
+       },
+       "orders"},
+      {[](PrefilterJob* j) { j->face_size = jobs::kMaxFaceSize + 1; }, "size"},
+      {[](PrefilterJob* j) {
+         j->env.rotate_ypr_deg = std::array<double, 3>{0, INFINITY, 0};
+       },
+       "rotate"},
+  };
+  for (const Case& c : cases) {
+    PrefilterJob job = ok;
+    c.change(&job);
+    const absl::Status s = jobs::ValidatePrefilterJob(job);
+    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << c.names;
+    EXPECT_NE(s.message().find(c.names), std::string::npos) << s;
+  }
+}
+
+TEST(Environment, SourceIdentityOfSixFacesHashesTheirHashes) {
+  const std::vector<std::string> six = {"1", "2", "3", "4", "5", "6"};
+  EXPECT_EQ(jobs::CombinedSourceSha256(six), Sha256Hex("1,2,3,4,5,6"));
+  EXPECT_EQ(jobs::CombinedSourceSha256({"abc"}), "abc");
+}
+
+TEST(OptionText, ParsesAndNamesTheOption) {
+  absl::StatusOr<Vec3> d = jobs::ParseDirectionText("0,3,4", "--view");
+  ASSERT_TRUE(d.ok());
+  EXPECT_DOUBLE_EQ(d->y, 0.6);
+  EXPECT_DOUBLE_EQ(d->z, 0.8);
+  for (const char* bad : {"1,2", "a,b,c", "0,0,0", "1,2,3,4", "nan,0,1"}) {
+    absl::StatusOr<Vec3> r = jobs::ParseDirectionText(bad, "--view");
+    EXPECT_FALSE(r.ok()) << bad;
+    EXPECT_NE(r.status().message().find("--view"), std::string::npos) << r.status();
+  }
+  // A unit vector is kept bit for bit (what travels over the wire is used as it is).
+  const Vec3 unit{0.6, 0.8, 0};
+  absl::StatusOr<Vec3> u = jobs::UnitDirection(unit, "index");
+  ASSERT_TRUE(u.ok());
+  EXPECT_EQ(u->x, unit.x);
+  EXPECT_EQ(u->y, unit.y);
+  absl::StatusOr<jobs::Orders> o = jobs::ParseOrdersText("12,3", "--orders");
+  ASSERT_TRUE(o.ok());
+  EXPECT_EQ(*o, (jobs::Orders{12, 3}));
+  EXPECT_FALSE(jobs::ParseOrdersText("12", "--orders").ok());
+  EXPECT_FALSE(jobs::ParseOrdersText("-1,2", "--orders").ok());
+  EXPECT_TRUE(jobs::ParseToleranceText("0.5", "--epsilon").ok());
+  EXPECT_FALSE(jobs::ParseToleranceText("1", "--epsilon").ok());
+  EXPECT_FALSE(jobs::ParseToleranceText("x", "--epsilon").ok());
+}
+
+TEST(AnalyzeJob, DefaultsAndValidation) {
+  EXPECT_TRUE(jobs::ValidateAnalyzeEpsilons(jobs::kDefaultAnalyzeEpsilons).ok());
+  EXPECT_FALSE(jobs::ValidateAnalyzeEpsilons({0.1, 0}).ok());
+  const nlohmann::json j = jobs::BrdfOrdersJson(0.1, 8, 2, 0.05);
+  EXPECT_EQ(j["F_B"], 8);
+  EXPECT_EQ(j["P_B"], 2);
+  EXPECT_TRUE(j["F_L"].is_null());
+}
+
+}  // namespace
+}  // namespace shrm
