@@ -12,11 +12,8 @@ namespace shrm::client {
 
 absl::Status UploadEnvironment(const jobs::EnvironmentSpec& env, ShrmClient* client,
                                shrm::v1::Environment* out) {
+  SHRM_RETURN_IF_ERROR(wire::CheckRemoteEnvironment(env));  // before any upload
   std::vector<std::string> hashes;
-  if (!env.ocio_config.empty()) {
-    return absl::InvalidArgumentError("--ocio-config is not available with --server");
-  }
-  SHRM_RETURN_IF_ERROR(jobs::ValidateEnvironment(env));
   for (const std::string& f : env.files) {
     absl::StatusOr<std::string> sha = client->UploadIfMissing(f);
     if (!sha.ok()) return WithMessage(sha.status(), absl::StrCat(f, ": ", sha.status().message()));

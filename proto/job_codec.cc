@@ -37,12 +37,17 @@ v1::Layout LayoutToProto(EnvLayout layout) {
   return v1::LAYOUT_UNSPECIFIED;
 }
 
+absl::Status CheckRemoteEnvironment(const jobs::EnvironmentSpec& env) {
+  if (!env.ocio_config.empty()) {
+    return absl::InvalidArgumentError(
+        "ocio_config: a server cannot read the client's OpenColorIO config (it uses its own)");
+  }
+  return jobs::ValidateEnvironment(env);
+}
+
 absl::Status EncodeEnvironment(const jobs::EnvironmentSpec& env,
                                const std::vector<std::string>& sha256, v1::Environment* out) {
-  if (!env.ocio_config.empty()) {
-    return absl::InvalidArgumentError("--ocio-config is not available with --server");
-  }
-  SHRM_RETURN_IF_ERROR(jobs::ValidateEnvironment(env));
+  SHRM_RETURN_IF_ERROR(CheckRemoteEnvironment(env));
   out->Clear();
   out->set_layout(LayoutToProto(env.layout));
   if (env.rotate_ypr_deg) {

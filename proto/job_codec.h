@@ -25,7 +25,10 @@ struct WireEnvironment {
   jobs::EnvironmentSpec spec;
   std::vector<std::string> sha256;  // 64 lowercase hex digits each, one or six
 };
-// InvalidArgument for options a server cannot honour (an OCIO config file of the client).
+// InvalidArgument for options a server cannot honour (an OCIO config file of the client) and for
+// an invalid environment (jobs::ValidateEnvironment).
+absl::Status CheckRemoteEnvironment(const jobs::EnvironmentSpec& env);
+// CheckRemoteEnvironment, then the message.
 absl::Status EncodeEnvironment(const jobs::EnvironmentSpec& env,
                                const std::vector<std::string>& sha256, shrm::v1::Environment* out);
 // InvalidArgument naming the field for malformed hashes, counts, enums and angles.

@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
-#include <numbers>
 #include <string>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/constants.h"
 #include "core/base/parallel.h"
 #include "core/base/status_macros.h"
 #include "core/sh/hsh.h"
@@ -15,7 +15,6 @@
 namespace shrm {
 namespace {
 
-constexpr double kSqrt2 = std::numbers::sqrt2;
 // Largest default / accepted incoming quadrature sizes.
 constexpr int kMaxDefaultQuad = 256;
 constexpr int kMaxQuad = 4096;

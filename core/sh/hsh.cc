@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/constants.h"
 #include "core/base/status_macros.h"
 #include "core/sh/quadrature.h"
 #include "core/sh/rotation.h"
@@ -13,7 +14,6 @@
 namespace shrm {
 namespace {
 
-constexpr double kSqrt2 = std::numbers::sqrt2;
 // Directions / angles this far below the horizon are treated as on it (rounding slack).
 constexpr double kHorizonSlack = 1e-12;
 // Extra Gauss nodes for the odd-m integrands of C (geometric convergence, ratio < 4^-2 per node).

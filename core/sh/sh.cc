@@ -2,16 +2,10 @@
 
 #include <cassert>
 #include <cmath>
-#include <numbers>
+
+#include "core/base/constants.h"
 
 namespace shrm {
-namespace {
-
-constexpr double kSqrt2 = std::numbers::sqrt2;
-
-// Sectoral start: lambda_m^m = (-1)^m sqrt((2m+1)/(4 pi) prod_{k=1..m} (2k-1)/(2k)) sin^m.
-// Returns the value and keeps the product in double without factorials.
-}  // namespace
 
 Vec3 DirectionFromAngles(double theta, double phi) {
   const double st = std::sin(theta);

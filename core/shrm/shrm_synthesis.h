@@ -9,11 +9,14 @@
 //            grid it is the same FFT with shifted frequencies:
 //              B^_ps(alpha, beta) = sum_m e^{i (m - s) beta} sum_q d^p_sq(alpha) B_mpq(alpha);
 //   eqs. 5.10-5.11: evaluation, B(R, V) = sum B_pq Y_pq(Rot^T V) (local) = sum B^_pq Y_pq(V)
-//            (global), V in the SH frame.
+//            (global), V in the SH frame: here exactly at one (alpha, beta) (RadianceAt); on a
+//            cube by core/shrm/shrm_eval.h (ShrmEvalAt, included below).
 // (alpha, beta) are the SH angles (docs/conventions.md) of the texel direction R (the reflection
 // vector; the tangent T for ReparamKind::kTangent, where only q = 0 terms exist).
 // Outputs are real SH per texel (ComplexToReal of the complex per-texel expansion), float
 // storage, double accumulation. Design notes (grid size, interpolation, poles): docs/shrm.md.
+// The Wigner columns d^l_mq(alpha), |q| <= P, of eqs. 5.24 and 5.14 are core/sh/wigner_columns.h;
+// the cubic resampling of the grid onto the cube is core/shrm/cube_resample.h (internal).
 #ifndef SHRM_CORE_SHRM_SHRM_SYNTHESIS_H_
 #define SHRM_CORE_SHRM_SHRM_SYNTHESIS_H_
 
@@ -25,45 +28,11 @@
 #include "absl/status/statusor.h"
 #include "core/base/geometry.h"
 #include "core/brdf/brdf_coefficients.h"
+#include "core/sh/wigner_columns.h"
+#include "core/shrm/shrm_eval.h"  // ShrmAnglesFromWorld, ShrmLocalFrame, ShrmEvalAt, ...
 #include "core/shrm/shrm_map.h"
 
 namespace shrm {
-
-// Wigner small-d columns d^l_{mq}(alpha) for |q| <= qmax only (the SHRM needs |q| <= P << F),
-// all 0 <= l <= lmax, |m| <= l, by the three-term recurrence in l (core/sh/wigner.h) started from
-// the closed form at l = max(|m|, |q|). Cost O(lmax^2 qmax). alpha may be any real number.
-// Layout: out[WignerColumnIndex(lmax, qmax, l, m, q)], zero where l < max(|m|, |q|);
-// out.size() >= WignerColumnCount(lmax, qmax). Preconditions (assert): 0 <= qmax <= lmax.
-constexpr size_t WignerColumnIndex(int lmax, int qmax, int l, int m, int q) {
-  return (static_cast<size_t>(q + qmax) * (2 * lmax + 1) + (m + lmax)) * (lmax + 1) + l;
-}
-constexpr size_t WignerColumnCount(int lmax, int qmax) {
-  return static_cast<size_t>(2 * qmax + 1) * (2 * lmax + 1) * (lmax + 1);
-}
-void WignerColumns(int lmax, int qmax, double alpha, std::span<double> out);
-// The same with the recurrence coefficients and start normalizations precomputed (independent of
-// alpha); Compute() is const and thread-safe.
-class WignerColumnTables {
- public:
-  WignerColumnTables(int lmax, int qmax);
-  void Compute(double alpha, std::span<double> out) const;
-  // The columns of kWignerBlock angles at once (n <= kWignerBlock of them; the other lanes repeat
-  // alpha[n - 1]), interleaved: out[WignerColumnIndex(...) * kWignerBlock + r] for angle r;
-  // out holds WignerColumnCount(lmax, qmax) * kWignerBlock doubles.
-  static constexpr int kWignerBlock = 8;
-  void ComputeBlock(const double* alpha, int n, double* out) const;
-
- private:
-  int lmax_, qmax_;
-  std::vector<double> a_, c_, shift_;  // per (q, m, l), WignerColumnIndex layout
-  std::vector<double> start_;          // sqrt of the binomial of the closed-form start, per (q, m)
-};
-
-// SH angles (alpha, beta) of a world direction (SH frame pole +Y): alpha in [0, pi],
-// beta in (-pi, pi]. The local frame is Rot = Rz(beta) Ry(alpha) (SH frame).
-void ShrmAnglesFromWorld(const Vec3& world_dir, double* alpha, double* beta);
-// Rot = Rz(beta) Ry(alpha) as a matrix acting on SH-frame vectors.
-Mat3 ShrmLocalFrame(double alpha, double beta);
 
 struct ShrmGridOptions {
   // Equiangular grid rows in alpha over [0, pi] (pixel centres alpha_j = pi (j + 1/2) / N);
@@ -162,21 +131,6 @@ class ShrmSynthesizer {
                 c];
   }
 };
-
-// Evaluation of a cube (eq. 5.10 / 5.11) at the texel-addressing direction (R, or T for
-// kTangent) and the view V (world). Bilinear interpolation between the four nearest texel
-// centres of the face; beyond a face's outer texel centres the missing neighbours are taken from
-// the adjacent face (the texel containing the extrapolated centre direction). Global cubes
-// interpolate coefficients and evaluate Y_pq(V) once; local cubes evaluate each of the four
-// texels in its own frame (Rot of that texel's centre) and interpolate the values, so the pole
-// singularity of the local frame never mixes coefficients of different frames.
-std::array<double, 3> ShrmEvalAt(const ShrmCube& cube, const Vec3& index_dir, const Vec3& view);
-// The same from the normal: R = 2 (N.V) N - V for kReflection cubes; for kTangent cubes `n` is
-// the tangent T. N and V world, unit.
-std::array<double, 3> ShrmEval(const ShrmCube& cube, const Vec3& n, const Vec3& v);
-// Exact texel value at the texel centre (no interpolation): B(R_texel, V).
-std::array<double, 3> ShrmTexelRadiance(const ShrmCube& cube, int face, int x, int y,
-                                        const Vec3& view);
 
 }  // namespace shrm
 

@@ -7,19 +7,18 @@
 #include <cmath>
 #include <complex>
 #include <map>
-#include <numbers>
 #include <thread>
 #include <tuple>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/constants.h"
 #include "core/sh/quadrature.h"
 #include "core/sh/sh.h"
 
 namespace shrm {
 namespace {
 
-constexpr double kSqrt2 = std::numbers::sqrt2;
 // Sectoral Legendre values below this are flushed to zero (avoids denormals near the poles).
 constexpr double kSectoralFlush = 1e-280;
 // Ring pairs are padded to a multiple of the vector width.

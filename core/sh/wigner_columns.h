@@ -1,0 +1,54 @@
+// Columns of the Wigner small-d matrices, d^l_{mq}(alpha) for all l <= lmax and |m| <= l but only
+// |q| <= qmax: what the SHRM synthesis needs (Ramamoorthi & Hanrahan, "Frequency Space
+// Environment Map Rendering"), where |q| <= P << F:
+//   eq. 5.24: B_mpq(alpha) = sum_l L_lm rho_lpq d^l_mq(alpha) (core/shrm/shrm_synthesis.h);
+//   eq. 5.14: B^_ps = sum_q d^p_sq(alpha) B_mpq(alpha) on the grid (qmax = lmax = P).
+// The recurrence in l is the Edmonds three-term recurrence of core/sh/wigner.h (Kostelec &
+// Rockmore, "FFTs on the rotation group", eq. 4.5),
+//   d^{l+1}_{mq} = A_l [(cos alpha - m q / (l (l + 1))) d^l_{mq} - C_l d^{l-1}_{mq}],
+// started at l0 = max(|m|, |q|) from the closed form (Wigner's sum has a single term there), e.g.
+// d^{l0}_{l0,q}(alpha) = (-1)^{l0-q} sqrt(C(2 l0, l0 + q)) cos^{l0+q}(alpha/2) sin^{l0-q}(alpha/2).
+// Conventions (real small-d, Condon-Shortley phase) as in core/sh/wigner.h and docs/conventions.md.
+// Cost O(lmax^2 qmax) per angle instead of O(lmax^3) for the full table.
+#ifndef SHRM_CORE_SH_WIGNER_COLUMNS_H_
+#define SHRM_CORE_SH_WIGNER_COLUMNS_H_
+
+#include <cstddef>
+#include <span>
+#include <vector>
+
+namespace shrm {
+
+// Wigner small-d columns d^l_{mq}(alpha) for |q| <= qmax only (the SHRM needs |q| <= P << F),
+// all 0 <= l <= lmax, |m| <= l, by the three-term recurrence in l (core/sh/wigner.h) started from
+// the closed form at l = max(|m|, |q|). Cost O(lmax^2 qmax). alpha may be any real number.
+// Layout: out[WignerColumnIndex(lmax, qmax, l, m, q)], zero where l < max(|m|, |q|);
+// out.size() >= WignerColumnCount(lmax, qmax). Preconditions (assert): 0 <= qmax <= lmax.
+constexpr size_t WignerColumnIndex(int lmax, int qmax, int l, int m, int q) {
+  return (static_cast<size_t>(q + qmax) * (2 * lmax + 1) + (m + lmax)) * (lmax + 1) + l;
+}
+constexpr size_t WignerColumnCount(int lmax, int qmax) {
+  return static_cast<size_t>(2 * qmax + 1) * (2 * lmax + 1) * (lmax + 1);
+}
+void WignerColumns(int lmax, int qmax, double alpha, std::span<double> out);
+// The same with the recurrence coefficients and start normalizations precomputed (independent of
+// alpha); Compute() is const and thread-safe.
+class WignerColumnTables {
+ public:
+  WignerColumnTables(int lmax, int qmax);
+  void Compute(double alpha, std::span<double> out) const;
+  // The columns of kWignerBlock angles at once (n <= kWignerBlock of them; the other lanes repeat
+  // alpha[n - 1]), interleaved: out[WignerColumnIndex(...) * kWignerBlock + r] for angle r;
+  // out holds WignerColumnCount(lmax, qmax) * kWignerBlock doubles.
+  static constexpr int kWignerBlock = 8;
+  void ComputeBlock(const double* alpha, int n, double* out) const;
+
+ private:
+  int lmax_, qmax_;
+  std::vector<double> a_, c_, shift_;  // per (q, m, l), WignerColumnIndex layout
+  std::vector<double> start_;          // sqrt of the binomial of the closed-form start, per (q, m)
+};
+
+}  // namespace shrm
+
+#endif  // SHRM_CORE_SH_WIGNER_COLUMNS_H_

@@ -1,0 +1,115 @@
+#include "core/shrm/shrm_eval.h"
+
+#include <algorithm>
+#include <cmath>
+#include <span>
+#include <vector>
+
+#include "core/base/cubemap.h"
+#include "core/sh/sh.h"
+
+namespace shrm {
+
+void ShrmAnglesFromWorld(const Vec3& world_dir, double* alpha, double* beta) {
+  const Vec3 s = ShFrameFromWorld(world_dir);
+  *alpha = std::atan2(std::hypot(s.x, s.y), s.z);
+  *beta = std::atan2(s.y, s.x);
+}
+
+Mat3 ShrmLocalFrame(double alpha, double beta) { return RotationZ(beta) * RotationY(alpha); }
+
+namespace {
+
+// Real SH coefficients of one texel in its local frame evaluated at the world view.
+double DotSh(std::span<const double> y, const float* coeffs, int count, int channels, int c) {
+  double s = 0;
+  for (int k = 0; k < count; ++k) s += y[k] * coeffs[static_cast<size_t>(k) * channels + c];
+  return s;
+}
+
+// Value of texel (face, x, y) of `cube` for the view (SH frame), channel-wise into out.
+void TexelValue(const ShrmCube& cube, int face, int x, int y, const Vec3& view_sh,
+                std::span<const double> y_global, double weight, std::array<double, 3>& out) {
+  const int n = cube.coeff_count();
+  const float* coeffs = cube.data.data() + cube.Index(face, x, y, 0, 0);
+  if (cube.kind == ShrmKind::kGlobal) {
+    for (int c = 0; c < std::min(cube.channels, 3); ++c)
+      out[c] += weight * DotSh(y_global, coeffs, n, cube.channels, c);
+    return;
+  }
+  double alpha, beta;
+  ShrmAnglesFromWorld(CubeTexelDirection(face, x, y, cube.face_size), &alpha, &beta);
+  const Vec3 w = ShrmLocalFrame(alpha, beta).Transposed() * view_sh;
+  double ybuf[256];
+  std::vector<double> yvec;
+  std::span<double> ys;
+  if (n <= 256) {
+    ys = std::span<double>(ybuf, n);
+  } else {
+    yvec.resize(n);
+    ys = yvec;
+  }
+  EvalSh(cube.pmax, w, ys);
+  for (int c = 0; c < std::min(cube.channels, 3); ++c)
+    out[c] += weight * DotSh(ys, coeffs, n, cube.channels, c);
+}
+
+// Texel of `face` at integer coordinates that may lie one step outside the face: the texel of the
+// adjacent face containing the extrapolated centre direction.
+void ResolveTexel(int face, int x, int y, int size, int* of, int* ox, int* oy) {
+  if (x >= 0 && x < size && y >= 0 && y < size) {
+    *of = face;
+    *ox = x;
+    *oy = y;
+    return;
+  }
+  const Vec3 d = CubeFaceDirection(face, (x + 0.5) / size, (y + 0.5) / size);
+  double s, t;
+  CubeFaceCoordinates(d, of, &s, &t);
+  *ox = std::clamp(static_cast<int>(std::floor(s * size)), 0, size - 1);
+  *oy = std::clamp(static_cast<int>(std::floor(t * size)), 0, size - 1);
+}
+
+}  // namespace
+
+std::array<double, 3> ShrmEvalAt(const ShrmCube& cube, const Vec3& index_dir, const Vec3& view) {
+  std::array<double, 3> out{0, 0, 0};
+  const int size = cube.face_size;
+  if (size < 1 || cube.data.size() != cube.size()) return out;
+  int face;
+  double s, t;
+  CubeFaceCoordinates(index_dir, &face, &s, &t);
+  const double x = s * size - 0.5, y = t * size - 0.5;
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const double fx = x - x0, fy = y - y0;
+  const Vec3 view_sh = ShFrameFromWorld(view);
+  std::vector<double> y_global;
+  if (cube.kind == ShrmKind::kGlobal) y_global = EvalSh(cube.pmax, view_sh);
+  for (int dy = 0; dy < 2; ++dy)
+    for (int dx = 0; dx < 2; ++dx) {
+      const double w = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy);
+      if (w == 0) continue;
+      int tf, tx, ty;
+      ResolveTexel(face, x0 + dx, y0 + dy, size, &tf, &tx, &ty);
+      TexelValue(cube, tf, tx, ty, view_sh, y_global, w, out);
+    }
+  return out;
+}
+
+std::array<double, 3> ShrmEval(const ShrmCube& cube, const Vec3& n, const Vec3& v) {
+  if (cube.index == ReparamKind::kTangent) return ShrmEvalAt(cube, n, v);
+  const Vec3 r = n * (2 * n.Dot(v)) - v;
+  return ShrmEvalAt(cube, r, v);
+}
+
+std::array<double, 3> ShrmTexelRadiance(const ShrmCube& cube, int face, int x, int y,
+                                        const Vec3& view) {
+  std::array<double, 3> out{0, 0, 0};
+  const Vec3 view_sh = ShFrameFromWorld(view);
+  std::vector<double> y_global;
+  if (cube.kind == ShrmKind::kGlobal) y_global = EvalSh(cube.pmax, view_sh);
+  TexelValue(cube, face, x, y, view_sh, y_global, 1.0, out);
+  return out;
+}
+
+}  // namespace shrm

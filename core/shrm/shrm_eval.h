@@ -1,0 +1,43 @@
+// Evaluation of an SHRM cube (Ramamoorthi & Hanrahan, "Frequency Space Environment Map
+// Rendering", sec. 5.4):
+//   eq. 5.10 (local):  B(R, V) = sum_{p,q} B_pq(R) Y_pq(Rot^T V), Rot = Rz(beta) Ry(alpha);
+//   eq. 5.11 (global): B(R, V) = sum_{p,q} B^_pq(R) Y_pq(V),
+// V in the SH frame, Y_pq the real SH of core/sh/sh.h. (alpha, beta) are the SH angles
+// (docs/conventions.md) of the texel direction R (the reflection vector; the tangent T for
+// ReparamKind::kTangent, where only q = 0 terms exist), and Rot = Rz(beta) Ry(alpha) is the local
+// frame of eqs. 5.10 and 5.14 (core/shrm/shrm_synthesis.h builds the cubes). Texels follow
+// core/base/cubemap.h; the cube layout is core/shrm/shrm_map.h.
+#ifndef SHRM_CORE_SHRM_SHRM_EVAL_H_
+#define SHRM_CORE_SHRM_SHRM_EVAL_H_
+
+#include <array>
+
+#include "core/base/geometry.h"
+#include "core/shrm/shrm_map.h"
+
+namespace shrm {
+
+// SH angles (alpha, beta) of a world direction (SH frame pole +Y): alpha in [0, pi],
+// beta in (-pi, pi]. The local frame is Rot = Rz(beta) Ry(alpha) (SH frame).
+void ShrmAnglesFromWorld(const Vec3& world_dir, double* alpha, double* beta);
+// Rot = Rz(beta) Ry(alpha) as a matrix acting on SH-frame vectors.
+Mat3 ShrmLocalFrame(double alpha, double beta);
+
+// Evaluation of a cube (eq. 5.10 / 5.11) at the texel-addressing direction (R, or T for
+// kTangent) and the view V (world). Bilinear interpolation between the four nearest texel
+// centres of the face; beyond a face's outer texel centres the missing neighbours are taken from
+// the adjacent face (the texel containing the extrapolated centre direction). Global cubes
+// interpolate coefficients and evaluate Y_pq(V) once; local cubes evaluate each of the four
+// texels in its own frame (Rot of that texel's centre) and interpolate the values, so the pole
+// singularity of the local frame never mixes coefficients of different frames.
+std::array<double, 3> ShrmEvalAt(const ShrmCube& cube, const Vec3& index_dir, const Vec3& view);
+// The same from the normal: R = 2 (N.V) N - V for kReflection cubes; for kTangent cubes `n` is
+// the tangent T. N and V world, unit.
+std::array<double, 3> ShrmEval(const ShrmCube& cube, const Vec3& n, const Vec3& v);
+// Exact texel value at the texel centre (no interpolation): B(R_texel, V).
+std::array<double, 3> ShrmTexelRadiance(const ShrmCube& cube, int face, int x, int y,
+                                        const Vec3& view);
+
+}  // namespace shrm
+
+#endif  // SHRM_CORE_SHRM_SHRM_EVAL_H_
