@@ -30,6 +30,8 @@ class Metrics {
   void RecordRequest(const std::string& method, const std::string& code, double seconds);
   void JobStarted() { jobs_in_flight_.fetch_add(1); }
   void JobFinished() { jobs_in_flight_.fetch_sub(1); }
+  // Jobs holding a slot now, over all services of the process (tests, the gauge).
+  int64_t JobsInFlight() const { return jobs_in_flight_.load(); }
   // `cache`: "lighting" or "brdf".
   void RecordCache(const std::string& cache, bool hit);
   // The number of finished calls of `method` with `code` (tests).
