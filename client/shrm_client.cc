@@ -248,6 +248,26 @@ absl::StatusOr<PrefilterOutcome> ShrmClient::Prefilter(const v1::PrefilterReques
                                                        const ProgressCallback& progress,
                                                        absl::Duration deadline,
                                                        const std::atomic<bool>* cancel) {
+  absl::StatusOr<PrefilterOutcome> r;
+  for (int i = 0; i < options_.max_attempts; ++i) {
+    if (i > 0) absl::SleepFor(RetryBackoff(options_, i));
+    bool answered = false;
+    r = PrefilterOnce(request, progress, deadline, cancel, &answered);
+    // Sent again only when it failed in the transport before any answer of a server (a fresh
+    // connection dropped on a loaded machine); everything else is the caller's to decide.
+    if (r.ok() || answered || wire::FromShrmServer(r.status()) || !IsTransient(r.status()) ||
+        (cancel != nullptr && cancel->load())) {
+      break;
+    }
+  }
+  return r;
+}
+
+absl::StatusOr<PrefilterOutcome> ShrmClient::PrefilterOnce(const v1::PrefilterRequest& request,
+                                                           const ProgressCallback& progress,
+                                                           absl::Duration deadline,
+                                                           const std::atomic<bool>* cancel,
+                                                           bool* answered) {
   grpc::ClientContext context;
   SetDeadline(&context, deadline);
   Authorize(&context);
@@ -259,6 +279,7 @@ absl::StatusOr<PrefilterOutcome> ShrmClient::Prefilter(const v1::PrefilterReques
   std::string expected_sha;
   Sha256Stream received_sha;  // hashed as the chunks arrive
   while (reader->Read(&ev)) {
+    *answered = true;
     if (cancel != nullptr && cancel->load()) context.TryCancel();
     switch (ev.event_case()) {
       case v1::PrefilterEvent::kProgress:

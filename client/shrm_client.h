@@ -1,9 +1,10 @@
 // Client library of the shrm service (shrm.v1.Shrm, docs/server.md): typed calls returning
 // absl::StatusOr, with the server's error details (proto/status_details.h) as payloads.
 // Idempotent calls (HasBlob, UploadBlob, Analyze, ListBrdfModels, Reference, Irradiance) are
-// retried on transient errors (IsTransient) with exponential backoff. Prefilter is one attempt: a
-// retry may need the inputs uploaded again (another replica), so callers retry the whole job
-// (client/remote_jobs.h), which is idempotent (the same request gives the same bytes).
+// retried on transient errors (IsTransient) with exponential backoff. Prefilter is sent again only
+// when it failed in the transport before any server answered; otherwise a retry may need the
+// inputs uploaded again (another replica), so callers retry the whole job (client/remote_jobs.h),
+// which is idempotent (the same request gives the same bytes).
 #ifndef SHRM_CLIENT_SHRM_CLIENT_H_
 #define SHRM_CLIENT_SHRM_CLIENT_H_
 
@@ -129,6 +130,11 @@ class ShrmClient {
   }
   // Adds the bearer token (when there is one) to a call's metadata.
   void Authorize(grpc::ClientContext* context) const;
+  // One Prefilter call; *answered: the server sent an event.
+  absl::StatusOr<PrefilterOutcome> PrefilterOnce(const shrm::v1::PrefilterRequest& request,
+                                                 const ProgressCallback& progress,
+                                                 absl::Duration deadline,
+                                                 const std::atomic<bool>* cancel, bool* answered);
   // A call's final status as absl::Status (wire::FromGrpcStatus); notes its retry delay.
   absl::Status Received(const grpc::Status& status);
   grpc::Status UploadOnce(grpc::ClientContext* context, std::string_view bytes,
