@@ -8,9 +8,12 @@
 #include "absl/status/status.h"
 #include "cli/cli_common.h"
 #include "cli/commands.h"
+#include "shrm/version.h"
 
 int main(int argc, char** argv) {
-  CLI::App app{"shrm: frequency-space prefiltering of HDR environment maps (SHRMs)"};
+  CLI::App app{"shrm: frequency-space prefiltering of HDR environment maps (SHRMs)", "shrm"};
+  app.set_version_flag("--version", shrm::VersionText("shrm"),
+                       "print the version, git revision and conventions version and exit");
   app.require_subcommand(1);
   absl::Status status;
   shrm::cli::RegisterAnalyze(app, &status);

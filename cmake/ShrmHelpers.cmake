@@ -15,9 +15,10 @@ target_compile_options(shrm_opt INTERFACE $<$<CONFIG:Release>:-O3> -fno-math-err
 function(shrm_add_library name)
   cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
   add_library(${name} STATIC ${ARG_SOURCES})
-  target_include_directories(${name} PUBLIC ${PROJECT_SOURCE_DIR})
+  # Installed headers are found through the exported targets (cmake/ShrmInstall.cmake).
+  target_include_directories(${name} PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>)
   target_link_libraries(${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS}
-                        shrm_warnings shrm_opt)
+                        $<BUILD_INTERFACE:shrm_warnings> $<BUILD_INTERFACE:shrm_opt>)
 endfunction()
 
 # shrm_add_test(name SOURCES ... DEPS ...): a GoogleTest binary registered with CTest.

@@ -6,6 +6,7 @@
 #include "absl/strings/str_join.h"
 #include "core/base/status_macros.h"
 #include "jobs/report.h"
+#include "shrm/version.h"
 
 namespace shrm::jobs {
 
@@ -71,6 +72,7 @@ std::map<std::string, std::string> PrefilterFileAttributes(const PrefilterJob& j
       {"shrm:source_sha256", provenance.source.sha256},
       {"shrm:working_space", job.env.working_colour_space},
       {"shrm:layout", EnvLayoutName(provenance.layout)},
+      {"shrm:version", kVersion},
   };
   if (job.env.rotate_ypr_deg) attrs["shrm:rotate_ypr_deg"] = RotationAttribute(job.env);
   return attrs;
@@ -84,6 +86,7 @@ nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProve
   report["face_size"] = face_size;
   report["source_sha256"] = provenance.source.sha256;
   report["layout"] = EnvLayoutName(provenance.layout);
+  report["shrm_version"] = kVersion;
   return report;
 }
 

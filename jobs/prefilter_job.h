@@ -75,12 +75,14 @@ struct PrefilterProvenance {
 std::string EpsilonAttribute(const PrefilterJob& job);
 // The SHRM file's attributes (docs/formats.md): shrm:brdf, shrm:epsilon, shrm:orders,
 // shrm:brdf_orders, shrm:eps_light, shrm:eps_brdf, shrm:eps_bound, shrm:source,
-// shrm:source_sha256, shrm:working_space, shrm:layout and, when rotated, shrm:rotate_ypr_deg.
+// shrm:source_sha256, shrm:working_space, shrm:layout, shrm:version (shrm::kVersion) and, when
+// rotated, shrm:rotate_ypr_deg.
 std::map<std::string, std::string> PrefilterFileAttributes(const PrefilterJob& job,
                                                            const PrefilterProvenance& provenance,
                                                            const ShrmAnalysis& analysis);
 // The report (docs/cli.md "--report"): the analysis (AnalysisJson) with brdf, kind, face_size,
-// source_sha256 and layout. Front ends add what only they know (output, source, timings, cache).
+// source_sha256, layout and shrm_version. Front ends add what only they know (output, source,
+// timings, cache).
 nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProvenance& provenance,
                                    const ShrmAnalysis& analysis, int face_size);
 

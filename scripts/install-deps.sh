@@ -24,6 +24,9 @@ PACKAGES=(
   libtinyobjloader-dev
   # deployment test (tests/deploy_test.sh): nginx in front of shrmd replicas, a gRPC probe
   nginx python3-grpcio
+  # installation and packaging (docs/install.md, tests/install_test.sh): man pages from --help,
+  # the Debian packages' dependencies (dpkg-shlibdeps), their checks, bash completion
+  help2man dpkg-dev lintian bash-completion
 )
 # The deployment test renders and validates deploy/k8s with node (npm packages pinned in
 # tests/deploy/k8s/package-lock.json). Debian's nodejs + npm unless a node is there already

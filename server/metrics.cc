@@ -11,6 +11,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "shrm/version.h"
 
 namespace shrm::server {
 namespace {
@@ -117,6 +118,12 @@ uint64_t Metrics::AbandonedCount(const std::string& reason) const {
 std::string Metrics::Render() const {
   std::lock_guard<std::mutex> lock(mu_);
   std::string out;
+  absl::StrAppend(&out,
+                  "# HELP shrm_build_info The version, git revision and conventions version of "
+                  "this shrmd (docs/install.md).\n",
+                  "# TYPE shrm_build_info gauge\n", "shrm_build_info{version=\"", Escape(kVersion),
+                  "\",revision=\"", Escape(GitRevision()), "\",conventions=\"", kConventionsVersion,
+                  "\"} 1\n");
   absl::StrAppend(&out, "# HELP shrm_requests_total Finished gRPC calls by method and code.\n",
                   "# TYPE shrm_requests_total counter\n");
   for (const auto& [k, v] : requests_) {

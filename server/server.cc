@@ -8,6 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
 #include "server/request_log.h"
+#include "shrm/version.h"
 
 namespace shrm::server {
 
@@ -41,7 +42,9 @@ absl::StatusOr<std::unique_ptr<ShrmServer>> ShrmServer::Start(const ServerOption
                          {"tls", options.security.tls_cert_file.empty()   ? "off"
                                  : options.security.tls_client_ca.empty() ? "on"
                                                                           : "mutual"},
-                         {"tokens", options.security.token_file.empty() ? "off" : "on"}});
+                         {"tokens", options.security.token_file.empty() ? "off" : "on"},
+                         {"version", kVersion},
+                         {"revision", GitRevision()}});
   return s;
 }
 

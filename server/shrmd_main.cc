@@ -16,6 +16,7 @@
 #include "server/config_file.h"
 #include "server/request_log.h"
 #include "server/server.h"
+#include "shrm/version.h"
 
 namespace {
 
@@ -43,7 +44,9 @@ int main(int argc, char** argv) {
   int job_threads = 0;
   double grace_s = kDefaultGraceSeconds;
 
-  CLI::App app{"shrmd: the shrm prefilter service (gRPC shrm.v1.Shrm; docs/server.md)"};
+  CLI::App app{"shrmd: the shrm prefilter service (gRPC shrm.v1.Shrm; docs/server.md)", "shrmd"};
+  app.set_version_flag("--version", shrm::VersionText("shrmd"),
+                       "print the version, git revision and conventions version and exit");
   app.add_option("--listen", opt.listen, "address to listen on, host:port (port 0: any free port)")
       ->capture_default_str();
   app.add_option("--spool-dir", opt.service.spool_dir,

@@ -13,6 +13,7 @@
 #include "jobs/option_text.h"
 #include "jobs/point_jobs.h"
 #include "jobs/prefilter_job.h"
+#include "shrm/version.h"
 
 namespace shrm {
 namespace {
@@ -49,7 +50,8 @@ TEST(PrefilterJob, FileAttributesAreTheDocumentedHeader) {
                                                    {"shrm:source", "a.exr"},
                                                    {"shrm:source_sha256", std::string(64, 'a')},
                                                    {"shrm:working_space", "lin_rec709"},
-                                                   {"shrm:layout", "latlong"}};
+                                                   {"shrm:layout", "latlong"},
+                                                   {"shrm:version", kVersion}};
   EXPECT_EQ(jobs::PrefilterFileAttributes(job, Provenance(), Analysis()), want);
   // Explicit orders and a rotation.
   job.orders = jobs::Orders{8, 1};
@@ -68,6 +70,7 @@ TEST(PrefilterJob, ReportCarriesTheJobAndItsProvenance) {
   EXPECT_EQ(r["brdf"], "phong:s=32");
   EXPECT_EQ(r["layout"], "latlong");
   EXPECT_EQ(r["source_sha256"], std::string(64, 'a'));
+  EXPECT_EQ(r["shrm_version"], kVersion);
   EXPECT_EQ(r["F_B"], 11);
   EXPECT_EQ(r["P_B"], 2);
 }

@@ -14,6 +14,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "jobs/cli_validators.h"
+#include "shrm/version.h"
 #include "viewer/error_report.h"
 
 namespace shrm::viewer {
@@ -38,7 +39,10 @@ bool FolderExists(const std::string& path) {
 int ParseViewerOptions(int argc, char** argv, ViewerOptions* o) {
   CLI::App app{
       "shrm-view: OpenGL viewer of Spherical Harmonic Reflection Maps (docs/viewer.md).\n"
-      "Sources: an SHRM file; or --env MAP --brdf SPEC (computed here, or by --server)."};
+      "Sources: an SHRM file; or --env MAP --brdf SPEC (computed here, or by --server).",
+      "shrm-view"};
+  app.set_version_flag("--version", VersionText("shrm-view"),
+                       "print the version, git revision and conventions version and exit");
   std::string orders, view, size;
   app.add_option("shrm", o->shrm_file, "SHRM file (*.shrm.exr) to show");
   app.add_option("--env", o->env,
@@ -88,6 +92,9 @@ int ParseViewerOptions(int argc, char** argv, ViewerOptions* o) {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
     std::printf("%s", app.help().c_str());
+    return kExitOk;
+  } catch (const CLI::CallForVersion& e) {
+    std::printf("%s\n", e.what());
     return kExitOk;
   } catch (const CLI::ParseError& e) {
     Usage(e.what());
