@@ -7,7 +7,9 @@
 #include "core/base/status_macros.h"
 #include "core/brdf/brdf_projection.h"
 #include "core/envmap/lighting.h"
+#include "core/sh/sh.h"
 #include "core/shrm/shrm_synthesis.h"
+#include "core/shrm/tolerance.h"
 
 namespace shrm {
 namespace {
@@ -40,6 +42,14 @@ absl::Status ValidatePrefilterOptions(const PrefilterOptions& options) {
   if (!(options.epsilon > 0 && options.epsilon < 1)) {
     return absl::InvalidArgumentError(
         absl::StrCat("epsilon must be in (0, 1), got ", options.epsilon));
+  }
+  if (!(options.tolerance >= 0 && options.tolerance < 1)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("tolerance must be in (0, 1), got ", options.tolerance));
+  }
+  if (options.tolerance > 0 && options.selection_pairs < 16) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "the tolerance rule needs at least 16 selection pairs, got ", options.selection_pairs));
   }
   if (options.face_size < 0 || options.threads < 1) {
     return absl::InvalidArgumentError("face size must be >= 0 and threads >= 1");
@@ -77,7 +87,10 @@ absl::Status FinishPrefilter(const BrdfStage& brdf, const LightingStage& lightin
   StageClock clock(&r->timings, progress);
   r->brdf = brdf.coefficients;
   r->light_lmax = brdf.f_rho;
-  r->light = lighting.light;
+  r->window =
+      options.window == RingingWindow::kLanczos ? RingingWindow::kLanczos : RingingWindow::kNone;
+  r->light = ApplyWindow(r->window, brdf.f_rho, brdf.f_rho, 3,
+                         std::span<const double>(lighting.light).first(ShCount(brdf.f_rho) * 3));
   SHRM_RETURN_IF_ERROR(clock.Begin("analysis"));
   ShrmAnalysisOptions aopt;
   aopt.epsilon = options.epsilon;
@@ -110,10 +123,103 @@ absl::Status FinishPrefilter(const BrdfStage& brdf, const LightingStage& lightin
   return absl::OkStatus();
 }
 
+namespace {
+
+// The tolerance rule's reference orders: the first, the growth while the choice comes within
+// kReferenceMargin of them (its estimate would miss the tail beyond), and the caps.
+constexpr int kFirstReferenceF = 32;
+constexpr int kFirstReferenceP = 8;
+constexpr double kReferenceMargin = 0.75;
+constexpr int kMaxReferenceF = 256;
+constexpr int kMaxReferenceP = 31;
+constexpr int kMaxReferenceRounds = 3;
+
+// Highest lighting degree the map resolves (lat-long: the SHT's limit; other layouts are
+// resampled by LightingCoefficients).
+int MaxLightingDegree(const EnvMap& env) {
+  if (env.layout() == EnvLayout::kLatLong) return std::min(env.height() - 1, (env.width() - 1) / 2);
+  return kMaxReferenceF;
+}
+
+// Sums the timings of stages run more than once (the reference rounds), keeping first-run order.
+void MergeTimings(std::vector<StageTiming>* timings) {
+  std::vector<StageTiming> merged;
+  for (const StageTiming& t : *timings) {
+    auto it = std::find_if(merged.begin(), merged.end(),
+                           [&](const StageTiming& m) { return m.stage == t.stage; });
+    if (it == merged.end())
+      merged.push_back(t);
+    else
+      it->ms += t.ms;
+  }
+  timings->swap(merged);
+}
+
+// The tolerance rule (core/shrm/tolerance.h): rho_lpq and L_lm at reference orders, the band
+// table at the selection pairs, the choice; the reference grows while the choice is near it.
+absl::Status ChooseOrdersForTolerance(const EnvMap& env, const Brdf& brdf,
+                                      const PrefilterOptions& options, StageClock& clock,
+                                      BrdfStage* b, LightingStage* l, ToleranceChoice* choice) {
+  const int f_cap = std::min({kMaxReferenceF, kMaxBrdfLmax, MaxLightingDegree(env)});
+  const int p_cap = brdf.radially_symmetric() ? 0 : std::min(kMaxReferenceP, kMaxBrdfPmax);
+  int f_ref = std::min(kFirstReferenceF, f_cap);
+  int p_ref = std::min(kFirstReferenceP, p_cap);
+  const std::vector<DirectionPair> pairs =
+      SeededDirectionPairs(kSelectionSeed, options.selection_pairs, brdf.reparam());
+  ToleranceOptions topt;
+  topt.tolerance = options.tolerance;
+  topt.window = options.window;
+  topt.threads = options.threads;
+  for (int round = 0;; ++round) {
+    SHRM_RETURN_IF_ERROR(clock.Begin("brdf"));
+    SHRM_ASSIGN_OR_RETURN(b->coefficients, ComputeBrdfCoefficients(brdf, f_ref, p_ref));
+    clock.End();
+    SHRM_RETURN_IF_ERROR(clock.Begin("lighting"));
+    SHRM_ASSIGN_OR_RETURN(l->light,
+                          LightingCoefficients(env, f_ref, options.rotation, options.threads));
+    l->energy = LightingEnergy(env);
+    clock.End();
+    SHRM_RETURN_IF_ERROR(clock.Begin("orders"));
+    SHRM_ASSIGN_OR_RETURN(
+        ShrmSynthesizer reference,
+        ShrmSynthesizer::Create(f_ref, 3, l->light, b->coefficients, f_ref, p_ref));
+    const BandTable table = BandTable::Compute(reference, pairs, options.threads);
+    SHRM_ASSIGN_OR_RETURN(*choice,
+                          ChooseForTolerance(table, f_ref, 3, l->light, b->coefficients, topt));
+    clock.End();
+    const bool grow_f = f_ref < f_cap && (choice->f > kReferenceMargin * f_ref || !choice->met);
+    const bool grow_p = p_ref < p_cap && (choice->p > kReferenceMargin * p_ref || !choice->met);
+    if (!(grow_f || grow_p) || round + 1 >= kMaxReferenceRounds) break;
+    if (grow_f) f_ref = std::min(f_cap, 2 * f_ref);
+    if (grow_p) p_ref = std::min(p_cap, 2 * p_ref);
+  }
+  b->f_rho = choice->f;
+  b->p_rho = choice->p;
+  return absl::OkStatus();
+}
+
+}  // namespace
+
 absl::StatusOr<PrefilterResult> Prefilter(const EnvMap& env, const Brdf& brdf,
                                           const PrefilterOptions& options,
                                           const PrefilterProgress& progress) {
   SHRM_RETURN_IF_ERROR(ValidatePrefilterOptions(options));
+  if (options.tolerance > 0 && !ExplicitOrders(options)) {
+    PrefilterResult r;
+    StageClock clock(&r.timings, progress);
+    BrdfStage b;
+    LightingStage l;
+    SHRM_RETURN_IF_ERROR(ChooseOrdersForTolerance(env, brdf, options, clock, &b, &l, &r.choice));
+    PrefilterOptions chosen = options;
+    chosen.f = r.choice.f;
+    chosen.p = r.choice.p;
+    chosen.window = r.choice.window;
+    if (chosen.face_size == 0) chosen.face_size = r.choice.face_size;
+    SHRM_RETURN_IF_ERROR(FinishPrefilter(b, l, chosen, progress, &r));
+    r.tolerance_rule = true;
+    MergeTimings(&r.timings);
+    return r;
+  }
   PrefilterResult r;
   StageClock clock(&r.timings, progress);
   SHRM_RETURN_IF_ERROR(clock.Begin("brdf"));

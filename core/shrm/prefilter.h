@@ -22,6 +22,7 @@
 #include "core/envmap/envmap.h"
 #include "core/shrm/shrm_analysis.h"
 #include "core/shrm/shrm_map.h"
+#include "core/shrm/tolerance.h"
 
 namespace shrm {
 
@@ -34,6 +35,14 @@ struct PrefilterOptions {
   Mat3 rotation = Mat3::Identity();  // world rotation of the lighting (exact, in SH space)
   int threads = 1;
   bool synthesize = true;  // false: orders and analysis only
+  // > 0 (and no explicit orders): F_B, P_B, the ringing window and S_B (unless face_size is
+  // given) are chosen for this per-direction tolerance (core/shrm/tolerance.h; epsilon then
+  // only names the analysis' energy figures); 0 = the paper's epsilon rule (sec. 5.5).
+  double tolerance = 0;
+  // Ringing window on the lighting bands; kAuto (tolerance rule only) = chosen per job.
+  RingingWindow window = RingingWindow::kNone;
+  // Pairs of the tolerance rule's estimate (seeded: kSelectionSeed).
+  int selection_pairs = 256;
 };
 
 struct StageTiming {
@@ -48,6 +57,9 @@ struct PrefilterResult {
   std::vector<double> light;  // RGB L_lm, degree light_lmax (transform layout)
   ShrmCube cube;              // empty when !synthesize
   std::vector<StageTiming> timings;
+  RingingWindow window = RingingWindow::kNone;  // applied to `light` before synthesis
+  bool tolerance_rule = false;                  // orders from options.tolerance
+  ToleranceChoice choice;                       // the tolerance rule's estimate (tolerance_rule)
 };
 
 // Called at the start of each stage with its name ("brdf", "lighting", "analysis", "synthesis");

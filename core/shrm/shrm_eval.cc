@@ -72,27 +72,34 @@ void ResolveTexel(int face, int x, int y, int size, int* of, int* ox, int* oy) {
 
 }  // namespace
 
-std::array<double, 3> ShrmEvalAt(const ShrmCube& cube, const Vec3& index_dir, const Vec3& view) {
-  std::array<double, 3> out{0, 0, 0};
-  const int size = cube.face_size;
-  if (size < 1 || cube.data.size() != cube.size()) return out;
+std::array<CubeTap, 4> ShrmBilinearTaps(int face_size, const Vec3& index_dir) {
+  const int size = face_size;
   int face;
   double s, t;
   CubeFaceCoordinates(index_dir, &face, &s, &t);
   const double x = s * size - 0.5, y = t * size - 0.5;
   const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
   const double fx = x - x0, fy = y - y0;
+  std::array<CubeTap, 4> taps;
+  for (int dy = 0; dy < 2; ++dy)
+    for (int dx = 0; dx < 2; ++dx) {
+      CubeTap& tap = taps[dy * 2 + dx];
+      tap.weight = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy);
+      ResolveTexel(face, x0 + dx, y0 + dy, size, &tap.face, &tap.x, &tap.y);
+    }
+  return taps;
+}
+
+std::array<double, 3> ShrmEvalAt(const ShrmCube& cube, const Vec3& index_dir, const Vec3& view) {
+  std::array<double, 3> out{0, 0, 0};
+  if (cube.face_size < 1 || cube.data.size() != cube.size()) return out;
   const Vec3 view_sh = ShFrameFromWorld(view);
   std::vector<double> y_global;
   if (cube.kind == ShrmKind::kGlobal) y_global = EvalSh(cube.pmax, view_sh);
-  for (int dy = 0; dy < 2; ++dy)
-    for (int dx = 0; dx < 2; ++dx) {
-      const double w = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy);
-      if (w == 0) continue;
-      int tf, tx, ty;
-      ResolveTexel(face, x0 + dx, y0 + dy, size, &tf, &tx, &ty);
-      TexelValue(cube, tf, tx, ty, view_sh, y_global, w, out);
-    }
+  for (const CubeTap& tap : ShrmBilinearTaps(cube.face_size, index_dir)) {
+    if (tap.weight == 0) continue;
+    TexelValue(cube, tap.face, tap.x, tap.y, view_sh, y_global, tap.weight, out);
+  }
   return out;
 }
 

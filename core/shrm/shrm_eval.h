@@ -23,6 +23,15 @@ void ShrmAnglesFromWorld(const Vec3& world_dir, double* alpha, double* beta);
 // Rot = Rz(beta) Ry(alpha) as a matrix acting on SH-frame vectors.
 Mat3 ShrmLocalFrame(double alpha, double beta);
 
+// The four texels ShrmEvalAt interpolates for a texel-addressing direction on faces of size S:
+// (face, x, y) and the bilinear weight of each (weights sum to 1; a tap beyond the face's outer
+// texel centres is the adjacent face's texel holding the extrapolated centre direction).
+struct CubeTap {
+  int face = 0, x = 0, y = 0;
+  double weight = 0;
+};
+std::array<CubeTap, 4> ShrmBilinearTaps(int face_size, const Vec3& index_dir);
+
 // Evaluation of a cube (eq. 5.10 / 5.11) at the texel-addressing direction (R, or T for
 // kTangent) and the view V (world). Bilinear interpolation between the four nearest texel
 // centres of the face; beyond a face's outer texel centres the missing neighbours are taken from

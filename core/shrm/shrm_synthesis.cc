@@ -17,6 +17,7 @@
 #include "core/sh/rotation.h"
 #include "core/sh/sh.h"
 #include "core/sh/wigner.h"
+#include "core/sh/wigner_columns.h"
 #include "core/shrm/cube_resample.h"
 #include "core/transform/sht.h"
 
@@ -173,6 +174,49 @@ std::array<double, 3> ShrmSynthesizer::RadianceAt(ShrmKind kind, const Vec3& ind
   for (int c = 0; c < std::min(channels_, 3); ++c)
     for (int k = 0; k < n; ++k) out[c] += y[k] * coeffs[static_cast<size_t>(k) * channels_ + c];
   return out;
+}
+
+void ShrmSynthesizer::BandContributionsAt(const Vec3& index_dir, const Vec3& view,
+                                          std::span<double> out) const {
+  const int f = lmax_, pm = pmax_, ch = channels_;
+  const int qmax = std::min(pm, f);
+  double alpha, beta;
+  ShrmAnglesFromWorld(index_dir, &alpha, &beta);
+  std::vector<double> d(WignerColumnCount(f, qmax));
+  WignerColumns(f, qmax, alpha, d);
+  const Vec3 w = ShrmLocalFrame(alpha, beta).Transposed() * ShFrameFromWorld(view);
+  const std::vector<double> y = EvalSh(pm, w);
+  // e^{i m beta} L_lm for every (m, l, c), then per l the sums over m
+  //   S_lq = sum_m e^{i m beta} L_lm d^l_mq(alpha)   (q = 0 .. min(l, P)),
+  // so the local coefficient of band l is rho_lpq S_lq (eq. 5.23 with one l), q >= 0 only: the
+  // real SH value is c_p0 Y_p0 + sqrt2 sum_{q > 0} (Re c_pq Y_pq - Im c_pq Y_p,-q) (ComplexToReal).
+  std::vector<std::complex<double>> el(static_cast<size_t>(2 * f + 1) * (f + 1) * ch);
+  for (int m = -f; m <= f; ++m) {
+    const std::complex<double> e = std::polar(1.0, m * beta);
+    const size_t base = static_cast<size_t>(m + f) * (f + 1) * ch;
+    for (size_t k = 0; k < static_cast<size_t>(f + 1) * ch; ++k)
+      el[base + k] = e * light_[base + k];
+  }
+  std::vector<std::complex<double>> sq(static_cast<size_t>(qmax + 1) * ch);
+  for (int l = 0; l <= f; ++l) {
+    const int ql = std::min(l, qmax);
+    std::fill(sq.begin(), sq.end(), std::complex<double>(0, 0));
+    for (int q = 0; q <= ql; ++q)
+      for (int m = -l; m <= l; ++m) {
+        const double dv = d[WignerColumnIndex(f, qmax, l, m, q)];
+        const std::complex<double>* lm = &el[(static_cast<size_t>(m + f) * (f + 1) + l) * ch];
+        for (int c = 0; c < ch; ++c) sq[static_cast<size_t>(q) * ch + c] += dv * lm[c];
+      }
+    for (int p = 0; p <= pm; ++p)
+      for (int c = 0; c < ch; ++c) {
+        double v = Rho(l, p, 0, c) * sq[c].real() * y[ShIndex(p, 0)];
+        for (int q = 1; q <= std::min(p, ql); ++q) {
+          const std::complex<double> cpq = Rho(l, p, q, c) * sq[static_cast<size_t>(q) * ch + c];
+          v += kSqrt2 * (cpq.real() * y[ShIndex(p, q)] - cpq.imag() * y[ShIndex(p, -q)]);
+        }
+        out[(static_cast<size_t>(l) * (pm + 1) + p) * ch + c] = v;
+      }
+  }
 }
 
 void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int rows, int nb,

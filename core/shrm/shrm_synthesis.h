@@ -80,6 +80,13 @@ class ShrmSynthesizer {
   void CoefficientsAt(ShrmKind kind, double alpha, double beta, std::span<double> out) const;
   // B(R, V) with R (or T) and V world directions, by CoefficientsAt (no resampling).
   std::array<double, 3> RadianceAt(ShrmKind kind, const Vec3& index_dir, const Vec3& view) const;
+  // The terms of B(R, V) by band: out[(l * (pmax() + 1) + p) * channels() + c] is the part of
+  // the value at (index_dir, view) that comes from lighting band l and view band p, so that the
+  // sum over l <= F, p <= P is the order-(F, P) value (the sum over all bands = RadianceAt, of
+  // either kind: the kinds differ in the texel's frame, not in B). Cost O(F^2 P + F P^2), by the
+  // Wigner columns |q| <= P. out.size() >= (lmax() + 1) (pmax() + 1) channels(). Drives the
+  // per-direction accuracy estimate of core/shrm/tolerance.h.
+  void BandContributionsAt(const Vec3& index_dir, const Vec3& view, std::span<double> out) const;
 
   // Fast path (sec. 5.6.2 step 3): the SHRM on the equiangular (alpha, beta) grid, then resampled
   // onto the texel centres of a cube map of face_size S_B by 4 x 4 Lagrange (cubic) interpolation

@@ -1,0 +1,310 @@
+#include "core/shrm/tolerance.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "absl/strings/str_cat.h"
+#include "core/base/constants.h"
+#include "core/base/cubemap.h"
+#include "core/base/parallel.h"
+#include "core/base/status_macros.h"
+#include "core/sh/sh.h"
+#include "core/shrm/shrm_eval.h"
+
+namespace shrm {
+namespace {
+
+// Uniform double in [0, 1) from 53 bits of the standard's fixed mt19937_64 sequence (the
+// distributions of <random> are implementation-defined; this is not).
+double Uniform(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
+
+Vec3 UniformSphere(std::mt19937_64& rng) {
+  const double z = 2 * Uniform(rng) - 1, phi = 2 * kPi * Uniform(rng);
+  const double r = std::sqrt(std::max(0.0, 1 - z * z));
+  return {r * std::cos(phi), r * std::sin(phi), z};
+}
+
+// Rounds up to a multiple of 8.
+int RoundUp8(double s) { return 8 * static_cast<int>(std::ceil(s / 8 - 1e-9)); }
+
+// Smallest face size tried, and the first trial as a multiple of F (measured on the bundled maps:
+// S ~ 1.6-3 F meets a 1% share; docs/shrm.md).
+constexpr int kMinFaceSize = 16;
+constexpr double kFirstFaceSizePerOrder = 2.0;
+// Growth of S when the scaled size still misses its share (the h^2 law is asymptotic).
+constexpr double kFaceSizeGrowth = 1.25;
+constexpr int kFaceSizeRounds = 4;
+
+}  // namespace
+
+std::vector<DirectionPair> SeededDirectionPairs(uint64_t seed, int count, ReparamKind reparam) {
+  std::mt19937_64 rng(seed);
+  std::vector<DirectionPair> pairs;
+  pairs.reserve(std::max(count, 0));
+  for (int k = 0; k < count; ++k) {
+    DirectionPair pr;
+    pr.view = UniformSphere(rng);
+    if (reparam == ReparamKind::kTangent) {
+      pr.index = UniformSphere(rng);
+    } else {
+      // N about V with density N.V: cos = sqrt(u) (Malley), azimuth uniform.
+      const Vec3& v = pr.view;
+      const Vec3 a = std::abs(v.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
+      const Vec3 t = a.Cross(v).Normalized();
+      const Vec3 b = v.Cross(t);
+      const double u = Uniform(rng), phi = 2 * kPi * Uniform(rng);
+      const double ct = std::sqrt(u), st = std::sqrt(1 - u);
+      pr.index = (t * (st * std::cos(phi)) + b * (st * std::sin(phi)) + v * ct).Normalized();
+      pr.grazing = pr.index.Dot(v) < kGrazingCosine;
+    }
+    pairs.push_back(pr);
+  }
+  return pairs;
+}
+
+Vec3 IndexDirection(const DirectionPair& pair, ReparamKind reparam) {
+  if (reparam == ReparamKind::kTangent) return pair.index;
+  return pair.index * (2 * pair.index.Dot(pair.view)) - pair.view;
+}
+
+DirectionalError MeasureDirectionalError(std::span<const DirectionPair> pairs,
+                                         std::span<const Rgb> got, std::span<const Rgb> ref) {
+  DirectionalError e;
+  const size_t n = std::min({pairs.size(), got.size(), ref.size()});
+  if (n == 0) return e;
+  Rgb floor{0, 0, 0};
+  for (size_t k = 0; k < n; ++k)
+    for (int c = 0; c < 3; ++c) floor[c] += std::abs(ref[k][c]);
+  for (int c = 0; c < 3; ++c) floor[c] *= kRelativeFloor / static_cast<double>(n);
+  double sum_front = 0, sum_grazing = 0;
+  for (size_t k = 0; k < n; ++k)
+    for (int c = 0; c < 3; ++c) {
+      const double scale = std::max(std::abs(ref[k][c]), floor[c]);
+      const double rel = scale > 0 ? std::abs(got[k][c] - ref[k][c]) / scale : 0.0;
+      ErrorStats& s = pairs[k].grazing ? e.grazing : e.front;
+      (pairs[k].grazing ? sum_grazing : sum_front) += rel * rel;
+      ++s.count;
+      s.max = std::max(s.max, rel);
+      if (ref[k][c] >= 0 && got[k][c] < -floor[c]) ++e.negative;
+    }
+  if (e.front.count > 0) e.front.rms = std::sqrt(sum_front / e.front.count);
+  if (e.grazing.count > 0) e.grazing.rms = std::sqrt(sum_grazing / e.grazing.count);
+  return e;
+}
+
+ToleranceTargets TargetsForTolerance(double tolerance) {
+  return {tolerance, kMaxErrorFactor * tolerance, kGrazingFactor * tolerance};
+}
+
+bool MeetsTargets(const DirectionalError& e, const ToleranceTargets& t, double share) {
+  return e.front.rms <= share * t.rms && e.front.max <= share * t.max;
+}
+
+const char* RingingWindowName(RingingWindow w) {
+  switch (w) {
+    case RingingWindow::kNone:
+      return "none";
+    case RingingWindow::kLanczos:
+      return "lanczos";
+    case RingingWindow::kAuto:
+      return "auto";
+  }
+  return "none";
+}
+
+absl::StatusOr<RingingWindow> ParseRingingWindow(std::string_view name) {
+  if (name == "none") return RingingWindow::kNone;
+  if (name == "lanczos") return RingingWindow::kLanczos;
+  if (name == "auto") return RingingWindow::kAuto;
+  return absl::InvalidArgumentError(
+      absl::StrCat("window must be none, lanczos or auto, got '", std::string(name), "'"));
+}
+
+std::vector<double> WindowWeights(RingingWindow window, int f) {
+  std::vector<double> w(std::max(f, 0) + 1, 1.0);
+  if (window != RingingWindow::kLanczos) return w;
+  for (int l = 1; l <= f; ++l) {
+    const double x = kPi * l / (f + 1);
+    w[l] = std::sin(x) / x;
+  }
+  return w;
+}
+
+std::vector<double> ApplyWindow(RingingWindow window, int f, int lmax, int channels,
+                                std::span<const double> light) {
+  std::vector<double> out(light.begin(), light.end());
+  const std::vector<double> w = WindowWeights(window, f);
+  for (int l = 0; l <= lmax; ++l) {
+    const double wl = l <= f ? w[l] : 0.0;
+    for (int m = -l; m <= l; ++m)
+      for (int c = 0; c < channels; ++c)
+        out[static_cast<size_t>(ShIndex(l, m)) * channels + c] *= wl;
+  }
+  return out;
+}
+
+BandTable BandTable::Compute(const ShrmSynthesizer& reference, std::span<const DirectionPair> pairs,
+                             int threads) {
+  BandTable t;
+  t.f_ = reference.lmax();
+  t.p_ = reference.pmax();
+  t.ch_ = std::min(reference.channels(), 3);
+  t.pairs_.assign(pairs.begin(), pairs.end());
+  const int ch = reference.channels();
+  const size_t per_pair = static_cast<size_t>(t.f_ + 1) * (t.p_ + 1) * t.ch_;
+  t.prefix_.assign(per_pair * pairs.size(), 0.0);
+  t.ref_.assign(pairs.size(), Rgb{0, 0, 0});
+  ParallelChunks(static_cast<int>(pairs.size()), threads, [&](int begin, int end) {
+    std::vector<double> c(static_cast<size_t>(t.f_ + 1) * (t.p_ + 1) * ch);
+    for (int k = begin; k < end; ++k) {
+      reference.BandContributionsAt(IndexDirection(pairs[k], reference.reparam()), pairs[k].view,
+                                    c);
+      double* pre = t.prefix_.data() + per_pair * k;
+      for (int l = 0; l <= t.f_; ++l)
+        for (int cc = 0; cc < t.ch_; ++cc) {
+          double run = 0;
+          for (int p = 0; p <= t.p_; ++p) {
+            run += c[(static_cast<size_t>(l) * (t.p_ + 1) + p) * ch + cc];
+            pre[(static_cast<size_t>(l) * (t.p_ + 1) + p) * t.ch_ + cc] = run;
+          }
+          t.ref_[k][cc] += run;
+        }
+      if (t.ch_ == 1) t.ref_[k][1] = t.ref_[k][2] = t.ref_[k][0];
+    }
+  });
+  return t;
+}
+
+Rgb BandTable::Value(int k, int f, int p, std::span<const double> w) const {
+  Rgb v{0, 0, 0};
+  const double* pre = prefix_.data() + static_cast<size_t>(k) * (f_ + 1) * (p_ + 1) * ch_;
+  for (int l = 0; l <= std::min(f, f_); ++l)
+    for (int c = 0; c < ch_; ++c)
+      v[c] += w[l] * pre[(static_cast<size_t>(l) * (p_ + 1) + std::min(p, p_)) * ch_ + c];
+  if (ch_ == 1) v[1] = v[2] = v[0];
+  return v;
+}
+
+DirectionalError BandTable::Estimate(int f, int p, RingingWindow window) const {
+  const std::vector<double> w = WindowWeights(window, f);
+  std::vector<Rgb> got(pairs_.size());
+  for (size_t k = 0; k < pairs_.size(); ++k) got[k] = Value(static_cast<int>(k), f, p, w);
+  return MeasureDirectionalError(pairs_, got, ref_);
+}
+
+int BandTable::SmallestF(int p, const ToleranceTargets& t, double share) const {
+  // Running partial sums over l for every pair at once: one pass per view order.
+  const size_t n = pairs_.size();
+  std::vector<Rgb> got(n, Rgb{0, 0, 0});
+  for (int f = 0; f <= f_; ++f) {
+    for (size_t k = 0; k < n; ++k) {
+      const double* pre = prefix_.data() + k * (f_ + 1) * (p_ + 1) * ch_;
+      for (int c = 0; c < ch_; ++c)
+        got[k][c] += pre[(static_cast<size_t>(f) * (p_ + 1) + std::min(p, p_)) * ch_ + c];
+      if (ch_ == 1) got[k][1] = got[k][2] = got[k][0];
+    }
+    if (MeetsTargets(MeasureDirectionalError(pairs_, got, ref_), t, share)) return f;
+  }
+  return -1;
+}
+
+DirectionalError EstimateInterpolation(const ShrmSynthesizer& synth,
+                                       std::span<const DirectionPair> pairs, int face_size,
+                                       int threads) {
+  const int f = synth.lmax(), p = synth.pmax(), ch = synth.channels();
+  std::vector<Rgb> got(pairs.size()), exact(pairs.size());
+  ParallelChunks(static_cast<int>(pairs.size()), threads, [&](int begin, int end) {
+    std::vector<double> c(static_cast<size_t>(f + 1) * (p + 1) * ch);
+    auto value = [&](const Vec3& index_dir, const Vec3& view) {
+      synth.BandContributionsAt(index_dir, view, c);
+      Rgb v{0, 0, 0};
+      for (size_t i = 0; i < c.size(); ++i) v[std::min<int>(i % ch, 2)] += c[i];
+      if (ch == 1) v[1] = v[2] = v[0];
+      return v;
+    };
+    for (int k = begin; k < end; ++k) {
+      const Vec3 r = IndexDirection(pairs[k], synth.reparam());
+      exact[k] = value(r, pairs[k].view);
+      Rgb sum{0, 0, 0};
+      for (const CubeTap& tap : ShrmBilinearTaps(face_size, r)) {
+        if (tap.weight == 0) continue;
+        const Rgb v = value(CubeTexelDirection(tap.face, tap.x, tap.y, face_size), pairs[k].view);
+        for (int cc = 0; cc < 3; ++cc) sum[cc] += tap.weight * v[cc];
+      }
+      got[k] = sum;
+    }
+  });
+  return MeasureDirectionalError(pairs, got, exact);
+}
+
+absl::StatusOr<ToleranceChoice> ChooseForTolerance(const BandTable& table, int light_lmax,
+                                                   int channels, std::span<const double> light,
+                                                   const BrdfCoefficients& brdf,
+                                                   const ToleranceOptions& options) {
+  const ToleranceTargets targets = TargetsForTolerance(options.tolerance);
+  ToleranceChoice best;
+  best.f_ref = table.f_ref();
+  best.p_ref = table.p_ref();
+  // (F, P): the smallest (P + 1)^2 (F + P + 1)^2 among the feasible view orders.
+  double best_cost = -1;
+  for (int p = 0; p <= table.p_ref(); ++p) {
+    const int f = table.SmallestF(p, targets, kTruncationShare);
+    if (f < 0) continue;
+    const double cost = (p + 1.0) * (p + 1.0) * (f + p + 1.0) * (f + p + 1.0);
+    if (best_cost < 0 || cost < best_cost) {
+      best_cost = cost;
+      best.f = f;
+      best.p = p;
+    }
+  }
+  best.met = best_cost >= 0;
+  if (!best.met) {  // not reachable below the reference orders: the most accurate there is
+    best.f = table.f_ref();
+    best.p = table.p_ref();
+  }
+  // The window: none unless asked, or (auto) when it lowers the estimated largest error.
+  best.window =
+      options.window == RingingWindow::kLanczos ? RingingWindow::kLanczos : RingingWindow::kNone;
+  best.truncation = table.Estimate(best.f, best.p, best.window);
+  if (options.window == RingingWindow::kAuto) {
+    const DirectionalError windowed = table.Estimate(best.f, best.p, RingingWindow::kLanczos);
+    if (windowed.front.max < best.truncation.front.max &&
+        windowed.front.rms <= best.truncation.front.rms) {
+      best.window = RingingWindow::kLanczos;
+      best.truncation = windowed;
+    }
+  }
+  best.met = MeetsTargets(best.truncation, targets, kTruncationShare);
+
+  // S: first trial ~2 F, then scaled by the h^2 law, grown while it still misses its share.
+  const std::vector<double> windowed =
+      ApplyWindow(best.window, best.f, light_lmax, channels, light);
+  SHRM_ASSIGN_OR_RETURN(
+      ShrmSynthesizer synth,
+      ShrmSynthesizer::Create(light_lmax, channels, windowed, brdf, best.f, best.p));
+  const int max_size = std::max(kMinFaceSize, options.max_face_size);
+  int size = std::clamp(RoundUp8(kFirstFaceSizePerOrder * (best.f + 1)), kMinFaceSize, max_size);
+  DirectionalError interp = EstimateInterpolation(synth, table.pairs(), size, options.threads);
+  const double ratio = std::max(interp.front.rms / (kInterpolationShare * targets.rms),
+                                interp.front.max / (kInterpolationShare * targets.max));
+  if (ratio > 0) {
+    const int scaled = std::clamp(RoundUp8(size * std::sqrt(ratio)), kMinFaceSize, max_size);
+    if (scaled != size) {
+      size = scaled;
+      interp = EstimateInterpolation(synth, table.pairs(), size, options.threads);
+    }
+  }
+  for (int round = 0; round < kFaceSizeRounds && size < max_size &&
+                      !MeetsTargets(interp, targets, kInterpolationShare);
+       ++round) {
+    size = std::min(max_size, RoundUp8(size * kFaceSizeGrowth));
+    interp = EstimateInterpolation(synth, table.pairs(), size, options.threads);
+  }
+  best.face_size = size;
+  best.interpolation = interp;
+  best.met = best.met && MeetsTargets(interp, targets, kInterpolationShare);
+  return best;
+}
+
+}  // namespace shrm

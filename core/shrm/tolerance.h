@@ -1,0 +1,160 @@
+// Accuracy an SHRM user sees, per direction, and the orders and face size chosen for it
+// (docs/shrm.md "Per-direction tolerance"). The SHRM paper's epsilon (sec. 5.5, eqs. 5.15-5.19)
+// is a fraction of squared energy over every (R, V); with a sun in the map that budget is spent
+// on ringing where the reflection is dark. Users judge a reflection per direction, so here:
+//   - the error measure: at (N, V) pairs seen on a sphere (V uniform, N over the visible
+//     hemisphere with density N.V), per channel |got - ref| / max(|ref|, kRelativeFloor x the
+//     mean |ref| of the pairs), summarized as RMS and largest value over the pairs with
+//     N.V >= kGrazingCosine ("front") and, separately, over the grazing pairs;
+//   - the estimate: B(R, V) is the sum over bands (l, p) of ShrmSynthesizer::BandContributionsAt;
+//     at reference orders (F_ref, P_ref) far above the choice, the truncation error of (F, P) at
+//     a pair is the sum of the left-out bands, known exactly up to the reference's own tail;
+//     texel interpolation (bilinear, core/shrm/shrm_eval.h) is estimated the same way from the
+//     exact values at the four texel centres, and scales as h^2;
+//   - the choice: the smallest (P + 1)^2 (F + P + 1)^2 (the file size and synthesis cost, with
+//     S ~ F) whose estimated front RMS and largest error meet kTruncationShare of the targets,
+//     then the smallest face size whose interpolation estimate meets kInterpolationShare.
+//   - ringing control: the Lanczos sigma window w_l = sinc(pi l / (F + 1)) on the lighting bands
+//     (applied to L_lm before synthesis). Its bias is part of the estimate (the windowed partial
+//     sums are compared with the reference like the plain ones); kAuto takes it when its
+//     estimated largest error is the smaller at the chosen orders.
+#ifndef SHRM_CORE_SHRM_TOLERANCE_H_
+#define SHRM_CORE_SHRM_TOLERANCE_H_
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "core/base/geometry.h"
+#include "core/brdf/brdf_coefficients.h"
+#include "core/shrm/shrm_synthesis.h"
+
+namespace shrm {
+
+// N.V below which a pair is grazing (the normal's horizon cuts the lobe): about 9% of a sphere's
+// visible area (1 - 0.3^2 = 0.91 is in front).
+inline constexpr double kGrazingCosine = 0.3;
+// Directions with almost no light are judged against this fraction of the mean |ref|, not
+// divided by their own near-zero value.
+inline constexpr double kRelativeFloor = 0.01;
+// Largest relative error allowed, as a multiple of the RMS tolerance; grazing RMS likewise.
+inline constexpr double kMaxErrorFactor = 5;
+inline constexpr double kGrazingFactor = 5;
+// Shares of the targets given to truncation and to texel interpolation (RMS: sqrt(0.7^2 + 0.4^2)
+// = 0.81 of the target, leaving room for float storage and the estimate's own error).
+inline constexpr double kTruncationShare = 0.7;
+inline constexpr double kInterpolationShare = 0.4;
+// Seeds of the pair sets: the order choice and the job's own check never share pairs.
+inline constexpr uint64_t kSelectionSeed = 0x5348524d53454c31;  // "SHRMSEL1"
+inline constexpr uint64_t kVerifySeed = 0x5348524d56455231;     // "SHRMVER1"
+
+struct DirectionPair {
+  Vec3 index;  // N (or the tangent T for ReparamKind::kTangent), world, unit
+  Vec3 view;   // V, world, unit
+  bool grazing = false;
+};
+// `count` pairs from `seed` (a fixed generator: the same pairs on every platform). Reflection
+// models: V uniform on the sphere, N over the hemisphere about V with density N.V. Tangent
+// models: T and V uniform and independent, none grazing.
+std::vector<DirectionPair> SeededDirectionPairs(uint64_t seed, int count, ReparamKind reparam);
+// R = 2 (N.V) N - V for reflection models, T for tangent models: the cube's addressing direction.
+Vec3 IndexDirection(const DirectionPair& pair, ReparamKind reparam);
+
+struct ErrorStats {
+  int count = 0;  // (pair, channel) values
+  double rms = 0;
+  double max = 0;
+};
+struct DirectionalError {
+  ErrorStats front;    // N.V >= kGrazingCosine
+  ErrorStats grazing;  // N.V < kGrazingCosine
+  int negative = 0;    // values below -kRelativeFloor x mean |ref| where ref >= 0
+};
+using Rgb = std::array<double, 3>;
+// The measure of the header on `got` against `ref` (same order as `pairs`).
+DirectionalError MeasureDirectionalError(std::span<const DirectionPair> pairs,
+                                         std::span<const Rgb> got, std::span<const Rgb> ref);
+
+struct ToleranceTargets {
+  double rms = 0;          // front RMS
+  double max = 0;          // front largest
+  double grazing_rms = 0;  // reported against; not used to choose (see docs/shrm.md)
+};
+ToleranceTargets TargetsForTolerance(double tolerance);
+bool MeetsTargets(const DirectionalError& e, const ToleranceTargets& t, double share = 1.0);
+
+enum class RingingWindow { kNone, kLanczos, kAuto };
+const char* RingingWindowName(RingingWindow w);
+absl::StatusOr<RingingWindow> ParseRingingWindow(std::string_view name);
+// w_l, l = 0..f (all 1 for kNone).
+std::vector<double> WindowWeights(RingingWindow window, int f);
+// L_lm (real, channel-interleaved, degree lmax) times w_l of the window for order f.
+std::vector<double> ApplyWindow(RingingWindow window, int f, int lmax, int channels,
+                                std::span<const double> light);
+
+// Band contributions of a synthesizer at a pair set (the estimate's table), reusable for every
+// candidate (F, P, window, S).
+class BandTable {
+ public:
+  // reference: the synthesizer at the reference orders (F_ref, P_ref).
+  static BandTable Compute(const ShrmSynthesizer& reference, std::span<const DirectionPair> pairs,
+                           int threads);
+  int f_ref() const { return f_; }
+  int p_ref() const { return p_; }
+  // Value of pair k at orders (f, p) with window weights w (size >= f + 1).
+  Rgb Value(int k, int f, int p, std::span<const double> w) const;
+  // The reference values (all bands, no window).
+  const std::vector<Rgb>& reference() const { return ref_; }
+  std::span<const DirectionPair> pairs() const { return pairs_; }
+  // Estimated error of (f, p, window) against the reference values.
+  DirectionalError Estimate(int f, int p, RingingWindow window) const;
+  // Smallest f <= f_ref meeting `share` of the targets at view order p with no window, or -1.
+  int SmallestF(int p, const ToleranceTargets& t, double share) const;
+
+ private:
+  int f_ = 0, p_ = 0, ch_ = 3;
+  std::vector<DirectionPair> pairs_;
+  // prefix_[((k * (f_ + 1) + l) * (p_ + 1) + p) * ch + c] = sum_{p' <= p} C_k[l][p'][c]
+  std::vector<double> prefix_;
+  std::vector<Rgb> ref_;
+};
+
+// Interpolation estimate on faces of size S: at each pair, the bilinear combination of the
+// exact values of `synth` (the chosen orders, window applied) at the four texel centres against
+// its exact value at the pair.
+DirectionalError EstimateInterpolation(const ShrmSynthesizer& synth,
+                                       std::span<const DirectionPair> pairs, int face_size,
+                                       int threads);
+
+struct ToleranceChoice {
+  int f = 0, p = 0;
+  RingingWindow window = RingingWindow::kNone;
+  int face_size = 0;
+  DirectionalError truncation;     // estimated at (f, p, window) against the reference orders
+  DirectionalError interpolation;  // estimated at face_size
+  bool met = false;                // both estimates within their shares of the targets
+  int f_ref = 0, p_ref = 0;
+};
+
+struct ToleranceOptions {
+  double tolerance = 0.01;
+  RingingWindow window = RingingWindow::kAuto;
+  int max_face_size = 1024;
+  int threads = 1;
+};
+// (F, P, window) from a band table at the reference orders, then S from the interpolation
+// estimate of the synthesizer made from `light` (degree light_lmax, windowed here) and `brdf` at
+// the chosen orders. P is 0 for radially symmetric BRDFs (their table has p_ref = 0). When no
+// (F, P) below the reference meets the targets, the reference orders themselves (met = false).
+absl::StatusOr<ToleranceChoice> ChooseForTolerance(const BandTable& table, int light_lmax,
+                                                   int channels, std::span<const double> light,
+                                                   const BrdfCoefficients& brdf,
+                                                   const ToleranceOptions& options);
+
+}  // namespace shrm
+
+#endif  // SHRM_CORE_SHRM_TOLERANCE_H_

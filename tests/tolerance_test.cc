@@ -1,0 +1,231 @@
+// The per-direction tolerance rule (core/shrm/tolerance.h) against independent references:
+//   - the band decomposition sums to the direct evaluation of core/shrm/shrm_synthesis.h
+//     (RadianceAt: the full Wigner table, a different code path) at every truncation;
+//   - the seeded pairs have the distribution of the visible points of a sphere (moments);
+//   - the error measure on a hand-computed case;
+//   - on the four bundled maps (downsampled: the job and the reference see the same map), the
+//     job chosen for the default tolerance, evaluated from its cube (ShrmEval) at pairs it did
+//     not use, against a double sum over every pixel of the map (testing::LatLongSamples, solid
+//     angles from the test's own quadrature), meets the tolerance in front and its estimate
+//     predicts the measured error.
+#include "core/shrm/tolerance.h"
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/brdf/brdf.h"
+#include "core/envmap/envmap.h"
+#include "core/io/image.h"
+#include "core/shrm/prefilter.h"
+#include "core/shrm/shrm_eval.h"
+#include "core/shrm/shrm_synthesis.h"
+#include "gtest/gtest.h"
+#include "tests/test_maps.h"
+
+namespace shrm {
+namespace {
+
+// Partial sums of the band table against RadianceAt: double rounding over O(F^2 P) terms of
+// values O(1).
+constexpr double kBandSumTol = 1e-9;
+// The default tolerance of the job layer (per-direction relative RMS in front).
+constexpr double kTolerance = 0.01;
+// Lat-long width of the downsampled maps (256 x 128: 32k pixels per reference sum; the lighting
+// resolves degree 127, above every order chosen here).
+constexpr int kMapWidth = 256;
+// Pairs of the measured check (kVerifySeed, never the selection's).
+constexpr int kPairs = 256;
+// The estimate against the measurement: the measured front RMS may exceed the estimated total
+// (truncation and interpolation in quadrature) by this factor plus kEstimateSlack (float
+// storage, the BRDF coefficients' quadrature, and the sampling of 256 pairs).
+constexpr double kEstimateFactor = 2.0;
+constexpr double kEstimateSlack = 2e-3;
+
+using testing::LatLongSamples;
+using testing::LoadBundledMap;
+
+std::unique_ptr<Brdf> ParseOrDie(const std::string& spec) {
+  auto b = ParseBrdfSpec(spec);
+  EXPECT_TRUE(b.ok()) << b.status();
+  return b.ok() ? *std::move(b) : nullptr;
+}
+
+// sum_k L_k dOmega_k rho-hat(N, V, w_k), grey transfer evaluated once per sample.
+Rgb BruteForce(const std::vector<EnvSample>& samples, const Brdf& brdf, const Vec3& n,
+               const Vec3& v) {
+  Rgb out{0, 0, 0};
+  for (const EnvSample& s : samples) {
+    for (int c = 0; c < 3; ++c) {
+      const double t = brdf.Transfer(n, v, s.dir, brdf.channels() == 1 ? 0 : c);
+      out[c] += static_cast<double>(s.rgb[c]) * s.solid_angle * t;
+      if (brdf.channels() == 1) {
+        out[1] += static_cast<double>(s.rgb[1]) * s.solid_angle * t;
+        out[2] += static_cast<double>(s.rgb[2]) * s.solid_angle * t;
+        break;
+      }
+    }
+  }
+  return out;
+}
+
+TEST(ToleranceTest, BandContributionsSumToTheDirectValueAtEveryTruncation) {
+  const Image img = LoadBundledMap("courtyard.exr", 64);
+  const EnvMap env = EnvMap::FromLatLong(img);
+  auto brdf = ParseOrDie("microfacet:sigma=0.3");
+  ASSERT_NE(brdf, nullptr);
+  PrefilterOptions opt;
+  opt.f = 12;
+  opt.p = 4;
+  opt.synthesize = false;
+  auto r = Prefilter(env, *brdf, opt);
+  ASSERT_TRUE(r.ok()) << r.status();
+  auto full = ShrmSynthesizer::Create(r->light_lmax, 3, r->light, r->brdf, 12, 4);
+  ASSERT_TRUE(full.ok()) << full.status();
+  const std::vector<DirectionPair> pairs = SeededDirectionPairs(7, 12, ReparamKind::kReflection);
+  const BandTable table = BandTable::Compute(*full, pairs, 2);
+  const std::vector<double> ones(13, 1.0);
+  for (const auto [f, p] : {std::pair{12, 4}, std::pair{7, 2}, std::pair{3, 0}}) {
+    auto part = ShrmSynthesizer::Create(r->light_lmax, 3, r->light, r->brdf, f, p);
+    ASSERT_TRUE(part.ok()) << part.status();
+    for (size_t k = 0; k < pairs.size(); ++k) {
+      const Vec3 index = IndexDirection(pairs[k], ReparamKind::kReflection);
+      for (ShrmKind kind : {ShrmKind::kGlobal, ShrmKind::kLocal}) {
+        const Rgb direct = part->RadianceAt(kind, index, pairs[k].view);
+        const Rgb bands = table.Value(static_cast<int>(k), f, p, ones);
+        for (int c = 0; c < 3; ++c)
+          EXPECT_NEAR(bands[c], direct[c], kBandSumTol * (1 + std::abs(direct[c])))
+              << "pair " << k << " (F, P) = (" << f << ", " << p << ") channel " << c;
+      }
+    }
+  }
+}
+
+TEST(ToleranceTest, SeededPairsAreTheVisiblePointsOfASphere) {
+  constexpr int kCount = 20000;
+  const std::vector<DirectionPair> pairs =
+      SeededDirectionPairs(kSelectionSeed, kCount, ReparamKind::kReflection);
+  ASSERT_EQ(pairs.size(), static_cast<size_t>(kCount));
+  // Density N.V on the hemisphere about V: E[N.V] = 2/3, P(N.V < 0.3) = 0.09; V uniform: E[V] = 0.
+  double mean_cos = 0, grazing = 0;
+  Vec3 mean_v{0, 0, 0};
+  for (const DirectionPair& p : pairs) {
+    EXPECT_NEAR(p.index.Norm(), 1, 1e-12);
+    const double c = p.index.Dot(p.view);
+    EXPECT_GE(c, 0);
+    EXPECT_EQ(p.grazing, c < kGrazingCosine);
+    mean_cos += c / kCount;
+    grazing += p.grazing ? 1.0 / kCount : 0.0;
+    mean_v = mean_v + p.view * (1.0 / kCount);
+  }
+  // 5 standard errors of the sample means (sd of N.V 0.236, of the grazing indicator 0.286, of
+  // a component of V 0.577).
+  EXPECT_NEAR(mean_cos, 2.0 / 3, 5 * 0.236 / std::sqrt(kCount));
+  EXPECT_NEAR(grazing, kGrazingCosine * kGrazingCosine, 5 * 0.286 / std::sqrt(kCount));
+  EXPECT_LT(mean_v.Norm(), 5 * 0.577 / std::sqrt(kCount));
+  // The same seed gives the same pairs; the verification seed other pairs.
+  const auto again = SeededDirectionPairs(kSelectionSeed, 3, ReparamKind::kReflection);
+  const auto other = SeededDirectionPairs(kVerifySeed, 3, ReparamKind::kReflection);
+  EXPECT_EQ(again[2].view.x, pairs[2].view.x);
+  EXPECT_NE(other[0].view.x, pairs[0].view.x);
+}
+
+TEST(ToleranceTest, ErrorMeasureDividesByTheFloorWhereThereIsNoLight) {
+  std::vector<DirectionPair> pairs(3);
+  pairs[2].grazing = true;
+  // Means of |ref|: (100 + 0 + 50) / 3 = 50 per channel, floor 0.5.
+  const std::vector<Rgb> ref = {{100, 100, 100}, {0, 0, 0}, {50, 50, 50}};
+  const std::vector<Rgb> got = {{101, 99, 100}, {0.25, -1, 0}, {55, 50, 50}};
+  const DirectionalError e = MeasureDirectionalError(pairs, got, ref);
+  EXPECT_EQ(e.front.count, 6);
+  EXPECT_EQ(e.grazing.count, 3);
+  // Front: 0.01, 0.01, 0, 0.25 / 0.5, 1 / 0.5, 0.
+  EXPECT_NEAR(e.front.max, 2.0, 1e-12);
+  EXPECT_NEAR(e.front.rms, std::sqrt((1e-4 + 1e-4 + 0.25 + 4) / 6), 1e-12);
+  EXPECT_NEAR(e.grazing.max, 0.1, 1e-12);
+  EXPECT_NEAR(e.grazing.rms, std::sqrt(0.01 / 3), 1e-12);
+  EXPECT_EQ(e.negative, 1);  // -1 < -0.5 where the reference is 0
+}
+
+TEST(ToleranceTest, LanczosWindowWeightsAndTheirBiasInTheEstimate) {
+  const std::vector<double> w = WindowWeights(RingingWindow::kLanczos, 3);
+  ASSERT_EQ(w.size(), 4u);
+  EXPECT_EQ(w[0], 1.0);
+  EXPECT_NEAR(w[2], std::sin(kPi / 2) / (kPi / 2), 1e-15);
+  for (double x : WindowWeights(RingingWindow::kNone, 5)) EXPECT_EQ(x, 1.0);
+  EXPECT_FALSE(ParseRingingWindow("hann").ok());
+}
+
+struct RealCase {
+  const char* map;
+  const char* brdf;
+  // rho-hat jumps to 0 at the normal's horizon (the simplified microfacet of eq. 5.34): the view
+  // expansion converges slowly where the horizon cuts the lobe, and the largest front error (at
+  // N.V just above kGrazingCosine) is beyond the estimate (measured 0.08-0.10 at P ~ 20), and
+  // grazing values can be negative (open in docs/shrm.md). Only the RMS and the estimate are
+  // asserted for these.
+  bool horizon_jump = false;
+};
+
+class ToleranceRealMapTest : public ::testing::TestWithParam<RealCase> {};
+
+TEST_P(ToleranceRealMapTest, DefaultToleranceIsMetInFrontAndTheEstimateHolds) {
+  const RealCase& rc = GetParam();
+  const Image img = LoadBundledMap(rc.map, kMapWidth);
+  const EnvMap env = EnvMap::FromLatLong(img);
+  const std::vector<EnvSample> samples = LatLongSamples(img);
+  auto brdf = ParseOrDie(rc.brdf);
+  ASSERT_NE(brdf, nullptr);
+  PrefilterOptions opt;
+  opt.tolerance = kTolerance;
+  opt.window = RingingWindow::kAuto;
+  opt.threads = 2;
+  auto r = Prefilter(env, *brdf, opt);
+  ASSERT_TRUE(r.ok()) << r.status();
+  ASSERT_TRUE(r->tolerance_rule);
+  const ToleranceChoice& ch = r->choice;
+  const std::vector<DirectionPair> pairs =
+      SeededDirectionPairs(kVerifySeed, kPairs, brdf->reparam());
+  std::vector<Rgb> got, ref;
+  for (const DirectionPair& p : pairs) {
+    got.push_back(ShrmEval(r->cube, p.index, p.view));
+    ref.push_back(BruteForce(samples, *brdf, p.index, p.view));
+  }
+  const DirectionalError e = MeasureDirectionalError(pairs, got, ref);
+  const double estimate = std::hypot(ch.truncation.front.rms, ch.interpolation.front.rms);
+  std::printf(
+      "%s %s: (F, P) = (%d, %d) window %s S = %d (reference (%d, %d)); estimate front rms %.4f "
+      "(trunc %.4f max %.3f, interp %.4f); measured front rms %.4f max %.3f, grazing rms %.4f "
+      "max %.3f, negative %d\n",
+      rc.map, rc.brdf, ch.f, ch.p, RingingWindowName(ch.window), ch.face_size, ch.f_ref, ch.p_ref,
+      estimate, ch.truncation.front.rms, ch.truncation.front.max, ch.interpolation.front.rms,
+      e.front.rms, e.front.max, e.grazing.rms, e.grazing.max, e.negative);
+  EXPECT_TRUE(ch.met);
+  EXPECT_LE(e.front.rms, kTolerance);
+  if (!rc.horizon_jump) {
+    EXPECT_LE(e.front.max, kMaxErrorFactor * kTolerance);
+    EXPECT_EQ(e.negative, 0);
+  }
+  EXPECT_LE(e.front.rms, kEstimateFactor * estimate + kEstimateSlack);
+}
+
+INSTANTIATE_TEST_SUITE_P(BundledMaps, ToleranceRealMapTest,
+                         ::testing::Values(RealCase{"courtyard.exr", "phong:s=32"},
+                                           RealCase{"courtyard.exr", "phong:s=512"},
+                                           RealCase{"courtyard.exr", "microfacet:sigma=0.2", true},
+                                           RealCase{"city.exr", "microfacet:sigma=0.1", true},
+                                           RealCase{"forest.exr", "ggx:alpha=0.3,f0=1"},
+                                           RealCase{"interior.exr", "phong:s=8"}),
+                         [](const ::testing::TestParamInfo<RealCase>& info) {
+                           std::string name = std::string(info.param.map) + "_" + info.param.brdf;
+                           for (char& c : name)
+                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+                           return name;
+                         });
+
+}  // namespace
+}  // namespace shrm
