@@ -1,0 +1,584 @@
+#include "core/shrm/fast_reference.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+#include "core/base/cubemap.h"
+#include "core/base/parallel.h"
+
+namespace shrm {
+namespace {
+
+// Morton bits per face coordinate: 2^-20 of a face (~1e-6 rad), far below any map's texel, so
+// only coincident samples share a finest cell.
+constexpr int kMortonBits = 20;
+// Unit-direction check of Create, as ReferenceIntegrator's.
+constexpr double kUnitTolerance = 1e-6;
+// Slack of the geometric tests (cap radii are padded by it, horizon tests demand it): covers
+// the rounding of the dot products (~1e-16) with room to spare.
+constexpr double kGeometrySlack = 1e-12;
+// Rec. 709 luminance, only used to weight the node centroids (any positive weights are correct;
+// luminance puts the centroid where the light is, which cancels the first-order error).
+constexpr std::array<double, 3> kLuminance = {0.2126, 0.7152, 0.0722};
+// Lobe scale probe (kReflection): angles from kProbeMinAngle up to pi/2 in steps of sqrt 2; the
+// scale is the last angle at which rho-hat is within a factor kProbeFactor of rho-hat(R).
+constexpr double kProbeMinAngle = 1e-4;
+constexpr double kProbeStep = 1.4142135623730951;
+constexpr double kProbeFactor = 2.0;
+// Profile of azimuth-independent kTangent models: theta_i on this many cell centres of [0, pi]
+// (step 3.1e-3 rad, half a 1024 x 512 map's texel).
+constexpr int kProfileSamples = 1024;
+// Richardson ratios beyond this mean the children hardly split the node's light (one child holds
+// it): |P - Q| cannot see the error inside that child, so such a node is always opened.
+constexpr double kMaxRichardson = 100;
+// Smallest ratio used (a node whose children are near points still has the error of their
+// centres' placement).
+constexpr double kMinRichardson = 0.05;
+// Eigenvalues of the children's offset matrix below this fraction of the largest are dropped
+// (children on a line fix the gradient along the line only).
+constexpr double kGradientRankTolerance = 1e-6;
+
+uint64_t Spread(uint32_t x) {  // bits of x at the even positions
+  uint64_t v = x;
+  v = (v | (v << 16)) & 0x0000FFFF0000FFFFull;
+  v = (v | (v << 8)) & 0x00FF00FF00FF00FFull;
+  v = (v | (v << 4)) & 0x0F0F0F0F0F0F0F0Full;
+  v = (v | (v << 2)) & 0x3333333333333333ull;
+  v = (v | (v << 1)) & 0x5555555555555555ull;
+  return v;
+}
+
+uint32_t Quantize(double s) {
+  constexpr double kCells = 1 << kMortonBits;
+  return static_cast<uint32_t>(std::clamp(s * kCells, 0.0, kCells - 1));
+}
+
+// Angle between unit vectors, accurate near 0 and pi.
+double Angle(const Vec3& a, const Vec3& b) {
+  const double chord = (a - b).Norm();
+  return 2.0 * std::asin(std::min(1.0, 0.5 * chord));
+}
+
+// Any unit vector perpendicular to the unit vector a.
+Vec3 Perpendicular(const Vec3& a) {
+  const Vec3 e = std::abs(a.x) < 0.6 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
+  return (e - a * a.Dot(e)).Normalized();
+}
+
+using Rgb = std::array<double, 3>;
+
+// A node in the heap: its value (children as points), error estimate and the children's rho-hat
+// (reused as their own point values when the node is opened).
+struct Record {
+  int32_t node;
+  Rgb value, error;
+  std::array<Rgb, 4> child_rho;
+};
+struct HeapEntry {
+  double priority;
+  int32_t record;
+  bool operator<(const HeapEntry& o) const { return priority < o.priority; }
+};
+
+enum class Mode { kReflection, kTangentProfile, kExact };
+
+// One query: the geometry, the feature description and the running sums.
+class QueryState {
+ public:
+  QueryState(const Brdf& brdf, const Vec3& n, const Vec3& v,
+             const std::vector<FastReference::Sample>& samples,
+             const std::vector<FastReference::Node>& nodes,
+             const std::vector<FastReference::Gradient>& gradients, const Rgb& inv_total)
+      : brdf_(brdf),
+        n_(n),
+        v_(v),
+        samples_(samples),
+        nodes_(nodes),
+        gradients_(gradients),
+        inv_total_(inv_total),
+        channels_(brdf.channels()) {
+    if (brdf.reparam() == ReparamKind::kTangent) {
+      mode_ = brdf.azimuth_independent() ? Mode::kTangentProfile : Mode::kExact;
+      if (mode_ == Mode::kTangentProfile) SetUpProfile();
+    } else {
+      mode_ = Mode::kReflection;
+      // Radially symmetric models (Phong, eq. 5.26) do not depend on N.w at all; every other
+      // kReflection model is f_r max(N.w, 0) and may jump there.
+      horizon_ = brdf.clipped_at_normal_horizon() || !brdf.radially_symmetric();
+      cull_ = brdf.clipped_at_normal_horizon();
+      SetUpLobe();
+    }
+  }
+
+  Mode mode() const { return mode_; }
+  size_t evaluations() const { return evaluations_; }
+
+  // rho-hat at w for the three colours (a grey model is evaluated once).
+  void Rho(const Vec3& w, Rgb& out) {
+    ++evaluations_;
+    if (channels_ == 1) {
+      out[0] = out[1] = out[2] = brdf_.Transfer(n_, v_, w, 0);
+    } else {
+      for (int c = 0; c < 3; ++c) out[c] = brdf_.Transfer(n_, v_, w, std::min(c, channels_ - 1));
+    }
+  }
+  double RhoSum(const Vec3& w) {
+    Rgb r;
+    Rho(w, r);
+    return r[0] + r[1] + r[2];
+  }
+
+  void AddLeaf(const FastReference::Node& node) {
+    Rgb r;
+    for (int32_t k = node.begin; k < node.end; ++k) {
+      const FastReference::Sample& s = samples_[k];
+      Rho(s.dir, r);
+      for (int c = 0; c < 3; ++c) total_[c] += s.weight[c] * r[c];
+    }
+  }
+
+  // Adds node i: skipped (exact zero), summed (leaf), opened (not admissible) or put in the heap
+  // with its children-as-points value and the error estimate |parent point - children|.
+  // `rho`, when given, is rho-hat at the node's centre (computed by its parent's check).
+  void Process(int32_t i, const Rgb* rho) {
+    const FastReference::Node& node = nodes_[i];
+    if (node.weight[0] == 0 && node.weight[1] == 0 && node.weight[2] == 0) return;
+    if (cull_ && n_.Dot(node.centre) < -node.sin_radius - kGeometrySlack) return;
+    if (node.child_count == 0) {
+      AddLeaf(node);
+      return;
+    }
+    if (!Admissible(node)) {
+      for (int32_t k = 0; k < node.child_count; ++k) Process(node.first_child + k, nullptr);
+      return;
+    }
+    Record rec;
+    rec.node = i;
+    Rgb r;
+    if (rho != nullptr) {
+      r = *rho;
+    } else {
+      Rho(node.centre, r);
+    }
+    Rgb point;
+    for (int c = 0; c < 3; ++c) point[c] = node.weight[c] * r[c];
+    rec.value = {0, 0, 0};
+    for (int32_t k = 0; k < node.child_count; ++k) {
+      const FastReference::Node& child = nodes_[node.first_child + k];
+      Rho(child.centre, rec.child_rho[k]);
+      for (int c = 0; c < 3; ++c) rec.value[c] += child.weight[c] * rec.child_rho[k][c];
+    }
+    if (node.gradient >= 0) {  // first-order terms of the channels' own centroids
+      const FastReference::Gradient& g = gradients_[node.gradient];
+      for (int32_t k = 0; k < node.child_count; ++k)
+        for (int c = 0; c < 3; ++c) {
+          const double delta = rec.child_rho[k][c] - r[c];
+          point[c] += delta * g.parent[c][k];
+          rec.value[c] += delta * g.children[c][k];
+        }
+    }
+    double priority = 0;
+    for (int c = 0; c < 3; ++c) {
+      // Richardson: with errors proportional to the light's spread, Q's error is
+      // ratio x (Q - P), ratio = spread within the children / spread between them.
+      const double delta = node.richardson * (rec.value[c] - point[c]);
+      rec.error[c] = kFastReferenceErrorSafety * std::abs(delta);
+      rec.value[c] += delta;
+      priority += rec.error[c] * inv_total_[c];
+      total_[c] += rec.value[c];
+      error_[c] += rec.error[c];
+    }
+    heap_.push_back({priority, static_cast<int32_t>(records_.size())});
+    records_.push_back(rec);
+    std::push_heap(heap_.begin(), heap_.end());
+  }
+
+  // Refines the node with the largest error estimate until the estimate meets the target.
+  Rgb Run(std::span<const int32_t> roots, double tolerance, const Rgb& floor) {
+    if (mode_ == Mode::kExact) {
+      FastReference::Node all;
+      all.begin = 0;
+      all.end = static_cast<int32_t>(samples_.size());
+      AddLeaf(all);
+      return total_;
+    }
+    heap_.reserve(4096);
+    records_.reserve(4096);
+    for (int32_t r : roots) Process(r, nullptr);
+    while (!heap_.empty()) {
+      bool done = true;
+      for (int c = 0; c < 3; ++c)
+        if (error_[c] > tolerance * std::max(std::abs(total_[c]), floor[c])) done = false;
+      if (done) break;
+      std::pop_heap(heap_.begin(), heap_.end());
+      const Record rec = records_[heap_.back().record];
+      heap_.pop_back();
+      for (int c = 0; c < 3; ++c) {
+        total_[c] -= rec.value[c];
+        error_[c] -= rec.error[c];
+      }
+      const FastReference::Node& node = nodes_[rec.node];
+      for (int32_t k = 0; k < node.child_count; ++k)
+        Process(node.first_child + k, &rec.child_rho[k]);
+    }
+    return total_;
+  }
+
+ private:
+  bool Admissible(const FastReference::Node& node) const {
+    if (!(node.richardson < std::numeric_limits<double>::infinity())) return false;
+    const double r = node.radius;
+    if (horizon_ && std::abs(n_.Dot(node.centre)) <= node.sin_radius + kGeometrySlack) return false;
+    if (mode_ == Mode::kReflection) {
+      // r <= eta max(d, w): d >= r / eta is cos d <= cos(r / eta) (no trigonometry per node).
+      return r <= kFastReferenceEta * scale_ || node.centre.Dot(axis_) <= node.cos_open;
+    }
+    // kTangentProfile: the peak cone theta_i = theta* (a line feature) and the cone points +-T.
+    // A node straddling the cone has r >= its distance to it, so it passes only when r <= eta w:
+    // the peak is resolved.
+    const double theta = Angle(node.centre, n_);
+    const double to_cone = std::max(0.0, std::abs(theta - theta_star_) - theta_margin_);
+    if (r > kFastReferenceEta * std::max(to_cone, scale_)) return false;
+    return r <= kFastReferenceEta * std::max(std::min(theta, kPi - theta), scale_);
+  }
+
+  void SetUpLobe() {
+    axis_ = n_ * (2 * n_.Dot(v_)) - v_;
+    const double len = axis_.Norm();
+    axis_ = len > 0 ? axis_ * (1.0 / len) : n_;
+    scale_ = 0;
+    const double peak = RhoSum(axis_);
+    if (!(peak > 0)) return;
+    Vec3 u = n_ - axis_ * n_.Dot(axis_);
+    u = u.Norm() > 1e-9 ? u.Normalized() : Perpendicular(axis_);
+    const Vec3 u2 = axis_.Cross(u);
+    scale_ = kPi / 2;
+    for (const Vec3& dir : {u, u * -1.0, u2, u2 * -1.0}) {
+      double last = 0;
+      for (double t = kProbeMinAngle; t < scale_; t *= kProbeStep) {
+        const double val = RhoSum(axis_ * std::cos(t) + dir * std::sin(t));
+        if (!(val * kProbeFactor >= peak && val <= kProbeFactor * peak)) break;
+        last = t;
+      }
+      scale_ = std::min(scale_, last);
+    }
+  }
+
+  void SetUpProfile() {
+    Vec3 p = v_ - n_ * v_.Dot(n_);
+    p = p.Norm() > 1e-9 ? p.Normalized() : Perpendicular(n_);
+    std::vector<double> g(kProfileSamples);
+    const double step = kPi / kProfileSamples;
+    int best = 0;
+    for (int j = 0; j < kProfileSamples; ++j) {
+      const double t = (j + 0.5) * step;
+      g[j] = RhoSum(n_ * std::cos(t) + p * std::sin(t));
+      if (g[j] > g[best]) best = j;
+    }
+    if (!(g[best] > 0)) {
+      mode_ = Mode::kExact;  // no visible peak on the grid: nothing to steer by
+      return;
+    }
+    theta_star_ = (best + 0.5) * step;
+    theta_margin_ = step;
+    int lo = best, hi = best;
+    while (lo > 0 && g[lo - 1] * kProbeFactor >= g[best]) --lo;
+    while (hi + 1 < kProfileSamples && g[hi + 1] * kProbeFactor >= g[best]) ++hi;
+    scale_ = std::max(0.0, std::min(best - lo, hi - best) * step - step);
+  }
+
+  const Brdf& brdf_;
+  const Vec3 n_, v_;
+  const std::vector<FastReference::Sample>& samples_;
+  const std::vector<FastReference::Node>& nodes_;
+  const std::vector<FastReference::Gradient>& gradients_;
+  const Rgb inv_total_;
+  const int channels_;
+  Mode mode_ = Mode::kReflection;
+  bool horizon_ = false, cull_ = false;
+  Vec3 axis_;
+  double scale_ = 0;  // the lobe's angular scale (0: unknown)
+  double theta_star_ = 0, theta_margin_ = 0;
+  size_t evaluations_ = 0;
+  Rgb total_{0, 0, 0}, error_{0, 0, 0};
+  std::vector<HeapEntry> heap_;
+  std::vector<Record> records_;
+};
+
+}  // namespace
+
+struct FastReference::QueryStats {
+  size_t evaluations = 0;
+};
+
+absl::StatusOr<FastReference> FastReference::Create(std::span<const EnvSample> samples) {
+  if (samples.empty()) return absl::InvalidArgumentError("fast reference: no environment samples");
+  const size_t n = samples.size();
+  if (n > static_cast<size_t>(INT32_MAX)) {
+    return absl::InvalidArgumentError(absl::StrCat("fast reference: ", n, " samples (too many)"));
+  }
+  std::vector<uint64_t> key(n);
+  for (size_t i = 0; i < n; ++i) {
+    const EnvSample& s = samples[i];
+    const double norm = s.dir.Norm();
+    if (!std::isfinite(norm) || std::abs(norm - 1) > kUnitTolerance) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "fast reference: sample ", i, " has a non-unit direction (norm ", norm, ")"));
+    }
+    if (!std::isfinite(s.solid_angle) || s.solid_angle < 0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("fast reference: sample ", i, " has solid angle ", s.solid_angle));
+    }
+    for (int c = 0; c < 3; ++c) {
+      if (!std::isfinite(s.rgb[c])) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("fast reference: sample ", i, " has non-finite radiance"));
+      }
+    }
+    int face;
+    double u, t;
+    CubeFaceCoordinates(s.dir, &face, &u, &t);
+    key[i] = (static_cast<uint64_t>(face) << (2 * kMortonBits)) | Spread(Quantize(u)) |
+             (Spread(Quantize(t)) << 1);
+  }
+  std::vector<int32_t> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(),
+            [&key](int32_t a, int32_t b) { return key[a] != key[b] ? key[a] < key[b] : a < b; });
+
+  FastReference r;
+  r.samples_.resize(n);
+  std::vector<uint64_t> sorted_key(n);
+  Rgb total{0, 0, 0}, total_abs{0, 0, 0};
+  double solid_angle = 0;
+  for (size_t k = 0; k < n; ++k) {
+    const EnvSample& s = samples[order[k]];
+    sorted_key[k] = key[order[k]];
+    r.samples_[k].dir = s.dir;
+    for (int c = 0; c < 3; ++c) {
+      r.samples_[k].weight[c] = static_cast<double>(s.rgb[c]) * s.solid_angle;
+      total[c] += r.samples_[k].weight[c];
+      total_abs[c] += std::abs(r.samples_[k].weight[c]);
+    }
+    solid_angle += s.solid_angle;
+  }
+  for (int c = 0; c < 3; ++c) {
+    const double mean = solid_angle > 0 ? std::abs(total[c]) / solid_angle : 0.0;
+    r.floor_[c] = kFastReferenceFloor * mean;
+    r.inv_total_[c] = total_abs[c] > 0 ? 1.0 / total_abs[c] : 0.0;
+  }
+
+  // Fills node i over samples [begin, end) whose keys agree above Morton level `level`.
+  // Per node and channel, the first moment about the centre, sum_k L_c dOmega (w_k - centre):
+  // the term a gradient of rho-hat multiplies (zero for the luminance that places the centre).
+  std::vector<std::array<Vec3, 3>> offset;
+  // Per node, the second moment of the centroid weights about the centre (the spread a point
+  // rule's r^2 error is proportional to).
+  std::vector<double> moment;
+  auto build = [&r, &sorted_key, &offset, &moment](auto&& self, int32_t i, int32_t begin,
+                                                   int32_t end, int level) -> void {
+    {
+      offset.resize(r.nodes_.size());
+      moment.resize(r.nodes_.size());
+      Node& node = r.nodes_[i];
+      node.begin = begin;
+      node.end = end;
+      node.weight = {0, 0, 0};
+      Vec3 sum, plain;
+      for (int32_t k = begin; k < end; ++k) {
+        const Sample& s = r.samples_[k];
+        double lum = 0;
+        for (int c = 0; c < 3; ++c) {
+          node.weight[c] += s.weight[c];
+          lum += kLuminance[c] * s.weight[c];
+        }
+        sum = sum + s.dir * std::max(lum, 0.0);
+        plain = plain + s.dir;
+      }
+      // Black nodes (or rounding-degenerate sums) fall back to the plain mean direction.
+      node.centre = sum.Norm() > 1e-12 * plain.Norm() ? sum.Normalized() : plain.Normalized();
+      std::array<Vec3, 3>& o = offset[i];
+      o = {node.centre * -node.weight[0], node.centre * -node.weight[1],
+           node.centre * -node.weight[2]};
+      for (int32_t k = begin; k < end; ++k)
+        for (int c = 0; c < 3; ++c) o[c] = o[c] + r.samples_[k].dir * r.samples_[k].weight[c];
+      const bool lit = sum.Norm() > 1e-12 * plain.Norm();
+      double radius = 0, second = 0;
+      for (int32_t k = begin; k < end; ++k) {
+        const Sample& s = r.samples_[k];
+        radius = std::max(radius, Angle(node.centre, s.dir));
+        double lum = 0;
+        for (int c = 0; c < 3; ++c) lum += kLuminance[c] * s.weight[c];
+        const Vec3 d = s.dir - node.centre;
+        second += (lit ? std::max(lum, 0.0) : 1.0) * d.Dot(d);
+      }
+      moment[i] = second;
+      node.radius = radius + kGeometrySlack;
+      // Beyond pi/2 the horizon test would need the cap's far side: mark such nodes as always
+      // straddling (sin_radius = 1 fails |N.c| > sin_radius).
+      node.sin_radius = node.radius < kPi / 2 ? std::sin(node.radius) : 1.0;
+      const double open = node.radius / kFastReferenceEta;
+      node.cos_open = open < kPi ? std::cos(open) - kGeometrySlack : -2.0;
+    }
+    if (end - begin <= kFastReferenceLeafSamples) return;
+    // The first level at which the range splits (single-child chains are collapsed: a node whose
+    // only child holds the same samples would pass its own check trivially).
+    int32_t bounds[5];
+    int groups = 0;
+    for (; level < kMortonBits; ++level) {
+      const int shift = 2 * (kMortonBits - 1 - level);
+      groups = 0;
+      int last_digit = -1;
+      for (int32_t k = begin; k < end; ++k) {
+        const int digit = static_cast<int>((sorted_key[k] >> shift) & 3);
+        if (digit != last_digit) {
+          bounds[groups++] = k;
+          last_digit = digit;
+        }
+      }
+      bounds[groups] = end;
+      if (groups >= 2) break;
+    }
+    if (groups < 2) return;  // coincident samples: a leaf, summed exactly
+    const int32_t first = static_cast<int32_t>(r.nodes_.size());
+    r.nodes_.resize(r.nodes_.size() + groups);
+    r.nodes_[i].first_child = first;
+    r.nodes_[i].child_count = groups;
+    for (int g = 0; g < groups; ++g) self(self, first + g, bounds[g], bounds[g + 1], level + 1);
+  };
+  r.nodes_.reserve(n / 2 + 16);
+  int32_t begin = 0;
+  while (begin < static_cast<int32_t>(n)) {
+    const uint64_t face = sorted_key[begin] >> (2 * kMortonBits);
+    int32_t end = begin;
+    while (end < static_cast<int32_t>(n) && (sorted_key[end] >> (2 * kMortonBits)) == face) ++end;
+    const int32_t root = static_cast<int32_t>(r.nodes_.size());
+    r.nodes_.emplace_back();
+    r.roots_.push_back(root);
+    build(build, root, begin, end, 0);
+    begin = end;
+  }
+  offset.resize(r.nodes_.size());
+  moment.resize(r.nodes_.size());
+
+  // Gradient correction of every internal node: rho-hat's gradient g at the centre is fitted to
+  // the children's values (least squares in the tangent plane, Delta rho_j = g . (c_j - c)), so
+  // g . offset = sum_j Delta rho_j (G_j . offset) with G_j = M^+ p_j, M = sum_j p_j p_j^T.
+  for (size_t i = 0; i < r.nodes_.size(); ++i) {
+    Node& node = r.nodes_[i];
+    if (node.child_count == 0) continue;
+    const Vec3 c = node.centre;
+    {
+      // Richardson ratio: the children's r^2 errors over the parent's minus theirs, i.e. the
+      // spread within the children over the spread between them (1/3 for uniform light).
+      const bool lit =
+          r.nodes_[i].weight[0] != 0 || r.nodes_[i].weight[1] != 0 || r.nodes_[i].weight[2] != 0;
+      double within = 0, between = 0;
+      for (int j = 0; j < node.child_count; ++j) {
+        const Node& child = r.nodes_[node.first_child + j];
+        within += moment[node.first_child + j];
+        double lum = 0;
+        for (int ch = 0; ch < 3; ++ch) lum += kLuminance[ch] * child.weight[ch];
+        const Vec3 d = child.centre - c;
+        between += (lit ? std::max(lum, 0.0) : 1.0) * d.Dot(d);
+      }
+      // Also bounded below: a node whose children hold little spread is still a point rule.
+      node.richardson = between > within / kMaxRichardson
+                            ? std::max(within / between, kMinRichardson)
+                            : std::numeric_limits<double>::infinity();
+    }
+    const Vec3 a = Perpendicular(c), b = c.Cross(a);
+    std::array<std::array<double, 2>, 4> p{};
+    double m00 = 0, m01 = 0, m11 = 0;
+    for (int j = 0; j < node.child_count; ++j) {
+      const Vec3 d = r.nodes_[node.first_child + j].centre - c;
+      p[j] = {d.Dot(a), d.Dot(b)};
+      m00 += p[j][0] * p[j][0];
+      m01 += p[j][0] * p[j][1];
+      m11 += p[j][1] * p[j][1];
+    }
+    // Pseudo-inverse of the symmetric 2 x 2 M (children on a line give a rank-1 M).
+    const double tr = m00 + m11, disc = std::hypot(m00 - m11, 2 * m01);
+    const double lambda[2] = {0.5 * (tr + disc), 0.5 * (tr - disc)};
+    if (!(lambda[0] > 0)) continue;
+    double inv00 = 0, inv01 = 0, inv11 = 0;
+    for (double l : lambda) {
+      if (l <= kGradientRankTolerance * lambda[0]) continue;
+      double ex = m01, ey = l - m00;
+      if (std::hypot(ex, ey) < std::hypot(l - m11, m01)) {
+        ex = l - m11;
+        ey = m01;
+      }
+      const double len = std::hypot(ex, ey);
+      if (len == 0) {  // M = l I
+        ex = 1;
+        ey = 0;
+        inv00 += 1 / l;
+        inv11 += 1 / l;
+        continue;
+      }
+      ex /= len;
+      ey /= len;
+      inv00 += ex * ex / l;
+      inv01 += ex * ey / l;
+      inv11 += ey * ey / l;
+    }
+    Gradient g;
+    for (int j = 0; j < 4; ++j) {
+      Vec3 gj;
+      if (j < node.child_count) {
+        gj = a * (inv00 * p[j][0] + inv01 * p[j][1]) + b * (inv01 * p[j][0] + inv11 * p[j][1]);
+      }
+      for (int ch = 0; ch < 3; ++ch) {
+        g.parent[ch][j] = gj.Dot(offset[i][ch]);
+        double sum = 0;
+        for (int k = 0; k < node.child_count; ++k) sum += gj.Dot(offset[node.first_child + k][ch]);
+        g.children[ch][j] = sum;
+      }
+    }
+    node.gradient = static_cast<int32_t>(r.gradients_.size());
+    r.gradients_.push_back(g);
+  }
+  return r;
+}
+
+std::array<double, 3> FastReference::Query(const Brdf& brdf, const Vec3& n, const Vec3& v,
+                                           double tolerance, QueryStats* stats) const {
+  QueryState q(brdf, n, v, samples_, nodes_, gradients_, inv_total_);
+  const Rgb out = q.Run(roots_, tolerance, floor_);
+  if (stats != nullptr) stats->evaluations = q.evaluations();
+  return out;
+}
+
+std::array<double, 3> FastReference::Radiance(const Brdf& brdf, const Mat3& rotation,
+                                              const Vec3& index, const Vec3& view,
+                                              double relative_tolerance) const {
+  const Mat3 inv = rotation.Transposed();
+  return Query(brdf, inv * index, inv * view, relative_tolerance, nullptr);
+}
+
+std::vector<std::array<double, 3>> FastReference::RadianceMany(
+    const Brdf& brdf, const Mat3& rotation, std::span<const Vec3> index, std::span<const Vec3> view,
+    int threads, double relative_tolerance) const {
+  const size_t count = std::min(index.size(), view.size());
+  std::vector<std::array<double, 3>> out(count);
+  ParallelChunks(static_cast<int>(count), threads, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i)
+      out[i] = Radiance(brdf, rotation, index[i], view[i], relative_tolerance);
+  });
+  return out;
+}
+
+size_t FastReference::EvaluationCount(const Brdf& brdf, const Mat3& rotation, const Vec3& index,
+                                      const Vec3& view, double relative_tolerance) const {
+  const Mat3 inv = rotation.Transposed();
+  QueryStats stats;
+  Query(brdf, inv * index, inv * view, relative_tolerance, &stats);
+  return stats.evaluations;
+}
+
+}  // namespace shrm
