@@ -14,7 +14,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -23,6 +22,7 @@
 #include "core/io/image.h"
 #include "core/shrm/fast_reference.h"
 #include "core/shrm/shrm_reference.h"
+#include "core/shrm/tolerance.h"
 
 namespace shrm {
 namespace {
@@ -35,34 +35,13 @@ double Now() {
   return ts.tv_sec + 1e-9 * ts.tv_nsec;
 }
 
-Vec3 RandomUnit(std::mt19937_64& rng) {
-  std::normal_distribution<double> g;
-  Vec3 d;
-  do {
-    d = Vec3{g(rng), g(rng), g(rng)};
-  } while (d.Norm() < 1e-6);
-  return d.Normalized();
-}
-
-// N (or T) and V pairs as in the file comment.
+// N (or T) and V pairs as in the file comment (SeededDirectionPairs).
 void Directions(bool tangent, int count, uint64_t seed, std::vector<Vec3>* index,
                 std::vector<Vec3>* view) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u01(0, 1);
-  for (int i = 0; i < count; ++i) {
-    const Vec3 v = RandomUnit(rng);
-    Vec3 n;
-    if (tangent) {
-      n = RandomUnit(rng);
-    } else {  // cosine-weighted about v
-      const Vec3 e = std::abs(v.x) < 0.6 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
-      const Vec3 a = (e - v * v.Dot(e)).Normalized(), b = v.Cross(a);
-      const double r = std::sqrt(u01(rng)), phi = 2 * kPi * u01(rng);
-      n = (a * (r * std::cos(phi)) + b * (r * std::sin(phi)) + v * std::sqrt(1 - r * r))
-              .Normalized();
-    }
-    index->push_back(n);
-    view->push_back(v);
+  for (const DirectionPair& p : SeededDirectionPairs(
+           seed, count, tangent ? ReparamKind::kTangent : ReparamKind::kReflection)) {
+    index->push_back(p.index);
+    view->push_back(p.view);
   }
 }
 

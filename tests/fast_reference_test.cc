@@ -13,7 +13,6 @@
 #include <cstdio>
 #include <limits>
 #include <memory>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -23,6 +22,7 @@
 #include "core/envmap/envmap.h"
 #include "core/io/image.h"
 #include "core/shrm/shrm_reference.h"
+#include "core/shrm/tolerance.h"
 #include "gtest/gtest.h"
 #include "tests/test_maps.h"
 
@@ -64,28 +64,12 @@ std::unique_ptr<Brdf> ParseOrDie(const std::string& spec) {
   return b.ok() ? *std::move(b) : nullptr;
 }
 
-Vec3 RandomUnit(std::mt19937_64& rng) {
-  std::normal_distribution<double> g;
-  Vec3 d;
-  do {
-    d = Vec3{g(rng), g(rng), g(rng)};
-  } while (d.Norm() < 1e-6);
-  return d.Normalized();
-}
-
 // V uniform on the sphere; N over V's hemisphere with density proportional to N.V (the visible
-// points of a sphere seen from V). For tangent models the same N is used as T.
+// points of a sphere seen from V: SeededDirectionPairs). For tangent models the same N is T.
 void DrawDirections(int count, uint64_t seed, std::vector<Vec3>* index, std::vector<Vec3>* view) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u01(0, 1);
-  for (int i = 0; i < count; ++i) {
-    const Vec3 v = RandomUnit(rng);
-    const Vec3 e = std::abs(v.x) < 0.6 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
-    const Vec3 a = (e - v * v.Dot(e)).Normalized(), b = v.Cross(a);
-    const double r = std::sqrt(u01(rng)), phi = 2 * kPi * u01(rng);
-    index->push_back((a * (r * std::cos(phi)) + b * (r * std::sin(phi)) + v * std::sqrt(1 - r * r))
-                         .Normalized());
-    view->push_back(v);
+  for (const DirectionPair& p : SeededDirectionPairs(seed, count, ReparamKind::kReflection)) {
+    index->push_back(p.index);
+    view->push_back(p.view);
   }
 }
 
