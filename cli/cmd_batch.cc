@@ -155,6 +155,25 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
             err(path, "must be a number in (0, 1)");
           else
             opt->job.epsilon = v.get<double>();
+        } else if (key == "tolerance") {
+          if (!v.is_number() || !(v.get<double>() > 0 && v.get<double>() < 1))
+            err(path, "must be a number in (0, 1)");
+          else
+            opt->job.tolerance = v.get<double>();
+        } else if (key == "verify") {
+          if (!v.is_number_integer() || v.get<long long>() < 0 ||
+              v.get<long long>() > jobs::kMaxVerifyPairs)
+            err(path, absl::StrCat("must be an integer in [0, ", jobs::kMaxVerifyPairs, "]"));
+          else
+            opt->job.verify = v.get<int>();
+        } else if (key == "window") {
+          absl::StatusOr<RingingWindow> w = v.is_string()
+                                                ? ParseRingingWindow(v.get<std::string>())
+                                                : absl::InvalidArgumentError("not a string");
+          if (!w.ok())
+            err(path, "must be \"none\", \"lanczos\" or \"auto\"");
+          else
+            opt->job.window = *w;
         } else if (key == "kind") {
           if (!v.is_string() || (v != "global" && v != "local"))
             err(path, "must be \"global\" or \"local\"");
@@ -195,8 +214,9 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
                 std::array<double, 3>{v[0].get<double>(), v[1].get<double>(), v[2].get<double>()};
         } else {
           err(path,
-              "unknown option (expected epsilon, kind, size, orders, half, rotate, report, "
-              "preview)");
+              "unknown option (expected epsilon, tolerance, window, verify, kind, size, orders, "
+              "half, "
+              "rotate, report, preview)");
         }
       }
     }

@@ -79,7 +79,7 @@ double AutoExposure(const Image& img) {
 // Prints the summary lines of a run (both modes).
 void PrintSummary(const jobs::PrefilterJob& job, const PrefilterRun& run,
                   const std::string& brdf_spec, int face_size, const ShrmAnalysis& an,
-                  const nlohmann::json& timings) {
+                  const nlohmann::json& report) {
   std::printf("wrote %s: %s SHRM, %d x %d x 6 texels, (F_B, P_B) = (%d, %d)\n", run.output.c_str(),
               jobs::ShrmKindName(job.kind), face_size, face_size, an.f_b, an.p_b);
   std::printf("  BRDF %s: (F_rho, P_rho) = (%d, %d), eps_brdf %.4g\n", brdf_spec.c_str(), an.f_brdf,
@@ -87,8 +87,18 @@ void PrintSummary(const jobs::PrefilterJob& job, const PrefilterRun& run,
   std::printf("  lighting: F_L %s, eps_light %.4g; eq. 5.19 bound %.4g\n",
               an.f_light >= 0 ? std::to_string(an.f_light).c_str() : "not reached", an.eps_light,
               an.eps_bound);
+  if (report.contains("tolerance")) {
+    const nlohmann::json& t = report["tolerance"];
+    const nlohmann::json& e = t["estimate"];
+    std::printf(
+        "  tolerance %g (window %s): estimated front RMS %.4g, largest %.4g; grazing RMS %.4g%s\n",
+        t["tolerance"].get<double>(), report["window"].get<std::string>().c_str(),
+        e["front"]["rms"].get<double>(), e["front"]["max"].get<double>(),
+        e["grazing"]["rms"].get<double>(), t["met"].get<bool>() ? "" : " (NOT MET)");
+  }
   std::printf("  time:");
-  for (const auto& [k, v] : timings.items()) std::printf(" %s %.1f", k.c_str(), v.get<double>());
+  for (const auto& [k, v] : report["timings"].items())
+    std::printf(" %s %.1f", k.c_str(), v.get<double>());
   std::printf("\n");
 }
 
@@ -163,10 +173,10 @@ absl::Status RunPrefilterRemote(const jobs::PrefilterJob& job, const PrefilterRu
     outcome->f_b = rep.f_b();
     outcome->p_b = rep.p_b();
   }
-  if (run.quiet) return absl::OkStatus();
+  if (run.quiet) return jobs::ToleranceOutcome(job, report);
   if (run.json) {
     std::printf("%s\n", report.dump(2).c_str());
-    return absl::OkStatus();
+    return jobs::ToleranceOutcome(job, report);
   }
   ShrmAnalysis an;
   an.f_light = rep.f_light();
@@ -177,10 +187,10 @@ absl::Status RunPrefilterRemote(const jobs::PrefilterJob& job, const PrefilterRu
   an.eps_light = rep.eps_light();
   an.eps_brdf = rep.eps_brdf();
   an.eps_bound = rep.eps_bound();
-  PrintSummary(job, run, rep.brdf(), rep.face_size(), an, report["timings"]);
+  PrintSummary(job, run, rep.brdf(), rep.face_size(), an, report);
   std::printf("  server %s: lighting cache %s, BRDF cache %s\n", run.server.c_str(),
               rep.cache().lighting_hit() ? "hit" : "miss", rep.cache().brdf_hit() ? "hit" : "miss");
-  return absl::OkStatus();
+  return jobs::ToleranceOutcome(job, report);
 }
 
 absl::Status RunPrefilterEmbedded(const jobs::PrefilterJob& job, const PrefilterRun& run,
@@ -226,13 +236,13 @@ absl::Status RunPrefilterEmbedded(const jobs::PrefilterJob& job, const Prefilter
     outcome->f_b = an.f_b;
     outcome->p_b = an.p_b;
   }
-  if (run.quiet) return absl::OkStatus();
+  if (run.quiet) return jobs::ToleranceOutcome(job, report);
   if (run.json) {
     std::printf("%s\n", report.dump(2).c_str());
   } else {
-    PrintSummary(job, run, r->provenance.brdf_spec, r->result.cube.face_size, an, timings);
+    PrintSummary(job, run, r->provenance.brdf_spec, r->result.cube.face_size, an, report);
   }
-  return absl::OkStatus();
+  return jobs::ToleranceOutcome(job, report);
 }
 
 std::string Help(std::string_view option) {
@@ -247,6 +257,14 @@ void AddPrefilterJobOptions(CLI::App* sub, PrefilterArgs* args) {
   sub->add_option("--epsilon", args->epsilon, Help("epsilon"))
       ->capture_default_str()
       ->check(jobs::kOpenUnitInterval);
+  sub->add_option("--tolerance", args->tolerance, Help("tolerance"))
+      ->check(jobs::kOpenUnitInterval);
+  sub->add_option("--window", args->window, Help("window"))
+      ->capture_default_str()
+      ->check(CLI::IsMember({"none", "lanczos", "auto"}));
+  sub->add_option("--verify", args->verify, Help("verify"))
+      ->capture_default_str()
+      ->check(CLI::Range(0, jobs::kMaxVerifyPairs));
   sub->add_option("--orders", args->orders, Help("orders"))->check(jobs::kOrders);
   sub->add_option("--kind", args->kind, Help("kind"))
       ->capture_default_str()
@@ -262,6 +280,12 @@ absl::StatusOr<jobs::PrefilterJob> PrefilterJobFromArgs(const PrefilterArgs& a) 
   SHRM_ASSIGN_OR_RETURN(job.env, EnvSpecFromArgs(a.env));
   job.brdf = a.brdf;
   job.epsilon = a.epsilon;
+  job.tolerance = a.tolerance;
+  job.verify = a.verify;
+  absl::StatusOr<RingingWindow> window = ParseRingingWindow(a.window);
+  if (!window.ok())
+    return WithMessage(window.status(), absl::StrCat("--", window.status().message()));
+  job.window = *window;
   if (!a.orders.empty()) {
     SHRM_ASSIGN_OR_RETURN(job.orders, jobs::ParseOrdersText(a.orders, "--orders"));
   }

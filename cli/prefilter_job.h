@@ -21,6 +21,9 @@ struct PrefilterArgs {
   std::string brdf;
   double epsilon = jobs::kDefaultEpsilon;
   std::string orders;  // "F,P"
+  double tolerance = 0;
+  int verify = 0;
+  std::string window = RingingWindowName(RingingWindow::kAuto);
   std::string kind = jobs::ShrmKindName(ShrmKind::kGlobal);
   int size = 0;
   bool half = false;

@@ -8,7 +8,7 @@ namespace {
 constexpr unsigned kEverywhere = kCommandLine | kManifest | kWire;
 
 // The files of a job: one map, or six faces (the manifest lists maps; a job takes one of them).
-const std::array<JobOption, 13> kPrefilterOptions = {{
+const std::array<JobOption, 16> kPrefilterOptions = {{
     {"env", "environment map file; give six files (+X -X +Y -Y +Z -Z) for a cube stored as faces",
      kCommandLine | kWire,
      "--env a.exr --env b.exr --env c.exr --env d.exr --env e.exr --env f.exr", "",
@@ -43,6 +43,17 @@ const std::array<JobOption, 13> kPrefilterOptions = {{
      "manifest: \"brdfs\" lists the specs, one job each"},
     {"epsilon", "tolerance for the orders, in (0, 1)", kEverywhere, "--epsilon 0.05", "0.05",
      [](PrefilterJob* j) { j->epsilon = 0.05; }, ""},
+    {"tolerance",
+     "per-direction relative RMS tolerance, in (0, 1): orders, window and size chosen for the "
+     "error "
+     "seen per direction (docs/shrm.md); instead of --epsilon",
+     kEverywhere, "--tolerance 0.02", "0.02", [](PrefilterJob* j) { j->tolerance = 0.02; }, ""},
+    {"window", "ringing window on the lighting bands: none, lanczos, or auto (--tolerance chooses)",
+     kEverywhere, "--window lanczos", "\"lanczos\"",
+     [](PrefilterJob* j) { j->window = RingingWindow::kLanczos; }, ""},
+    {"verify",
+     "measure the result at N seeded (N, V) pairs against the brute-force sum (0: no check)",
+     kEverywhere, "--verify 64", "64", [](PrefilterJob* j) { j->verify = 64; }, ""},
     {"orders", "explicit orders F,P instead of --epsilon", kEverywhere, "--orders 12,3", "\"12,3\"",
      [](PrefilterJob* j) {
        j->orders = Orders{12, 3};

@@ -1,6 +1,7 @@
 #include "jobs/prefilter_job.h"
 
 #include <chrono>
+#include <cmath>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
@@ -24,6 +25,18 @@ absl::Status ValidatePrefilterJob(const PrefilterJob& job) {
   if (!(job.epsilon > 0 && job.epsilon < 1)) {
     return absl::InvalidArgumentError(absl::StrCat("epsilon must be in (0, 1), got ", job.epsilon));
   }
+  if (!(job.tolerance >= 0 && job.tolerance < 1)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("tolerance must be in (0, 1), got ", job.tolerance));
+  }
+  if (job.verify < 0 || job.verify > kMaxVerifyPairs) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("verify must be in [0, ", kMaxVerifyPairs, "] pairs, got ", job.verify));
+  }
+  if (job.tolerance > 0 && job.orders) {
+    return absl::InvalidArgumentError(
+        "tolerance and orders exclude each other (the tolerance chooses the orders)");
+  }
   if (job.orders) {
     const Orders& o = *job.orders;
     if (o.f < 0 || o.p < 0 || o.f > kMaxOrderF || o.p > kMaxOrderP) {
@@ -46,6 +59,9 @@ PrefilterOptions CorePrefilterOptions(const PrefilterJob& job, int threads) {
     opt.f = job.orders->f;
     opt.p = job.orders->p;
   }
+  opt.tolerance = job.tolerance;
+  opt.window = job.window;
+  opt.verify = job.verify;
   opt.kind = job.kind;
   opt.face_size = job.face_size;
   opt.rotation = EnvironmentRotation(job.env);
@@ -54,12 +70,35 @@ PrefilterOptions CorePrefilterOptions(const PrefilterJob& job, int threads) {
 }
 
 std::string EpsilonAttribute(const PrefilterJob& job) {
-  return job.orders ? std::string(kExplicitOrdersAttribute) : absl::StrCat(job.epsilon);
+  if (job.orders) return kExplicitOrdersAttribute;
+  if (job.tolerance > 0) return kToleranceRuleAttribute;
+  return absl::StrCat(job.epsilon);
 }
+
+namespace {
+
+std::string EstimateText(const DirectionalError& e) {
+  return absl::StrCat(e.front.rms, ",", e.front.max, ",", e.grazing.rms, ",", e.grazing.max);
+}
+
+// The estimate's total: truncation and interpolation in quadrature (RMS), summed (largest).
+DirectionalError TotalEstimate(const ToleranceChoice& c) {
+  DirectionalError e;
+  e.front.rms = std::hypot(c.truncation.front.rms, c.interpolation.front.rms);
+  e.front.max = c.truncation.front.max + c.interpolation.front.max;
+  e.grazing.rms = std::hypot(c.truncation.grazing.rms, c.interpolation.grazing.rms);
+  e.grazing.max = c.truncation.grazing.max + c.interpolation.grazing.max;
+  return e;
+}
+
+nlohmann::json StatsJson(const ErrorStats& s) { return {{"rms", s.rms}, {"max", s.max}}; }
+
+}  // namespace
 
 std::map<std::string, std::string> PrefilterFileAttributes(const PrefilterJob& job,
                                                            const PrefilterProvenance& provenance,
-                                                           const ShrmAnalysis& an) {
+                                                           const PrefilterResult& result) {
+  const ShrmAnalysis& an = result.analysis;
   std::map<std::string, std::string> attrs = {
       {"shrm:brdf", provenance.brdf_spec},
       {"shrm:epsilon", EpsilonAttribute(job)},
@@ -68,6 +107,7 @@ std::map<std::string, std::string> PrefilterFileAttributes(const PrefilterJob& j
       {"shrm:eps_light", absl::StrCat(an.eps_light)},
       {"shrm:eps_brdf", absl::StrCat(an.eps_brdf)},
       {"shrm:eps_bound", absl::StrCat(an.eps_bound)},
+      {"shrm:window", RingingWindowName(result.window)},
       {"shrm:source", provenance.source.names},
       {"shrm:source_sha256", provenance.source.sha256},
       {"shrm:working_space", job.env.working_colour_space},
@@ -75,15 +115,49 @@ std::map<std::string, std::string> PrefilterFileAttributes(const PrefilterJob& j
       {"shrm:version", kVersion},
   };
   if (job.env.rotate_ypr_deg) attrs["shrm:rotate_ypr_deg"] = RotationAttribute(job.env);
+  if (result.tolerance_rule) {
+    attrs["shrm:tolerance"] = absl::StrCat(job.tolerance);
+    attrs["shrm:estimated_error"] = EstimateText(TotalEstimate(result.choice));
+  }
+  if (result.verified_pairs > 0) {
+    attrs["shrm:measured_error"] =
+        absl::StrCat(EstimateText(result.measured), ",", result.verified_pairs);
+  }
   return attrs;
 }
 
 nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProvenance& provenance,
-                                   const ShrmAnalysis& analysis, int face_size) {
-  nlohmann::json report = AnalysisJson(analysis);
+                                   const PrefilterResult& result) {
+  nlohmann::json report = AnalysisJson(result.analysis);
   report["brdf"] = provenance.brdf_spec;
   report["kind"] = ShrmKindName(job.kind);
-  report["face_size"] = face_size;
+  report["face_size"] = result.cube.face_size;
+  report["window"] = RingingWindowName(result.window);
+  if (result.verified_pairs > 0) {
+    report["measured"] = {{"pairs", result.verified_pairs},
+                          {"front", StatsJson(result.measured.front)},
+                          {"grazing", StatsJson(result.measured.grazing)},
+                          {"negative", result.measured.negative}};
+  }
+  if (result.tolerance_rule) {
+    const ToleranceChoice& c = result.choice;
+    const ToleranceTargets t = TargetsForTolerance(job.tolerance);
+    const DirectionalError total = TotalEstimate(c);
+    report["tolerance"] = {
+        {"tolerance", job.tolerance},
+        {"targets", {{"front_rms", t.rms}, {"front_max", t.max}, {"grazing_rms", t.grazing_rms}}},
+        {"estimate",
+         {{"front", StatsJson(total.front)},
+          {"grazing", StatsJson(total.grazing)},
+          {"truncation",
+           {{"front", StatsJson(c.truncation.front)},
+            {"grazing", StatsJson(c.truncation.grazing)}}},
+          {"interpolation",
+           {{"front", StatsJson(c.interpolation.front)},
+            {"grazing", StatsJson(c.interpolation.grazing)}}}}},
+        {"reference_orders", {c.f_ref, c.p_ref}},
+        {"met", c.met}};
+  }
   report["source_sha256"] = provenance.source.sha256;
   report["layout"] = EnvLayoutName(provenance.layout);
   report["shrm_version"] = kVersion;
@@ -102,6 +176,11 @@ std::string WhyFileDiffers(const PrefilterJob& job, const std::string& canonical
   if (!(why = differs("shrm:brdf", canonical_brdf)).empty()) return why;
   if (!differs("shrm:source_sha256", source_sha256).empty()) return "source changed";
   if (!(why = differs("shrm:epsilon", EpsilonAttribute(job))).empty()) return why;
+  if (job.tolerance > 0 && !(why = differs("shrm:tolerance", absl::StrCat(job.tolerance))).empty())
+    return why;
+  if (job.window != RingingWindow::kAuto &&
+      !(why = differs("shrm:window", RingingWindowName(job.window))).empty())
+    return why;
   if (job.orders &&
       !(why = differs("shrm:orders", absl::StrCat(job.orders->f, ",", job.orders->p))).empty())
     return why;
@@ -132,10 +211,38 @@ absl::StatusOr<PrefilterRun> RunPrefilterJob(const PrefilterJob& job, int thread
   run.provenance.layout = env.layout();
   SHRM_ASSIGN_OR_RETURN(run.result,
                         Prefilter(env, *brdf, CorePrefilterOptions(job, threads), progress));
-  const ShrmAnalysis& an = run.result.analysis;
-  run.attributes = PrefilterFileAttributes(job, run.provenance, an);
-  run.report = PrefilterReportJson(job, run.provenance, an, run.result.cube.face_size);
+  run.attributes = PrefilterFileAttributes(job, run.provenance, run.result);
+  run.report = PrefilterReportJson(job, run.provenance, run.result);
   return run;
+}
+
+absl::Status ToleranceOutcome(const PrefilterJob& job, const nlohmann::json& report) {
+  if (job.tolerance <= 0 || !report.contains("tolerance")) return absl::OkStatus();
+  const nlohmann::json& t = report["tolerance"];
+  const ToleranceTargets targets = TargetsForTolerance(job.tolerance);
+  const std::string where =
+      absl::StrCat(" at (F_B, P_B) = (", report.value("F_B", 0), ", ", report.value("P_B", 0),
+                   "), S_B ", report.value("face_size", 0));
+  if (!t.value("met", false)) {
+    const nlohmann::json& front = t["estimate"]["front"];
+    return absl::FailedPreconditionError(absl::StrCat(
+        "tolerance ", job.tolerance, " not met: estimated front RMS ", front.value("rms", 0.0),
+        " (target ", targets.rms, "), largest ", front.value("max", 0.0), " (target ", targets.max,
+        ")", where, ": the most accurate within the reference orders (",
+        t["reference_orders"][0].get<int>(), ", ", t["reference_orders"][1].get<int>(),
+        "); the outputs were written"));
+  }
+  if (report.contains("measured")) {
+    const nlohmann::json& front = report["measured"]["front"];
+    const double rms = front.value("rms", 0.0), largest = front.value("max", 0.0);
+    if (rms > targets.rms || largest > targets.max) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "tolerance ", job.tolerance, " not met: measured front RMS ", rms, " (target ",
+          targets.rms, "), largest ", largest, " (target ", targets.max, ") at ",
+          report["measured"].value("pairs", 0), " pairs", where, "; the outputs were written"));
+    }
+  }
+  return absl::OkStatus();
 }
 
 }  // namespace shrm::jobs

@@ -33,8 +33,12 @@ inline constexpr double kDefaultEpsilon = 0.03;
 inline constexpr int kMaxOrderF = kMaxBrdfLmax;
 inline constexpr int kMaxOrderP = 31;
 inline constexpr int kMaxFaceSize = 2048;
+// Most pairs a job's own check may ask for (about 1 ms each).
+inline constexpr int kMaxVerifyPairs = 100000;
 // shrm:epsilon of a job with explicit orders.
 inline constexpr char kExplicitOrdersAttribute[] = "explicit orders";
+// shrm:epsilon of a job with the per-direction tolerance rule.
+inline constexpr char kToleranceRuleAttribute[] = "per-direction tolerance";
 
 struct Orders {
   int f = 0;  // F_B
@@ -47,6 +51,14 @@ struct PrefilterJob {
   std::string brdf;                  // BRDF spec (docs/brdf.md)
   double epsilon = kDefaultEpsilon;  // tolerance, in (0, 1); unused with explicit orders
   std::optional<Orders> orders;      // explicit (F_B, P_B) instead of the selection
+  // > 0: the per-direction tolerance rule (core/shrm/tolerance.h) chooses F_B, P_B, the window
+  // and S_B instead of epsilon; 0 = the paper's epsilon rule. Excludes `orders`.
+  double tolerance = 0;
+  // Ringing window on the lighting bands; kAuto = chosen by the tolerance rule (none otherwise).
+  RingingWindow window = RingingWindow::kAuto;
+  // > 0: the job measures its cube at this many seeded pairs against the brute-force sum
+  // (FastReference): the report's "measured", shrm:measured_error; 0 = no check.
+  int verify = 0;
   ShrmKind kind = ShrmKind::kGlobal;
   int face_size = 0;  // S_B; 0 = about 10 F_B in [16, 512]
   bool half = false;  // half floats in the SHRM file
@@ -71,20 +83,28 @@ struct PrefilterProvenance {
   EnvLayout layout = EnvLayout::kAuto;  // the resolved layout of the decoded map
 };
 
-// shrm:epsilon: the tolerance, or "explicit orders".
+// shrm:epsilon: the tolerance, "explicit orders" or "per-direction tolerance".
 std::string EpsilonAttribute(const PrefilterJob& job);
 // The SHRM file's attributes (docs/formats.md): shrm:brdf, shrm:epsilon, shrm:orders,
-// shrm:brdf_orders, shrm:eps_light, shrm:eps_brdf, shrm:eps_bound, shrm:source,
-// shrm:source_sha256, shrm:working_space, shrm:layout, shrm:version (shrm::kVersion) and, when
-// rotated, shrm:rotate_ypr_deg.
+// shrm:brdf_orders, shrm:eps_light, shrm:eps_brdf, shrm:eps_bound, shrm:window, shrm:source,
+// shrm:source_sha256, shrm:working_space, shrm:layout, shrm:version (shrm::kVersion), when
+// rotated shrm:rotate_ypr_deg, with the tolerance rule shrm:tolerance and shrm:estimated_error
+// ("front_rms,front_max,grazing_rms,grazing_max", core/shrm/tolerance.h) and, when checked,
+// shrm:measured_error (the same four and the number of pairs).
 std::map<std::string, std::string> PrefilterFileAttributes(const PrefilterJob& job,
                                                            const PrefilterProvenance& provenance,
-                                                           const ShrmAnalysis& analysis);
+                                                           const PrefilterResult& result);
 // The report (docs/cli.md "--report"): the analysis (AnalysisJson) with brdf, kind, face_size,
-// source_sha256, layout and shrm_version. Front ends add what only they know (output, source,
-// timings, cache).
+// window, source_sha256, layout and shrm_version and, with the tolerance rule, "tolerance" (the
+// targets, the estimate, the reference orders, met). Front ends add what only they know (output,
+// source, timings, cache).
 nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProvenance& provenance,
-                                   const ShrmAnalysis& analysis, int face_size);
+                                   const PrefilterResult& result);
+// The tolerance rule's estimate and, when checked, the measured error against the job's targets,
+// from the report (PrefilterReportJson, embedded or from a server): FailedPrecondition naming the
+// figures when one misses them (the outputs are written all the same: the most accurate orders
+// within the limits), OK when both meet them or the job has no tolerance.
+absl::Status ToleranceOutcome(const PrefilterJob& job, const nlohmann::json& report);
 
 // Why an existing SHRM file was not made by `job` from a source with `source_sha256` and a BRDF
 // whose canonical spec is `canonical_brdf` ("" when it was): a resumed batch recomputes it then.

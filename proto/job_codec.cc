@@ -121,12 +121,18 @@ v1::PrefilterRequest EncodePrefilterRequest(const jobs::PrefilterJob& job,
   if (job.orders) {
     req.mutable_orders()->set_f(job.orders->f);
     req.mutable_orders()->set_p(job.orders->p);
+  } else if (job.tolerance > 0) {
+    req.set_tolerance(job.tolerance);
   } else {
     req.set_epsilon(job.epsilon);
   }
+  req.set_window(job.window == RingingWindow::kNone      ? v1::RINGING_WINDOW_NONE
+                 : job.window == RingingWindow::kLanczos ? v1::RINGING_WINDOW_LANCZOS
+                                                         : v1::RINGING_WINDOW_AUTO);
   req.set_kind(job.kind == ShrmKind::kLocal ? v1::SHRM_KIND_LOCAL : v1::SHRM_KIND_GLOBAL);
   req.set_face_size(job.face_size);
   req.set_half(job.half);
+  req.set_verify(job.verify);
   return req;
 }
 
@@ -138,6 +144,21 @@ absl::StatusOr<WirePrefilter> DecodePrefilterRequest(const v1::PrefilterRequest&
     w.job.orders = jobs::Orders{request.orders().f(), request.orders().p()};
   } else if (request.order_choice_case() == v1::PrefilterRequest::kEpsilon) {
     w.job.epsilon = request.epsilon();
+  } else if (request.order_choice_case() == v1::PrefilterRequest::kTolerance) {
+    w.job.tolerance = request.tolerance();
+  }
+  switch (request.window()) {
+    case v1::RINGING_WINDOW_AUTO:
+      w.job.window = RingingWindow::kAuto;
+      break;
+    case v1::RINGING_WINDOW_NONE:
+      w.job.window = RingingWindow::kNone;
+      break;
+    case v1::RINGING_WINDOW_LANCZOS:
+      w.job.window = RingingWindow::kLanczos;
+      break;
+    default:
+      return absl::InvalidArgumentError("window: unknown value");
   }
   switch (request.kind()) {
     case v1::SHRM_KIND_UNSPECIFIED:
@@ -152,6 +173,7 @@ absl::StatusOr<WirePrefilter> DecodePrefilterRequest(const v1::PrefilterRequest&
   }
   w.job.face_size = request.face_size();
   w.job.half = request.half();
+  w.job.verify = request.verify();
   w.want_file = w.want_report = request.outputs_size() == 0;
   for (int o : request.outputs()) {
     if (o == v1::OUTPUT_SHRM_FILE) w.want_file = true;

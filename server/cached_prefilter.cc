@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <memory>
+#include <optional>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -31,6 +32,22 @@ absl::StatusOr<CachedPrefilterResult> CachedPrefilter(const CachedPrefilterInput
   CachedPrefilterResult out;
   PrefilterResult& r = out.result;
   StageClock clock(&r.timings, hook);
+  if (options.tolerance > 0 && !explicit_orders) {
+    // The tolerance rule computes rho_lpq and L_lm at reference orders it grows per job
+    // (core/shrm/prefilter.cc): the map is decoded and the core pipeline runs whole, uncached.
+    SHRM_RETURN_IF_ERROR(clock.Begin("decode"));
+    SHRM_ASSIGN_OR_RETURN(EnvMap env, EnvMap::Load(input.env));
+    clock.End();
+    PrefilterOptions bounded = options;
+    bounded.max_cube_values = input.max_cube_values;
+    SHRM_ASSIGN_OR_RETURN(PrefilterResult full, Prefilter(env, brdf, bounded, hook));
+    std::vector<StageTiming> timings = std::move(r.timings);
+    r = std::move(full);
+    timings.insert(timings.end(), r.timings.begin(), r.timings.end());
+    r.timings = std::move(timings);
+    out.layout = env.layout();
+    return out;
+  }
 
   // 1. rho_lpq.
   SHRM_RETURN_IF_ERROR(clock.Begin("brdf"));
@@ -56,14 +73,20 @@ absl::StatusOr<CachedPrefilterResult> CachedPrefilter(const CachedPrefilterInput
   const std::string light_key = absl::StrCat(input.env_key, "|F=", f_rho);
   std::shared_ptr<const CachedLighting> cl = caches->lighting.Get(light_key);
   out.lighting_hit = cl != nullptr;
-  if (!cl) {
+  std::optional<EnvMap> env;  // decoded on a lighting miss, or for the check (verify)
+  auto decode = [&]() -> absl::Status {
     SHRM_RETURN_IF_ERROR(clock.Begin("decode"));
-    SHRM_ASSIGN_OR_RETURN(EnvMap env, EnvMap::Load(input.env));
+    SHRM_ASSIGN_OR_RETURN(EnvMap map, EnvMap::Load(input.env));
+    env.emplace(std::move(map));
     clock.End();
+    return absl::OkStatus();
+  };
+  if (!cl) {
+    SHRM_RETURN_IF_ERROR(decode());
     SHRM_RETURN_IF_ERROR(clock.Begin("lighting"));
     auto fresh = std::make_shared<CachedLighting>();
-    SHRM_ASSIGN_OR_RETURN(fresh->stage, ComputeLightingStage(env, f_rho, options));
-    fresh->layout = env.layout();
+    SHRM_ASSIGN_OR_RETURN(fresh->stage, ComputeLightingStage(*env, f_rho, options));
+    fresh->layout = env->layout();
     clock.End();
     caches->lighting.Put(light_key, fresh, fresh->stage.light.size() * sizeof(double));
     cl = std::move(fresh);
@@ -74,6 +97,14 @@ absl::StatusOr<CachedPrefilterResult> CachedPrefilter(const CachedPrefilterInput
   out.layout = cl->layout;
   SHRM_RETURN_IF_ERROR(
       FinishPrefilter(cb->stage, cl->stage, options, hook, &r, input.max_cube_values));
+  if (options.verify > 0 && options.synthesize) {
+    if (!env) SHRM_RETURN_IF_ERROR(decode());
+    SHRM_RETURN_IF_ERROR(clock.Begin("verify"));
+    SHRM_ASSIGN_OR_RETURN(r.measured, MeasureCubeError(*env, brdf, options.rotation, r.cube,
+                                                       options.verify, options.threads));
+    r.verified_pairs = options.verify;
+    clock.End();
+  }
   return out;
 }
 

@@ -281,8 +281,7 @@ absl::Status ShrmServiceImpl::RunPrefilterCall(grpc::ServerContext* context,
   call->provenance = {call->brdf.display_spec, call->env->source, call->result.layout};
   const auto write_start = std::chrono::steady_clock::now();
   if (call->request.want_file) {
-    const auto attrs =
-        jobs::PrefilterFileAttributes(job, call->provenance, call->result.result.analysis);
+    const auto attrs = jobs::PrefilterFileAttributes(job, call->provenance, call->result.result);
     absl::StatusOr<std::string> bytes =
         EncodeShrmFile("the SHRM file", call->result.result.cube, attrs, job.half);
     if (!bytes.ok()) {
@@ -319,8 +318,7 @@ absl::Status ShrmServiceImpl::SendPrefilterResult(grpc::ServerContext* context,
   log->Set("lighting_cache", call.result.lighting_hit ? "hit" : "miss");
   log->Set("brdf_cache", call.result.brdf_hit ? "hit" : "miss");
   if (call.request.want_report) {
-    nlohmann::json report =
-        jobs::PrefilterReportJson(call.request.job, call.provenance, r.analysis, r.cube.face_size);
+    nlohmann::json report = jobs::PrefilterReportJson(call.request.job, call.provenance, r);
     nlohmann::json timings = jobs::TimingsJson(r.timings);
     timings["write_ms"] = call.write_ms;
     report["timings"] = timings;

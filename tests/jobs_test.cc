@@ -32,6 +32,13 @@ ShrmAnalysis Analysis() {
   return an;
 }
 
+PrefilterResult Result(int face_size = 0) {
+  PrefilterResult r;
+  r.analysis = Analysis();
+  r.cube.face_size = face_size;
+  return r;
+}
+
 jobs::PrefilterProvenance Provenance() {
   return {"phong:s=32", {"a.exr", std::string(64, 'a')}, EnvLayout::kLatLong};
 }
@@ -47,16 +54,17 @@ TEST(PrefilterJob, FileAttributesAreTheDocumentedHeader) {
                                                    {"shrm:eps_light", "0.25"},
                                                    {"shrm:eps_brdf", "0.0125"},
                                                    {"shrm:eps_bound", "0.5"},
+                                                   {"shrm:window", "none"},
                                                    {"shrm:source", "a.exr"},
                                                    {"shrm:source_sha256", std::string(64, 'a')},
                                                    {"shrm:working_space", "lin_rec709"},
                                                    {"shrm:layout", "latlong"},
                                                    {"shrm:version", kVersion}};
-  EXPECT_EQ(jobs::PrefilterFileAttributes(job, Provenance(), Analysis()), want);
+  EXPECT_EQ(jobs::PrefilterFileAttributes(job, Provenance(), Result()), want);
   // Explicit orders and a rotation.
   job.orders = jobs::Orders{8, 1};
   job.env.rotate_ypr_deg = std::array<double, 3>{30, 10.5, -5};
-  const auto attrs = jobs::PrefilterFileAttributes(job, Provenance(), Analysis());
+  const auto attrs = jobs::PrefilterFileAttributes(job, Provenance(), Result());
   EXPECT_EQ(attrs.at("shrm:epsilon"), "explicit orders");
   EXPECT_EQ(attrs.at("shrm:rotate_ypr_deg"), "30,10.5,-5");
 }
@@ -64,7 +72,7 @@ TEST(PrefilterJob, FileAttributesAreTheDocumentedHeader) {
 TEST(PrefilterJob, ReportCarriesTheJobAndItsProvenance) {
   PrefilterJob job;
   job.kind = ShrmKind::kLocal;
-  const nlohmann::json r = jobs::PrefilterReportJson(job, Provenance(), Analysis(), 64);
+  const nlohmann::json r = jobs::PrefilterReportJson(job, Provenance(), Result(64));
   EXPECT_EQ(r["kind"], "local");
   EXPECT_EQ(r["face_size"], 64);
   EXPECT_EQ(r["brdf"], "phong:s=32");
@@ -75,12 +83,64 @@ TEST(PrefilterJob, ReportCarriesTheJobAndItsProvenance) {
   EXPECT_EQ(r["P_B"], 2);
 }
 
+TEST(PrefilterJob, ToleranceRuleRecordsItsEstimateAndSaysWhenItIsMissed) {
+  PrefilterJob job;
+  job.env.files = {"a.exr"};
+  job.brdf = "phong:s=32";
+  job.tolerance = 0.01;
+  PrefilterResult r = Result(48);
+  r.tolerance_rule = true;
+  r.choice.f = 11;
+  r.choice.p = 2;
+  r.choice.face_size = 48;
+  r.choice.f_ref = 32;
+  r.choice.p_ref = 8;
+  r.choice.truncation.front = {10, 0.003, 0.02};
+  r.choice.interpolation.front = {10, 0.004, 0.01};
+  r.choice.truncation.grazing = {4, 0.05, 0.25};
+  r.choice.met = true;
+  const auto attrs = jobs::PrefilterFileAttributes(job, Provenance(), r);
+  EXPECT_EQ(attrs.at("shrm:epsilon"), "per-direction tolerance");
+  EXPECT_EQ(attrs.at("shrm:tolerance"), "0.01");
+  // RMS in quadrature (0.003, 0.004 -> 0.005), largest summed.
+  EXPECT_EQ(attrs.at("shrm:estimated_error"), "0.005,0.03,0.05,0.25");
+  const nlohmann::json rep = jobs::PrefilterReportJson(job, Provenance(), r);
+  EXPECT_EQ(rep["tolerance"]["met"], true);
+  EXPECT_EQ(rep["tolerance"]["targets"]["front_max"], 0.05);
+  EXPECT_EQ(rep["tolerance"]["reference_orders"], nlohmann::json::array({32, 8}));
+  EXPECT_TRUE(jobs::ToleranceOutcome(job, rep).ok());
+  r.choice.met = false;
+  const absl::Status missed =
+      jobs::ToleranceOutcome(job, jobs::PrefilterReportJson(job, Provenance(), r));
+  EXPECT_EQ(missed.code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_NE(missed.message().find("not met"), std::string::npos) << missed;
+  // The estimate met, the measurement not: the measured figure is named.
+  r.choice.met = true;
+  r.verified_pairs = 64;
+  r.measured.front = {64, 0.004, 0.08};
+  EXPECT_EQ(jobs::PrefilterFileAttributes(job, Provenance(), r).at("shrm:measured_error"),
+            "0.004,0.08,0,0,64");
+  const absl::Status measured =
+      jobs::ToleranceOutcome(job, jobs::PrefilterReportJson(job, Provenance(), r));
+  EXPECT_EQ(measured.code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_NE(measured.message().find("measured front RMS 0.004"), std::string::npos) << measured;
+  // A file of another tolerance is recomputed by a resumed batch.
+  ShrmFile file;
+  file.attributes = attrs;
+  file.cube.kind = ShrmKind::kGlobal;
+  PrefilterJob other = job;
+  other.tolerance = 0.02;
+  EXPECT_EQ(jobs::WhyFileDiffers(job, "phong:s=32", std::string(64, 'a'), file), "");
+  EXPECT_EQ(jobs::WhyFileDiffers(other, "phong:s=32", std::string(64, 'a'), file),
+            "shrm:tolerance 0.01 != 0.02");
+}
+
 TEST(PrefilterJob, WhyFileDiffersNamesTheFirstDifference) {
   PrefilterJob job;
   job.env.files = {"a.exr"};
   job.brdf = "phong:s=32";
   ShrmFile file;
-  file.attributes = jobs::PrefilterFileAttributes(job, Provenance(), Analysis());
+  file.attributes = jobs::PrefilterFileAttributes(job, Provenance(), Result());
   file.cube.kind = ShrmKind::kGlobal;
   file.cube.face_size = 40;
   const std::string sha(64, 'a');
@@ -128,6 +188,14 @@ TEST(PrefilterJob, ValidationNamesTheOption) {
        },
        "orders"},
       {[](PrefilterJob* j) { j->face_size = jobs::kMaxFaceSize + 1; }, "size"},
+      {[](PrefilterJob* j) { j->tolerance = 1; }, "tolerance"},
+      {[](PrefilterJob* j) { j->verify = -1; }, "verify"},
+      {[](PrefilterJob* j) { j->tolerance = NAN; }, "tolerance"},
+      {[](PrefilterJob* j) {
+         j->tolerance = 0.01;
+         j->orders = jobs::Orders{8, 1};
+       },
+       "tolerance and orders"},
       {[](PrefilterJob* j) {
          j->env.rotate_ypr_deg = std::array<double, 3>{0, INFINITY, 0};
        },

@@ -203,25 +203,34 @@ TEST_F(ServiceTest, RoundTripMatchesEmbeddedRunAndHitsLightingCache) {
   EXPECT_TRUE(r2->shrm_file == local_bytes) << "remote SHRM file differs from the embedded one";
 }
 
-TEST_F(ServiceTest, CliServerOutputIsByteIdenticalToEmbedded) {
-  auto c = StartServer();
-  const std::string map = MapPath("city.exr");
+// Runs `shrm prefilter` with `args` embedded and with --server on `port`; expects the same file
+// bytes and returns the remote run's report.
+std::string RemoteReportWithEmbeddedBytes(const std::string& args, int port) {
   const std::string a = testing::UniqueTempPath("cli_embedded.shrm.exr");
   const std::string b = testing::UniqueTempPath("cli_remote.shrm.exr");
   const std::string rep = testing::UniqueTempPath("cli_remote.json");
-  const std::string common = absl::StrCat(" prefilter --env ", map,
-                                          " --brdf microfacet:sigma=0.3 --epsilon 0.1 --rotate "
-                                          "30,10,5 --kind local > /dev/null 2>&1");
-  ASSERT_EQ(std::system(absl::StrCat(SHRM_CLI_PATH, common, " -o ", a).c_str()), 0);
-  ASSERT_EQ(std::system(absl::StrCat(SHRM_CLI_PATH, common, " -o ", b, " --report ", rep,
-                                     " --server 127.0.0.1:", port_)
+  const std::string common = absl::StrCat(" prefilter ", args, " > /dev/null 2>&1");
+  EXPECT_EQ(std::system(absl::StrCat(SHRM_CLI_PATH, common, " -o ", a).c_str()), 0) << args;
+  EXPECT_EQ(std::system(absl::StrCat(SHRM_CLI_PATH, common, " -o ", b, " --report ", rep,
+                                     " --server 127.0.0.1:", port)
                             .c_str()),
-            0);
-  const std::string ea = ReadFile(a), eb = ReadFile(b);
+            0)
+      << args;
+  const std::string ea = ReadFile(a), eb = ReadFile(b), report = ReadFile(rep);
   EXPECT_FALSE(ea.empty());
-  EXPECT_TRUE(ea == eb) << "shrm --server wrote a different file";
-  EXPECT_NE(ReadFile(rep).find("\"F_B\""), std::string::npos);
+  EXPECT_TRUE(ea == eb) << "shrm --server wrote a different file: " << args;
   for (const auto& f : {a, b, rep}) std::filesystem::remove(f);
+  return report;
+}
+
+TEST_F(ServiceTest, CliServerOutputIsByteIdenticalToEmbedded) {
+  auto c = StartServer();
+  const std::string map = MapPath("city.exr");
+  const std::string report = RemoteReportWithEmbeddedBytes(
+      absl::StrCat("--env ", map, " --brdf microfacet:sigma=0.3 --epsilon 0.1 --rotate 30,10,5 "
+                   "--kind local"),
+      port_);
+  EXPECT_NE(report.find("\"F_B\""), std::string::npos);
 
   // analyze --server runs too.
   EXPECT_EQ(std::system(absl::StrCat(SHRM_CLI_PATH, " analyze --env ", map,
@@ -230,6 +239,19 @@ TEST_F(ServiceTest, CliServerOutputIsByteIdenticalToEmbedded) {
                                      port_, " > /dev/null 2>&1")
                             .c_str()),
             0);
+}
+
+// A tolerance job (the rule runs the core pipeline on the server, uncached) gives the embedded
+// bytes, and its report carries the estimate.
+TEST_F(ServiceTest, ToleranceJobRunsRemotelyWithTheEmbeddedBytes) {
+  auto c = StartServer();
+  const std::string report = RemoteReportWithEmbeddedBytes(
+      absl::StrCat("--env ", MapPath("forest.exr"),
+                   " --brdf phong:s=64 --tolerance 0.02 --window auto --verify 32"),
+      port_);
+  EXPECT_NE(report.find("\"tolerance\": {"), std::string::npos) << report.substr(0, 400);
+  EXPECT_NE(report.find("\"met\": true"), std::string::npos);
+  EXPECT_NE(report.find("\"measured\": {"), std::string::npos);
 }
 
 // Runs `command` through the shell; returns its stdout ("" and a failure when it exits non-zero).

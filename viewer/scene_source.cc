@@ -130,8 +130,7 @@ ShrmComputeFn EmbeddedCompute(std::shared_ptr<const EnvironmentData> env) {
     if (progress) SHRM_RETURN_IF_ERROR(progress("convert"));
     // As `shrm prefilter` writes them, without hashing the file again (the map is loaded).
     const jobs::PrefilterProvenance provenance{brdf->spec(), {env->path, ""}, env->map.layout()};
-    std::map<std::string, std::string> attrs =
-        jobs::PrefilterFileAttributes(job, provenance, r.analysis);
+    std::map<std::string, std::string> attrs = jobs::PrefilterFileAttributes(job, provenance, r);
     SHRM_ASSIGN_OR_RETURN(
         ShrmData d, ShrmDataFromCube(std::move(r.cube), std::move(attrs), "embedded", opt.threads));
     d.compute_ms =

@@ -8,6 +8,8 @@
 #include "core/brdf/brdf_projection.h"
 #include "core/envmap/lighting.h"
 #include "core/sh/sh.h"
+#include "core/shrm/fast_reference.h"
+#include "core/shrm/shrm_eval.h"
 #include "core/shrm/shrm_synthesis.h"
 #include "core/shrm/tolerance.h"
 
@@ -50,6 +52,10 @@ absl::Status ValidatePrefilterOptions(const PrefilterOptions& options) {
   if (options.tolerance > 0 && options.selection_pairs < 16) {
     return absl::InvalidArgumentError(absl::StrCat(
         "the tolerance rule needs at least 16 selection pairs, got ", options.selection_pairs));
+  }
+  if (options.verify < 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("verify must be >= 0 pairs, got ", options.verify));
   }
   if (options.face_size < 0 || options.threads < 1) {
     return absl::InvalidArgumentError("face size must be >= 0 and threads >= 1");
@@ -166,6 +172,7 @@ absl::Status ChooseOrdersForTolerance(const EnvMap& env, const Brdf& brdf,
   int p_ref = std::min(kFirstReferenceP, p_cap);
   const std::vector<DirectionPair> pairs =
       SeededDirectionPairs(kSelectionSeed, options.selection_pairs, brdf.reparam());
+  l->energy = LightingEnergy(env);
   ToleranceOptions topt;
   topt.tolerance = options.tolerance;
   topt.window = options.window;
@@ -177,15 +184,13 @@ absl::Status ChooseOrdersForTolerance(const EnvMap& env, const Brdf& brdf,
     SHRM_RETURN_IF_ERROR(clock.Begin("lighting"));
     SHRM_ASSIGN_OR_RETURN(l->light,
                           LightingCoefficients(env, f_ref, options.rotation, options.threads));
-    l->energy = LightingEnergy(env);
     clock.End();
     SHRM_RETURN_IF_ERROR(clock.Begin("orders"));
     SHRM_ASSIGN_OR_RETURN(
         ShrmSynthesizer reference,
         ShrmSynthesizer::Create(f_ref, 3, l->light, b->coefficients, f_ref, p_ref));
     const BandTable table = BandTable::Compute(reference, pairs, options.threads);
-    SHRM_ASSIGN_OR_RETURN(*choice,
-                          ChooseForTolerance(table, f_ref, 3, l->light, b->coefficients, topt));
+    *choice = ChooseOrders(table, topt);
     clock.End();
     const bool grow_f = f_ref < f_cap && (choice->f > kReferenceMargin * f_ref || !choice->met);
     const bool grow_p = p_ref < p_cap && (choice->p > kReferenceMargin * p_ref || !choice->met);
@@ -195,6 +200,50 @@ absl::Status ChooseOrdersForTolerance(const EnvMap& env, const Brdf& brdf,
   }
   b->f_rho = choice->f;
   b->p_rho = choice->p;
+  if (options.face_size > 0) {
+    choice->face_size = options.face_size;
+    return absl::OkStatus();
+  }
+  SHRM_RETURN_IF_ERROR(clock.Begin("orders"));
+  SHRM_RETURN_IF_ERROR(ChooseFaceSize(pairs, f_ref, 3, l->light, b->coefficients, topt, choice));
+  clock.End();
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<DirectionalError> MeasureCubeError(const EnvMap& env, const Brdf& brdf,
+                                                  const Mat3& rotation, const ShrmCube& cube,
+                                                  int pairs, int threads) {
+  if (pairs < 1 || threads < 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("verify: pairs and threads must be >= 1, got ", pairs, ", ", threads));
+  }
+  SHRM_ASSIGN_OR_RETURN(FastReference reference, FastReference::Create(env.samples()));
+  const std::vector<DirectionPair> set = SeededDirectionPairs(kVerifySeed, pairs, brdf.reparam());
+  std::vector<Vec3> index, view;
+  for (const DirectionPair& p : set) {
+    index.push_back(p.index);
+    view.push_back(p.view);
+  }
+  const std::vector<Rgb> ref = reference.RadianceMany(brdf, rotation, index, view, threads);
+  std::vector<Rgb> got(set.size());
+  for (size_t k = 0; k < set.size(); ++k) got[k] = ShrmEval(cube, set[k].index, set[k].view);
+  return MeasureDirectionalError(set, got, ref);
+}
+
+namespace {
+
+// The "verify" stage of Prefilter().
+absl::Status VerifyStage(const EnvMap& env, const Brdf& brdf, const PrefilterOptions& options,
+                         const PrefilterProgress& progress, PrefilterResult* r) {
+  if (options.verify <= 0 || !options.synthesize) return absl::OkStatus();
+  StageClock clock(&r->timings, progress);
+  SHRM_RETURN_IF_ERROR(clock.Begin("verify"));
+  SHRM_ASSIGN_OR_RETURN(r->measured, MeasureCubeError(env, brdf, options.rotation, r->cube,
+                                                      options.verify, options.threads));
+  r->verified_pairs = options.verify;
+  clock.End();
   return absl::OkStatus();
 }
 
@@ -214,10 +263,11 @@ absl::StatusOr<PrefilterResult> Prefilter(const EnvMap& env, const Brdf& brdf,
     chosen.f = r.choice.f;
     chosen.p = r.choice.p;
     chosen.window = r.choice.window;
-    if (chosen.face_size == 0) chosen.face_size = r.choice.face_size;
-    SHRM_RETURN_IF_ERROR(FinishPrefilter(b, l, chosen, progress, &r));
+    chosen.face_size = r.choice.face_size;
+    SHRM_RETURN_IF_ERROR(FinishPrefilter(b, l, chosen, progress, &r, options.max_cube_values));
     r.tolerance_rule = true;
     MergeTimings(&r.timings);
+    SHRM_RETURN_IF_ERROR(VerifyStage(env, brdf, options, progress, &r));
     return r;
   }
   PrefilterResult r;
@@ -228,7 +278,8 @@ absl::StatusOr<PrefilterResult> Prefilter(const EnvMap& env, const Brdf& brdf,
   SHRM_RETURN_IF_ERROR(clock.Begin("lighting"));
   SHRM_ASSIGN_OR_RETURN(LightingStage l, ComputeLightingStage(env, b.f_rho, options));
   clock.End();
-  SHRM_RETURN_IF_ERROR(FinishPrefilter(b, l, options, progress, &r));
+  SHRM_RETURN_IF_ERROR(FinishPrefilter(b, l, options, progress, &r, options.max_cube_values));
+  SHRM_RETURN_IF_ERROR(VerifyStage(env, brdf, options, progress, &r));
   return r;
 }
 

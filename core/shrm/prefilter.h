@@ -43,6 +43,12 @@ struct PrefilterOptions {
   RingingWindow window = RingingWindow::kNone;
   // Pairs of the tolerance rule's estimate (seeded: kSelectionSeed).
   int selection_pairs = 256;
+  // Prefilter() only (FinishPrefilter takes it as an argument): > 0 bounds 6 S_B^2 (P_B + 1)^2 3.
+  double max_cube_values = 0;
+  // > 0: the synthesized cube (ShrmEval) is measured at this many seeded pairs (kVerifySeed,
+  // never the selection's) against FastReference (the brute-force sum to 1e-3 per direction):
+  // PrefilterResult::measured, stage "verify".
+  int verify = 0;
 };
 
 struct StageTiming {
@@ -60,7 +66,15 @@ struct PrefilterResult {
   RingingWindow window = RingingWindow::kNone;  // applied to `light` before synthesis
   bool tolerance_rule = false;                  // orders from options.tolerance
   ToleranceChoice choice;                       // the tolerance rule's estimate (tolerance_rule)
+  int verified_pairs = 0;                       // options.verify when the cube was measured
+  DirectionalError measured;                    // the cube against FastReference
 };
+
+// The measured error of `cube` (made from `env` rotated by `rotation` and `brdf`) at `pairs`
+// seeded pairs (kVerifySeed) against FastReference. Errors: no samples, pairs < 1, threads < 1.
+absl::StatusOr<DirectionalError> MeasureCubeError(const EnvMap& env, const Brdf& brdf,
+                                                  const Mat3& rotation, const ShrmCube& cube,
+                                                  int pairs, int threads);
 
 // Called at the start of each stage with its name ("brdf", "lighting", "analysis", "synthesis");
 // a non-OK status (e.g. a cancelled or expired request) stops the pipeline with that status.

@@ -193,7 +193,13 @@ DirectionalError BandTable::Estimate(int f, int p, RingingWindow window) const {
   return MeasureDirectionalError(pairs_, got, ref_);
 }
 
-int BandTable::SmallestF(int p, const ToleranceTargets& t, double share) const {
+int BandTable::SmallestF(int p, const ToleranceTargets& t, double share,
+                         RingingWindow window) const {
+  if (window == RingingWindow::kLanczos) {  // the weights depend on f: each f summed anew
+    for (int f = 0; f <= f_; ++f)
+      if (MeetsTargets(Estimate(f, p, window), t, share)) return f;
+    return -1;
+  }
   // Running partial sums over l for every pair at once: one pass per view order.
   const size_t n = pairs_.size();
   std::vector<Rgb> got(n, Rgb{0, 0, 0});
@@ -238,10 +244,7 @@ DirectionalError EstimateInterpolation(const ShrmSynthesizer& synth,
   return MeasureDirectionalError(pairs, got, exact);
 }
 
-absl::StatusOr<ToleranceChoice> ChooseForTolerance(const BandTable& table, int light_lmax,
-                                                   int channels, std::span<const double> light,
-                                                   const BrdfCoefficients& brdf,
-                                                   const ToleranceOptions& options) {
+ToleranceChoice ChooseOrders(const BandTable& table, const ToleranceOptions& options) {
   const ToleranceTargets targets = TargetsForTolerance(options.tolerance);
   ToleranceChoice best;
   best.f_ref = table.f_ref();
@@ -249,7 +252,7 @@ absl::StatusOr<ToleranceChoice> ChooseForTolerance(const BandTable& table, int l
   // (F, P): the smallest (P + 1)^2 (F + P + 1)^2 among the feasible view orders.
   double best_cost = -1;
   for (int p = 0; p <= table.p_ref(); ++p) {
-    const int f = table.SmallestF(p, targets, kTruncationShare);
+    const int f = table.SmallestF(p, targets, kTruncationShare, options.window);
     if (f < 0) continue;
     const double cost = (p + 1.0) * (p + 1.0) * (f + p + 1.0) * (f + p + 1.0);
     if (best_cost < 0 || cost < best_cost) {
@@ -276,6 +279,14 @@ absl::StatusOr<ToleranceChoice> ChooseForTolerance(const BandTable& table, int l
     }
   }
   best.met = MeetsTargets(best.truncation, targets, kTruncationShare);
+  return best;
+}
+
+absl::Status ChooseFaceSize(std::span<const DirectionPair> pairs, int light_lmax, int channels,
+                            std::span<const double> light, const BrdfCoefficients& brdf,
+                            const ToleranceOptions& options, ToleranceChoice* choice) {
+  const ToleranceTargets targets = TargetsForTolerance(options.tolerance);
+  ToleranceChoice& best = *choice;
 
   // S: first trial ~2 F, then scaled by the h^2 law, grown while it still misses its share.
   const std::vector<double> windowed =
@@ -285,26 +296,26 @@ absl::StatusOr<ToleranceChoice> ChooseForTolerance(const BandTable& table, int l
       ShrmSynthesizer::Create(light_lmax, channels, windowed, brdf, best.f, best.p));
   const int max_size = std::max(kMinFaceSize, options.max_face_size);
   int size = std::clamp(RoundUp8(kFirstFaceSizePerOrder * (best.f + 1)), kMinFaceSize, max_size);
-  DirectionalError interp = EstimateInterpolation(synth, table.pairs(), size, options.threads);
+  DirectionalError interp = EstimateInterpolation(synth, pairs, size, options.threads);
   const double ratio = std::max(interp.front.rms / (kInterpolationShare * targets.rms),
                                 interp.front.max / (kInterpolationShare * targets.max));
   if (ratio > 0) {
     const int scaled = std::clamp(RoundUp8(size * std::sqrt(ratio)), kMinFaceSize, max_size);
     if (scaled != size) {
       size = scaled;
-      interp = EstimateInterpolation(synth, table.pairs(), size, options.threads);
+      interp = EstimateInterpolation(synth, pairs, size, options.threads);
     }
   }
   for (int round = 0; round < kFaceSizeRounds && size < max_size &&
                       !MeetsTargets(interp, targets, kInterpolationShare);
        ++round) {
     size = std::min(max_size, RoundUp8(size * kFaceSizeGrowth));
-    interp = EstimateInterpolation(synth, table.pairs(), size, options.threads);
+    interp = EstimateInterpolation(synth, pairs, size, options.threads);
   }
   best.face_size = size;
   best.interpolation = interp;
   best.met = best.met && MeetsTargets(interp, targets, kInterpolationShare);
-  return best;
+  return absl::OkStatus();
 }
 
 }  // namespace shrm

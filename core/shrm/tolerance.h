@@ -112,8 +112,10 @@ class BandTable {
   std::span<const DirectionPair> pairs() const { return pairs_; }
   // Estimated error of (f, p, window) against the reference values.
   DirectionalError Estimate(int f, int p, RingingWindow window) const;
-  // Smallest f <= f_ref meeting `share` of the targets at view order p with no window, or -1.
-  int SmallestF(int p, const ToleranceTargets& t, double share) const;
+  // Smallest f <= f_ref meeting `share` of the targets at view order p with `window` (kAuto:
+  // none), or -1.
+  int SmallestF(int p, const ToleranceTargets& t, double share,
+                RingingWindow window = RingingWindow::kNone) const;
 
  private:
   int f_ = 0, p_ = 0, ch_ = 3;
@@ -146,14 +148,17 @@ struct ToleranceOptions {
   int max_face_size = 1024;
   int threads = 1;
 };
-// (F, P, window) from a band table at the reference orders, then S from the interpolation
-// estimate of the synthesizer made from `light` (degree light_lmax, windowed here) and `brdf` at
-// the chosen orders. P is 0 for radially symmetric BRDFs (their table has p_ref = 0). When no
+// (F, P, window) from a band table at the reference orders (face_size and interpolation are left
+// for ChooseFaceSize). P is 0 for radially symmetric BRDFs (their table has p_ref = 0). When no
 // (F, P) below the reference meets the targets, the reference orders themselves (met = false).
-absl::StatusOr<ToleranceChoice> ChooseForTolerance(const BandTable& table, int light_lmax,
-                                                   int channels, std::span<const double> light,
-                                                   const BrdfCoefficients& brdf,
-                                                   const ToleranceOptions& options);
+ToleranceChoice ChooseOrders(const BandTable& table, const ToleranceOptions& options);
+// S for a choice: the interpolation estimate of the synthesizer made from `light` (degree
+// light_lmax, the choice's window applied here) and `brdf` at the chosen orders, at S ~ 2 F,
+// scaled by the h^2 law and grown until it meets its share (or options.max_face_size).
+// choice->met becomes false when it does not. Errors: those of ShrmSynthesizer::Create.
+absl::Status ChooseFaceSize(std::span<const DirectionPair> pairs, int light_lmax, int channels,
+                            std::span<const double> light, const BrdfCoefficients& brdf,
+                            const ToleranceOptions& options, ToleranceChoice* choice);
 
 }  // namespace shrm
 
