@@ -227,7 +227,8 @@ TEST_F(ServiceTest, CliServerOutputIsByteIdenticalToEmbedded) {
   auto c = StartServer();
   const std::string map = MapPath("city.exr");
   const std::string report = RemoteReportWithEmbeddedBytes(
-      absl::StrCat("--env ", map, " --brdf microfacet:sigma=0.3 --epsilon 0.1 --rotate 30,10,5 "
+      absl::StrCat("--env ", map,
+                   " --brdf microfacet:sigma=0.3 --epsilon 0.1 --rotate 30,10,5 "
                    "--kind local"),
       port_);
   EXPECT_NE(report.find("\"F_B\""), std::string::npos);
