@@ -182,8 +182,12 @@ void ShrmSynthesizer::BandContributionsAt(const Vec3& index_dir, const Vec3& vie
   const int qmax = std::min(pm, f);
   double alpha, beta;
   ShrmAnglesFromWorld(index_dir, &alpha, &beta);
-  std::vector<double> d(WignerColumnCount(f, qmax));
-  WignerColumns(f, qmax, alpha, d);
+  std::call_once(band_tables_->once,
+                 [&] { band_tables_->tables = std::make_unique<WignerColumnTables>(f, qmax); });
+  // Per-thread columns (every entry read below, l >= max(|m|, q), is written by Compute).
+  thread_local std::vector<double> d;
+  d.resize(WignerColumnCount(f, qmax));
+  band_tables_->tables->Compute(alpha, d);
   const Vec3 w = ShrmLocalFrame(alpha, beta).Transposed() * ShFrameFromWorld(view);
   const std::vector<double> y = EvalSh(pm, w);
   // e^{i m beta} L_lm for every (m, l, c), then per l the sums over m

@@ -22,6 +22,8 @@
 
 #include <array>
 #include <complex>
+#include <memory>
+#include <mutex>
 #include <span>
 #include <vector>
 
@@ -126,6 +128,13 @@ class ShrmSynthesizer {
                       RowScratch& scratch, float* rows_out) const;
 
   int lmax_ = 0, pmax_ = 0, channels_ = 3;
+  // The Wigner column recurrences of BandContributionsAt (|q| <= min(P, F)), built on its first
+  // call and shared by copies (immutable once built).
+  struct BandTables {
+    std::once_flag once;
+    std::unique_ptr<WignerColumnTables> tables;
+  };
+  std::shared_ptr<BandTables> band_tables_ = std::make_shared<BandTables>();
   ReparamKind reparam_ = ReparamKind::kReflection;
   // Complex lighting: light_[((m + F) * (F + 1) + l) * channels + c] (zero for l < |m|).
   std::vector<std::complex<double>> light_;
