@@ -1,0 +1,1 @@
+#include "core/export/ktx2.h"

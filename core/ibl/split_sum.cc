@@ -1,0 +1,1 @@
+#include "core/ibl/split_sum.h"
