@@ -1,1 +1,320 @@
 #include "core/ibl/split_sum.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/str_cat.h"
+#include "core/base/cubemap.h"
+#include "core/base/parallel.h"
+#include "core/envmap/lighting.h"
+#include "core/sh/quadrature.h"
+#include "core/sh/rotation.h"
+#include "core/sh/sh.h"
+#include "core/shrm/shrm_synthesis.h"
+#include "core/transform/sht.h"
+
+namespace shrm::ibl {
+namespace {
+
+constexpr int kPanelNodes = 16;
+// Luminance weights (Rec. 709) of the energy per degree that drives the degree choice.
+constexpr std::array<double, 3> kLuma = {0.2126, 0.7152, 0.0722};
+
+bool IsIdentityRotation(const Mat3& r) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (r.m[i][j] != (i == j ? 1.0 : 0.0)) return false;
+  return true;
+}
+
+bool IsPowerOfTwo(int v) { return v > 0 && (v & (v - 1)) == 0; }
+
+int Log2(int v) {
+  int k = 0;
+  while ((1 << (k + 1)) <= v) ++k;
+  return k;
+}
+
+// Panel breakpoints on [0, pi / 2]: graded geometrically towards both ends (the GGX peak at
+// theta = 0, the narrow Charlie peak next to pi / 2), each panel no wider than `max_width`.
+std::vector<double> Breakpoints(double scale, double max_width) {
+  const double half_pi = kPi / 2;
+  std::vector<double> b = {0.0, half_pi};
+  for (double a = scale; a < half_pi / 2; a *= 2) {
+    b.push_back(a);
+    b.push_back(half_pi - a);
+  }
+  std::sort(b.begin(), b.end());
+  std::vector<double> out = {0.0};
+  for (size_t i = 1; i < b.size(); ++i) {
+    const double w = b[i] - b[i - 1];
+    if (w <= 0) continue;
+    const int n = std::max(1, static_cast<int>(std::ceil(w / max_width)));
+    for (int k = 1; k <= n; ++k) out.push_back(b[i - 1] + w * k / n);
+  }
+  return out;
+}
+
+}  // namespace
+
+const char* SpecularLobeName(SpecularLobe lobe) {
+  return lobe == SpecularLobe::kGgx ? "ggx" : "charlie";
+}
+
+absl::StatusOr<SpecularLobe> ParseSpecularLobe(std::string_view name) {
+  const std::string n = absl::AsciiStrToLower(std::string(name));
+  if (n == "ggx") return SpecularLobe::kGgx;
+  if (n == "charlie" || n == "sheen") return SpecularLobe::kCharlie;
+  return absl::InvalidArgumentError(
+      absl::StrCat("unknown lobe '", std::string(name), "' (expected ggx or charlie)"));
+}
+
+const char* RoughnessPresetName(RoughnessPreset preset) {
+  switch (preset) {
+    case RoughnessPreset::kFilament:
+      return "filament";
+    case RoughnessPreset::kGltf:
+      return "gltf";
+    default:
+      return "explicit";
+  }
+}
+
+absl::StatusOr<RoughnessPreset> ParseRoughnessPreset(std::string_view name) {
+  const std::string n = absl::AsciiStrToLower(std::string(name));
+  if (n == "filament") return RoughnessPreset::kFilament;
+  if (n == "gltf") return RoughnessPreset::kGltf;
+  if (n == "explicit") return RoughnessPreset::kExplicit;
+  return absl::InvalidArgumentError(absl::StrCat("unknown roughness preset '", std::string(name),
+                                                 "' (expected filament, gltf or explicit)"));
+}
+
+absl::StatusOr<MipChain> MakeMipChain(RoughnessPreset preset, int face_size, int levels,
+                                      std::span<const double> roughness) {
+  if (!IsPowerOfTwo(face_size) || face_size > kMaxIblFaceSize) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "face size ", face_size, ": must be a power of two from 1 to ", kMaxIblFaceSize));
+  }
+  const int max_levels = Log2(face_size) + 1;
+  if (preset == RoughnessPreset::kExplicit) {
+    if (roughness.empty()) {
+      return absl::InvalidArgumentError("explicit roughness list is empty");
+    }
+    if (levels != 0 && levels != static_cast<int>(roughness.size())) {
+      return absl::InvalidArgumentError(absl::StrCat(levels, " levels requested but ",
+                                                     roughness.size(), " roughness values given"));
+    }
+    levels = static_cast<int>(roughness.size());
+  } else if (levels == 0) {
+    levels = preset == RoughnessPreset::kFilament ? std::max(1, max_levels - 4)
+                                                  : std::max(1, max_levels - 1);
+  }
+  if (levels < 1 || levels > max_levels) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(levels, " levels: a ", face_size, "-texel face allows 1 to ", max_levels));
+  }
+  MipChain chain;
+  chain.preset = preset;
+  for (int k = 0; k < levels; ++k) {
+    chain.face_size.push_back(face_size >> k);
+    const double t = levels == 1 ? 0.0 : static_cast<double>(k) / (levels - 1);
+    double r = 0;
+    switch (preset) {
+      case RoughnessPreset::kFilament:
+        r = 1 - std::sqrt(1 - t);
+        break;
+      case RoughnessPreset::kGltf:
+        r = t;
+        break;
+      case RoughnessPreset::kExplicit:
+        r = roughness[k];
+        if (!(r >= 0 && r <= 1)) {
+          return absl::InvalidArgumentError(
+              absl::StrCat("roughness ", r, " of level ", k, " is outside [0, 1]"));
+        }
+        if (k > 0 && r < chain.roughness.back()) {
+          return absl::InvalidArgumentError(
+              absl::StrCat("roughness must not decrease along the chain: level ", k, " has ", r,
+                           " after ", chain.roughness.back()));
+        }
+        break;
+    }
+    chain.roughness.push_back(r);
+  }
+  return chain;
+}
+
+double LobeNdf(SpecularLobe lobe, double alpha, double cos_h) {
+  const double c2 = cos_h * cos_h;
+  if (lobe == SpecularLobe::kGgx) {
+    const double a2 = alpha * alpha;
+    const double d = (a2 - 1) * c2 + 1;
+    return a2 / (kPi * d * d);
+  }
+  const double inv = 1 / alpha;
+  const double s2 = std::max(0.0, 1 - c2);
+  return (2 + inv) * std::pow(s2, 0.5 * inv) / (2 * kPi);
+}
+
+double SplitSumKernel(SpecularLobe lobe, double alpha, double cos_theta) {
+  if (cos_theta <= 0) return 0;
+  // cos(theta / 2) = sqrt((1 + cos theta) / 2).
+  return LobeNdf(lobe, alpha, std::sqrt(0.5 * (1 + std::min(1.0, cos_theta)))) * cos_theta;
+}
+
+std::vector<double> SplitSumZonal(SpecularLobe lobe, double alpha, int lmax) {
+  std::vector<double> g(lmax + 1, 0.0);
+  const double scale = std::max(1e-6, std::min(alpha, 1.0) / 4);
+  const double max_width = std::min(0.1, 2.0 / (lmax + 1));
+  const std::vector<double> b = Breakpoints(scale, max_width);
+  const RingQuadrature gl = GaussLegendreRule(kPanelNodes);
+  double norm = 0;
+  std::vector<double> acc(lmax + 1, 0.0);
+  for (size_t i = 1; i < b.size(); ++i) {
+    const double mid = 0.5 * (b[i] + b[i - 1]), half = 0.5 * (b[i] - b[i - 1]);
+    for (int k = 0; k < kPanelNodes; ++k) {
+      // Gauss-Legendre nodes x_k = cos(theta_k) in [-1, 1], weights summing to 2.
+      const double theta = mid + half * gl.cos_theta[k];
+      const double x = std::cos(theta);
+      const double w = half * gl.weight[k] * std::sin(theta) * SplitSumKernel(lobe, alpha, x);
+      if (w == 0) continue;
+      norm += w;
+      double p0 = 1, p1 = x;
+      acc[0] += w;
+      if (lmax >= 1) acc[1] += w * x;
+      for (int l = 2; l <= lmax; ++l) {
+        const double p2 = ((2 * l - 1) * x * p1 - (l - 1) * p0) / l;
+        acc[l] += w * p2;
+        p0 = p1;
+        p1 = p2;
+      }
+    }
+  }
+  for (int l = 0; l <= lmax; ++l) g[l] = acc[l] / norm;
+  return g;
+}
+
+std::array<double, 3> SplitSumReference(const EnvMap& map, SpecularLobe lobe, double alpha,
+                                        const Vec3& r) {
+  if (alpha <= 0) {
+    const std::array<float, 3> v = map.Radiance(r);
+    return {v[0], v[1], v[2]};
+  }
+  double sum[3] = {0, 0, 0}, norm = 0;
+  for (const EnvSample& s : map.samples()) {
+    const double k = SplitSumKernel(lobe, alpha, r.Dot(s.dir)) * s.solid_angle;
+    if (k == 0) continue;
+    norm += k;
+    for (int c = 0; c < 3; ++c) sum[c] += k * s.rgb[c];
+  }
+  if (norm == 0) return {0, 0, 0};
+  return {sum[0] / norm, sum[1] / norm, sum[2] / norm};
+}
+
+absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const SpecularOptions& options) {
+  const MipChain& chain = options.chain;
+  if (chain.levels() < 1 || chain.roughness.size() != chain.face_size.size()) {
+    return absl::InvalidArgumentError("IBL: the mip chain has no levels");
+  }
+  if (!(options.tolerance > 0 && options.tolerance < 1)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("IBL: tolerance ", options.tolerance, " must be in (0, 1)"));
+  }
+  if (options.threads < 1) {
+    return absl::InvalidArgumentError(absl::StrCat("IBL: threads = ", options.threads));
+  }
+  if (options.max_degree < 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("IBL: negative degree cap ", options.max_degree));
+  }
+  // The degree the map resolves: its own lat-long grid, or the grid LightingCoefficients
+  // resamples other layouts to.
+  int limit = map.lat_long_image() != nullptr
+                  ? ShtMaxDegree(ShtGrid{map.width(), map.height(), ShtGridKind::kEquiangular})
+                  : map.NativeLatLongWidth() / 2 - 1;
+  if (!IsIdentityRotation(options.rotation)) limit = std::min(limit, kMaxRotationLmax);
+  if (options.max_degree > 0) limit = std::min(limit, options.max_degree);
+  limit = std::max(limit, 0);
+
+  bool any_convolved = false;
+  for (double r : chain.roughness) any_convolved |= r > 0;
+  SpecularChain out;
+  out.lobe = options.lobe;
+  std::vector<double> light;
+  std::vector<double> energy;  // luminance energy per degree, E_l
+  if (any_convolved) {
+    auto coeffs = LightingCoefficients(map, limit, options.rotation, options.threads);
+    if (!coeffs.ok()) return coeffs.status();
+    light = std::move(coeffs).value();
+    out.light_degree = limit;
+    energy.assign(limit + 1, 0.0);
+    for (int l = 0; l <= limit; ++l)
+      for (int m = -l; m <= l; ++m) {
+        double y = 0;
+        for (int c = 0; c < 3; ++c)
+          y += kLuma[c] * light[static_cast<size_t>(ShIndex(l, m)) * 3 + c];
+        energy[l] += y * y;
+      }
+  }
+  const Mat3 inverse = options.rotation.Transposed();
+  for (int k = 0; k < chain.levels(); ++k) {
+    SpecularLevel level;
+    level.face_size = chain.face_size[k];
+    level.roughness = chain.roughness[k];
+    level.alpha = level.roughness * level.roughness;
+    RadianceCube& cube = level.cube;
+    cube.face_size = level.face_size;
+    cube.channels = 3;
+    cube.data.assign(cube.size(), 0.0f);
+    if (level.alpha <= 0) {
+      const int s = level.face_size;
+      ParallelChunks(kCubeFaceCount * s, options.threads, [&](int begin, int end) {
+        for (int row = begin; row < end; ++row) {
+          const int face = row / s, y = row % s;
+          for (int x = 0; x < s; ++x) {
+            const std::array<float, 3> v =
+                map.Radiance(inverse * CubeTexelDirection(face, x, y, s));
+            for (int c = 0; c < 3; ++c) cube.data[cube.Index(face, x, y, c)] = v[c];
+          }
+        }
+      });
+      out.levels.push_back(std::move(level));
+      continue;
+    }
+    const std::vector<double> g = SplitSumZonal(options.lobe, level.alpha, limit);
+    // Smallest F whose dropped energy is within tolerance^2 of the total.
+    double total = 0;
+    for (int l = 0; l <= limit; ++l) total += g[l] * g[l] * energy[l];
+    double tail = total;
+    int f = limit;
+    for (int l = 0; l <= limit; ++l) {
+      tail -= g[l] * g[l] * energy[l];
+      if (tail <= options.tolerance * options.tolerance * total) {
+        f = l;
+        break;
+      }
+    }
+    level.degree = f;
+    level.truncation_estimate = total > 0 ? std::sqrt(std::max(0.0, tail) / total) : 0.0;
+    BrdfCoefficients zonal;
+    zonal.lmax = f;
+    zonal.pmax = 0;
+    zonal.channels = 1;
+    zonal.values.resize(f + 1);
+    // The P = 0 SHRM texel holds sum_lm sqrt(4 pi / (2l + 1)) rho_l00 L_lm Y_lm: with
+    // rho_l00 = g_l sqrt((2l + 1) / (4 pi)) it is the prefiltered radiance itself.
+    for (int l = 0; l <= f; ++l) zonal.values[l] = g[l] * std::sqrt((2 * l + 1) / (4 * kPi));
+    auto synth = ShrmSynthesizer::Create(limit, 3, light, zonal, f, 0);
+    if (!synth.ok()) return synth.status();
+    ShrmGridOptions grid;
+    grid.threads = options.threads;
+    auto built = synth->BuildCube(ShrmKind::kGlobal, level.face_size, grid);
+    if (!built.ok()) return built.status();
+    cube.data = std::move(built->data);
+    out.levels.push_back(std::move(level));
+  }
+  return out;
+}
+
+}  // namespace shrm::ibl

@@ -1,0 +1,241 @@
+// Tests of the split-sum prefiltered radiance (core/ibl/split_sum.h) against independent
+// references: the lobes' normalization (integral of D (n.h) over the hemisphere = 1), the zonal
+// factors against a plain midpoint rule with std::legendre, the white furnace, the presets'
+// published roughness formulas, and every level of the chain on the four bundled real maps
+// against the brute-force pixel sum of the same integral (and a 1024-sample importance-sampled
+// estimate, the way cmgen and glTF-IBL-Sampler compute it).
+#include "core/ibl/split_sum.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "core/base/cubemap.h"
+#include "gtest/gtest.h"
+#include "tests/test_maps.h"
+
+namespace shrm::ibl {
+namespace {
+
+constexpr const char* kMaps[] = {"courtyard.exr", "interior.exr", "city.exr", "forest.exr"};
+
+TEST(SplitSumTest, LobesAreNormalizedOverTheHemisphere) {
+  // integral D(cos h) cos h dw_h = 1 over the hemisphere, by a midpoint rule in cos h
+  // substituted to resolve the peak (u = cos h).
+  constexpr double kNormTol = 1e-6;  // midpoint rule with 2e6 nodes on a smooth integrand
+  for (SpecularLobe lobe : {SpecularLobe::kGgx, SpecularLobe::kCharlie}) {
+    for (double alpha : {0.05, 0.2, 0.5, 1.0}) {
+      const int n = 2000000;
+      double sum = 0;
+      for (int i = 0; i < n; ++i) {
+        // theta_h in [0, pi/2], midpoint.
+        const double t = (i + 0.5) / n * kPi / 2;
+        sum += LobeNdf(lobe, alpha, std::cos(t)) * std::cos(t) * std::sin(t);
+      }
+      sum *= 2 * kPi * (kPi / 2) / n;
+      EXPECT_NEAR(sum, 1.0, kNormTol) << SpecularLobeName(lobe) << " alpha " << alpha;
+    }
+  }
+}
+
+TEST(SplitSumTest, ZonalFactorsMatchAMidpointRuleWithStdLegendre) {
+  constexpr double kZonalTol = 2e-5;  // midpoint rule, 1e5 nodes, on kernels resolved by them
+  for (SpecularLobe lobe : {SpecularLobe::kGgx, SpecularLobe::kCharlie}) {
+    for (double alpha : {0.1, 0.3, 0.8}) {
+      const int lmax = 40;
+      const std::vector<double> g = SplitSumZonal(lobe, alpha, lmax);
+      const int n = 100000;
+      std::vector<double> want(lmax + 1, 0.0);
+      double norm = 0;
+      for (int i = 0; i < n; ++i) {
+        const double t = (i + 0.5) / n * kPi / 2;
+        const double w = SplitSumKernel(lobe, alpha, std::cos(t)) * std::sin(t);
+        norm += w;
+        for (int l = 0; l <= lmax; ++l) want[l] += w * std::legendre(l, std::cos(t));
+      }
+      for (int l = 0; l <= lmax; ++l) {
+        EXPECT_NEAR(g[l], want[l] / norm, kZonalTol)
+            << SpecularLobeName(lobe) << " alpha " << alpha << " l " << l;
+      }
+    }
+  }
+}
+
+TEST(SplitSumTest, PresetsFollowTheConsumersFormulas) {
+  auto f = MakeMipChain(RoughnessPreset::kFilament, 256, 0);
+  ASSERT_TRUE(f.ok()) << f.status();
+  ASSERT_EQ(f->levels(), 5);  // cmgen: 256 down to its 16 x 16 smallest level
+  for (int k = 0; k < 5; ++k) {
+    EXPECT_EQ(f->face_size[k], 256 >> k);
+    const double r = f->roughness[k];
+    // Filament's shader: lod = (levels - 1) r (2 - r).
+    EXPECT_NEAR(4 * r * (2 - r), k, 1e-12);
+  }
+  auto g = MakeMipChain(RoughnessPreset::kGltf, 256, 0);
+  ASSERT_TRUE(g.ok()) << g.status();
+  ASSERT_EQ(g->levels(), 8);  // glTF-IBL-Sampler: floor(log2(256)) mips
+  for (int k = 0; k < 8; ++k) EXPECT_NEAR(g->roughness[k], k / 7.0, 1e-15);
+  const double list[] = {0, 0.5, 1};
+  auto e = MakeMipChain(RoughnessPreset::kExplicit, 64, 0, list);
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_EQ(e->levels(), 3);
+  EXPECT_EQ(e->face_size[2], 16);
+
+  EXPECT_FALSE(MakeMipChain(RoughnessPreset::kGltf, 100, 0).ok());   // not a power of two
+  EXPECT_FALSE(MakeMipChain(RoughnessPreset::kGltf, 8192, 0).ok());  // too large
+  EXPECT_FALSE(MakeMipChain(RoughnessPreset::kGltf, 16, 6).ok());    // 16 -> 1 is 5 levels
+  EXPECT_FALSE(MakeMipChain(RoughnessPreset::kExplicit, 16, 0).ok());
+  const double bad[] = {0, 0.7, 0.5};
+  EXPECT_FALSE(MakeMipChain(RoughnessPreset::kExplicit, 16, 0, bad).ok());
+  const double out_of_range[] = {0, 1.5};
+  EXPECT_FALSE(MakeMipChain(RoughnessPreset::kExplicit, 16, 0, out_of_range).ok());
+}
+
+TEST(SplitSumTest, WhiteFurnaceIsConstantOnEveryLevel) {
+  constexpr double kFurnaceTol = 1e-5;  // float storage of a unit radiance
+  Image img;
+  img.width = 128;
+  img.height = 64;
+  img.channels = 3;
+  img.pixels.assign(128 * 64 * 3, 1.0f);
+  const EnvMap map = EnvMap::FromLatLong(img);
+  for (SpecularLobe lobe : {SpecularLobe::kGgx, SpecularLobe::kCharlie}) {
+    SpecularOptions opt;
+    opt.lobe = lobe;
+    opt.chain = *MakeMipChain(RoughnessPreset::kGltf, 16, 0);
+    auto chain = PrefilterSpecular(map, opt);
+    ASSERT_TRUE(chain.ok()) << chain.status();
+    for (const SpecularLevel& level : chain->levels)
+      for (float v : level.cube.data) ASSERT_NEAR(v, 1.0, kFurnaceTol);
+  }
+}
+
+// Relative error per direction as the accuracy issue defines it: |got - ref| / max(|ref|,
+// 0.01 mean |ref|) on luminance, RMS and largest over the directions.
+struct RelativeError {
+  double rms = 0, max = 0;
+};
+
+double Luma(const std::array<double, 3>& v) {
+  return 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2];
+}
+
+RelativeError Compare(const std::vector<double>& got, const std::vector<double>& ref) {
+  double mean = 0;
+  for (double v : ref) mean += std::abs(v) / ref.size();
+  RelativeError e;
+  for (size_t i = 0; i < ref.size(); ++i) {
+    const double d = std::abs(got[i] - ref[i]) / std::max(std::abs(ref[i]), 0.01 * mean);
+    e.rms += d * d / ref.size();
+    e.max = std::max(e.max, d);
+  }
+  e.rms = std::sqrt(e.rms);
+  return e;
+}
+
+// The importance-sampled estimate of cmgen / glTF-IBL-Sampler (without their mip-filtered
+// lookups, which trade noise for bias): h from the GGX density D (n.h) by a Hammersley set,
+// l = reflect(-n, h), sum L(l) (n.l) / sum (n.l), L the map's bilinear radiance.
+std::array<double, 3> ImportanceSampled(const EnvMap& map, double alpha, const Vec3& n,
+                                        int samples) {
+  const Vec3 up = std::abs(n.y) < 0.999 ? Vec3{0, 1, 0} : Vec3{1, 0, 0};
+  const Vec3 t = up.Cross(n).Normalized(), b = n.Cross(t);
+  double sum[3] = {0, 0, 0}, w = 0;
+  for (int i = 0; i < samples; ++i) {
+    uint32_t bits = static_cast<uint32_t>(i);
+    bits = (bits << 16u) | (bits >> 16u);
+    bits = ((bits & 0x55555555u) << 1u) | ((bits & 0xAAAAAAAAu) >> 1u);
+    bits = ((bits & 0x33333333u) << 2u) | ((bits & 0xCCCCCCCCu) >> 2u);
+    bits = ((bits & 0x0F0F0F0Fu) << 4u) | ((bits & 0xF0F0F0F0u) >> 4u);
+    bits = ((bits & 0x00FF00FFu) << 8u) | ((bits & 0xFF00FF00u) >> 8u);
+    const double u1 = static_cast<double>(i) / samples, u2 = bits * 2.3283064365386963e-10;
+    const double a2 = alpha * alpha;
+    const double ch = std::sqrt((1 - u2) / (1 + (a2 - 1) * u2)), sh = std::sqrt(1 - ch * ch);
+    const double phi = 2 * kPi * u1;
+    const Vec3 h = t * (sh * std::cos(phi)) + b * (sh * std::sin(phi)) + n * ch;
+    const Vec3 l = h * (2 * n.Dot(h)) - n;
+    const double nl = n.Dot(l);
+    if (nl <= 0) continue;
+    const std::array<float, 3> v = map.Radiance(l);
+    for (int c = 0; c < 3; ++c) sum[c] += v[c] * nl;
+    w += nl;
+  }
+  return {sum[0] / w, sum[1] / w, sum[2] / w};
+}
+
+// Bilinear lookup of a lat-long image, written from docs/conventions.md (pixel (i, j) at
+// p = 2 pi ((i + 0.5) / W - 0.5), theta = pi (j + 0.5) / H, d = (sin t sin p, cos t,
+// -sin t cos p)); wraps in azimuth, clamps at the poles.
+std::array<double, 3> LatLongBilinear(const Image& img, const Vec3& d) {
+  const double p = std::atan2(d.x, -d.z), theta = std::acos(std::clamp(d.y, -1.0, 1.0));
+  const double x = (p / (2 * kPi) + 0.5) * img.width - 0.5;
+  const double y = std::clamp(theta / kPi * img.height - 0.5, 0.0, img.height - 1.0);
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const double fx = x - x0, fy = y - y0;
+  std::array<double, 3> out{};
+  for (int dy = 0; dy < 2; ++dy)
+    for (int dx = 0; dx < 2; ++dx) {
+      const int xi = ((x0 + dx) % img.width + img.width) % img.width;
+      const int yi = std::min(y0 + dy, img.height - 1);
+      const double w = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy);
+      for (int c = 0; c < 3; ++c) out[c] += w * img.at(xi, yi, c);
+    }
+  return out;
+}
+
+TEST(SplitSumTest, EveryLevelMatchesThePixelSumOnTheBundledMaps) {
+  // RGBA32F storage: the issue's bound for float levels against the brute-force pixel sum.
+  constexpr double kLevelRmsTol = 1e-3;
+  // Largest relative error at a texel centre (the engine-outputs issue allows 5%; measured
+  // <= 3e-3 at the default tolerance).
+  constexpr double kLevelMaxTol = 1e-2;
+  // Float storage of bilinear values.
+  constexpr double kBaseTol = 1e-5;
+  constexpr int kDirections = 48;
+  constexpr int kImportanceSamples = 1024;
+  for (const char* name : kMaps) {
+    auto map = EnvMap::Load({.paths = {std::string(SHRM_SOURCE_DIR) + "/data/envmaps/" + name}});
+    ASSERT_TRUE(map.ok()) << map.status();
+    SpecularOptions opt;
+    opt.chain = *MakeMipChain(RoughnessPreset::kFilament, 128, 0);
+    opt.threads = 2;
+    auto chain = PrefilterSpecular(*map, opt);
+    ASSERT_TRUE(chain.ok()) << chain.status();
+    ASSERT_EQ(chain->levels.size(), 4u);
+    std::mt19937 rng(7);
+    for (const SpecularLevel& level : chain->levels) {
+      const int s = level.face_size;
+      std::uniform_int_distribution<int> pick(0, 6 * s * s - 1);
+      std::vector<double> got, ref, sampled;
+      for (int i = 0; i < kDirections; ++i) {
+        const int t = pick(rng), face = t / (s * s), y = (t / s) % s, x = t % s;
+        const Vec3 r = CubeTexelDirection(face, x, y, s);
+        std::array<double, 3> v;
+        for (int c = 0; c < 3; ++c) v[c] = level.cube.data[level.cube.Index(face, x, y, c)];
+        if (level.alpha == 0) {
+          const std::array<double, 3> want = LatLongBilinear(*map->lat_long_image(), r);
+          for (int c = 0; c < 3; ++c)
+            ASSERT_NEAR(v[c], want[c], kBaseTol * std::max(1.0, want[c])) << name;
+          continue;
+        }
+        got.push_back(Luma(v));
+        ref.push_back(Luma(SplitSumReference(*map, SpecularLobe::kGgx, level.alpha, r)));
+        sampled.push_back(Luma(ImportanceSampled(*map, level.alpha, r, kImportanceSamples)));
+      }
+      if (level.alpha == 0) continue;
+      const RelativeError e = Compare(got, ref), is = Compare(sampled, ref);
+      std::printf(
+          "%-14s S %3d r %.3f F %3d est %.1e: rms %.1e max %.1e (1024 samples: %.1e %.1e)\n", name,
+          s, level.roughness, level.degree, level.truncation_estimate, e.rms, e.max, is.rms,
+          is.max);
+      EXPECT_LE(e.rms, kLevelRmsTol) << name << " level " << s;
+      EXPECT_LE(e.max, kLevelMaxTol) << name << " level " << s;
+      EXPECT_LT(e.rms, is.rms) << name << " level " << s << ": not better than sampling";
+      EXPECT_LT(e.max, is.max) << name << " level " << s << ": not better than sampling";
+    }
+  }
+}
+
+}  // namespace
+}  // namespace shrm::ibl
