@@ -62,6 +62,29 @@ TEST(SplitSumTest, ZonalFactorsMatchAMidpointRuleWithStdLegendre) {
   }
 }
 
+TEST(SplitSumTest, LambertFactorsAreTheClampedCosineClosedForm) {
+  // Ramamoorthi & Hanrahan 2001, eq. 8: A_0 = pi, A_1 = 2 pi / 3, odd l > 1: 0, even l:
+  // A_l = 2 pi (-1)^(l/2 - 1) / ((l + 2)(l - 1)) l! / (2^l ((l/2)!)^2); g_l = A_l / pi.
+  constexpr double kClosedFormTol = 1e-12;  // graded Gauss-Legendre on a polynomial kernel
+  const int lmax = 30;
+  const std::vector<double> g = SplitSumZonal(SpecularLobe::kLambert, 1.0, lmax);
+  for (int l = 0; l <= lmax; ++l) {
+    double a;
+    if (l == 0) {
+      a = kPi;
+    } else if (l == 1) {
+      a = 2 * kPi / 3;
+    } else if (l % 2 == 1) {
+      a = 0;
+    } else {
+      const double lf = std::tgamma(l + 1.0), hf = std::tgamma(l / 2 + 1.0);
+      a = 2 * kPi * ((l / 2 - 1) % 2 == 0 ? 1 : -1) / ((l + 2.0) * (l - 1.0)) * lf /
+          (std::pow(2.0, l) * hf * hf);
+    }
+    EXPECT_NEAR(g[l], a / kPi, kClosedFormTol) << "l " << l;
+  }
+}
+
 TEST(SplitSumTest, PresetsFollowTheConsumersFormulas) {
   auto f = MakeMipChain(RoughnessPreset::kFilament, 256, 0);
   ASSERT_TRUE(f.ok()) << f.status();
@@ -100,7 +123,7 @@ TEST(SplitSumTest, WhiteFurnaceIsConstantOnEveryLevel) {
   img.channels = 3;
   img.pixels.assign(128 * 64 * 3, 1.0f);
   const EnvMap map = EnvMap::FromLatLong(img);
-  for (SpecularLobe lobe : {SpecularLobe::kGgx, SpecularLobe::kCharlie}) {
+  for (SpecularLobe lobe : {SpecularLobe::kGgx, SpecularLobe::kCharlie, SpecularLobe::kLambert}) {
     SpecularOptions opt;
     opt.lobe = lobe;
     opt.chain = *MakeMipChain(RoughnessPreset::kGltf, 16, 0);
@@ -235,6 +258,69 @@ TEST(SplitSumTest, EveryLevelMatchesThePixelSumOnTheBundledMaps) {
       EXPECT_LT(e.max, is.max) << name << " level " << s << ": not better than sampling";
     }
   }
+}
+
+TEST(SplitSumTest, SheenAndLambertLevelsMatchThePixelSum) {
+  constexpr double kLevelRmsTol = 1e-3;  // as for GGX: float storage, the bound
+  constexpr double kLevelMaxTol = 1e-2;
+  auto map = EnvMap::Load({.paths = {std::string(SHRM_SOURCE_DIR) + "/data/envmaps/city.exr"}});
+  ASSERT_TRUE(map.ok()) << map.status();
+  const double list[] = {0.3, 0.6, 1.0};
+  for (SpecularLobe lobe : {SpecularLobe::kCharlie, SpecularLobe::kLambert}) {
+    SpecularOptions opt;
+    opt.lobe = lobe;
+    opt.chain = *MakeMipChain(RoughnessPreset::kExplicit, 32, 0, list);
+    opt.threads = 2;
+    auto chain = PrefilterSpecular(*map, opt);
+    ASSERT_TRUE(chain.ok()) << chain.status();
+    std::mt19937 rng(11);
+    for (const SpecularLevel& level : chain->levels) {
+      const int s = level.face_size;
+      std::uniform_int_distribution<int> pick(0, 6 * s * s - 1);
+      std::vector<double> got, ref;
+      for (int i = 0; i < 32; ++i) {
+        const int t = pick(rng), face = t / (s * s), y = (t / s) % s, x = t % s;
+        std::array<double, 3> v;
+        for (int c = 0; c < 3; ++c) v[c] = level.cube.data[level.cube.Index(face, x, y, c)];
+        got.push_back(Luma(v));
+        ref.push_back(
+            Luma(SplitSumReference(*map, lobe, level.alpha, CubeTexelDirection(face, x, y, s))));
+      }
+      const RelativeError e = Compare(got, ref);
+      EXPECT_LE(e.rms, kLevelRmsTol) << SpecularLobeName(lobe) << " r " << level.roughness;
+      EXPECT_LE(e.max, kLevelMaxTol) << SpecularLobeName(lobe) << " r " << level.roughness;
+    }
+  }
+}
+
+TEST(SplitSumTest, MeasuredLevelErrorSeesAKnownPerturbation) {
+  // A level filled with the reference itself measures ~0; scaled by 1.01 it measures 0.01.
+  constexpr double kExactTol = 1e-6;  // float storage of the reference values
+  constexpr double kScaleTol = 1e-5;
+  Image img = testing::LoadBundledMap("forest.exr", 128);
+  const EnvMap map = EnvMap::FromLatLong(img);
+  SpecularLevel level;
+  level.face_size = 8;
+  level.roughness = 0.5;
+  level.alpha = 0.25;
+  level.cube.face_size = 8;
+  level.cube.data.resize(level.cube.size());
+  for (int f = 0; f < 6; ++f)
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 8; ++x) {
+        const auto v =
+            SplitSumReference(map, SpecularLobe::kGgx, 0.25, CubeTexelDirection(f, x, y, 8));
+        for (int c = 0; c < 3; ++c) level.cube.data[level.cube.Index(f, x, y, c)] = v[c];
+      }
+  const LevelError exact =
+      MeasureLevelError(map, SpecularLobe::kGgx, level, Mat3::Identity(), 40, 3, 2);
+  EXPECT_EQ(exact.count, 40);
+  EXPECT_LE(exact.max, kExactTol);
+  for (float& v : level.cube.data) v *= 1.01f;
+  const LevelError scaled =
+      MeasureLevelError(map, SpecularLobe::kGgx, level, Mat3::Identity(), 40, 3, 1);
+  EXPECT_NEAR(scaled.rms, 0.01, kScaleTol);
+  EXPECT_NEAR(scaled.max, 0.01, kScaleTol);
 }
 
 }  // namespace

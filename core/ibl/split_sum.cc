@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
@@ -59,15 +60,23 @@ std::vector<double> Breakpoints(double scale, double max_width) {
 }  // namespace
 
 const char* SpecularLobeName(SpecularLobe lobe) {
-  return lobe == SpecularLobe::kGgx ? "ggx" : "charlie";
+  switch (lobe) {
+    case SpecularLobe::kGgx:
+      return "ggx";
+    case SpecularLobe::kCharlie:
+      return "charlie";
+    default:
+      return "lambert";
+  }
 }
 
 absl::StatusOr<SpecularLobe> ParseSpecularLobe(std::string_view name) {
   const std::string n = absl::AsciiStrToLower(std::string(name));
   if (n == "ggx") return SpecularLobe::kGgx;
   if (n == "charlie" || n == "sheen") return SpecularLobe::kCharlie;
+  if (n == "lambert") return SpecularLobe::kLambert;
   return absl::InvalidArgumentError(
-      absl::StrCat("unknown lobe '", std::string(name), "' (expected ggx or charlie)"));
+      absl::StrCat("unknown lobe '", std::string(name), "' (expected ggx, charlie or lambert)"));
 }
 
 const char* RoughnessPresetName(RoughnessPreset preset) {
@@ -147,6 +156,7 @@ absl::StatusOr<MipChain> MakeMipChain(RoughnessPreset preset, int face_size, int
 
 double LobeNdf(SpecularLobe lobe, double alpha, double cos_h) {
   const double c2 = cos_h * cos_h;
+  if (lobe == SpecularLobe::kLambert) return 1 / kPi;
   if (lobe == SpecularLobe::kGgx) {
     const double a2 = alpha * alpha;
     const double d = (a2 - 1) * c2 + 1;
@@ -159,13 +169,15 @@ double LobeNdf(SpecularLobe lobe, double alpha, double cos_h) {
 
 double SplitSumKernel(SpecularLobe lobe, double alpha, double cos_theta) {
   if (cos_theta <= 0) return 0;
+  if (lobe == SpecularLobe::kLambert) return cos_theta;
   // cos(theta / 2) = sqrt((1 + cos theta) / 2).
   return LobeNdf(lobe, alpha, std::sqrt(0.5 * (1 + std::min(1.0, cos_theta)))) * cos_theta;
 }
 
 std::vector<double> SplitSumZonal(SpecularLobe lobe, double alpha, int lmax) {
   std::vector<double> g(lmax + 1, 0.0);
-  const double scale = std::max(1e-6, std::min(alpha, 1.0) / 4);
+  const double scale =
+      lobe == SpecularLobe::kLambert ? 0.25 : std::max(1e-6, std::min(alpha, 1.0) / 4);
   const double max_width = std::min(0.1, 2.0 / (lmax + 1));
   const std::vector<double> b = Breakpoints(scale, max_width);
   const RingQuadrature gl = GaussLegendreRule(kPanelNodes);
@@ -315,6 +327,49 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
     out.levels.push_back(std::move(level));
   }
   return out;
+}
+
+LevelError MeasureLevelError(const EnvMap& map, SpecularLobe lobe, const SpecularLevel& level,
+                             const Mat3& rotation, int count, uint64_t seed, int threads) {
+  LevelError e;
+  if (count <= 0) return e;
+  const int s = level.cube.face_size;
+  std::mt19937_64 rng(seed);
+  std::vector<std::array<int, 3>> texels(count);
+  const uint64_t n = static_cast<uint64_t>(kCubeFaceCount) * s * s;
+  for (auto& t : texels) {
+    const uint64_t k = rng() % n;  // modulo bias < 2^-40 for these sizes
+    t = {static_cast<int>(k / (static_cast<uint64_t>(s) * s)), static_cast<int>(k % s),
+         static_cast<int>((k / s) % s)};
+  }
+  const Mat3 inverse = rotation.Transposed();
+  std::vector<double> got(count), ref(count);
+  ParallelChunks(count, threads, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) {
+      const auto [face, x, y] = texels[i];
+      const Vec3 r = CubeTexelDirection(face, x, y, s);
+      const std::array<double, 3> want = SplitSumReference(map, lobe, level.alpha, inverse * r);
+      std::array<double, 3> have;
+      for (int c = 0; c < 3; ++c) have[c] = level.cube.data[level.cube.Index(face, x, y, c)];
+      double a = 0, b = 0;
+      for (int c = 0; c < 3; ++c) {
+        a += kLuma[c] * have[c];
+        b += kLuma[c] * want[c];
+      }
+      got[i] = a;
+      ref[i] = b;
+    }
+  });
+  double mean = 0;
+  for (double v : ref) mean += std::abs(v) / count;
+  for (int i = 0; i < count; ++i) {
+    const double d = std::abs(got[i] - ref[i]) / std::max(std::abs(ref[i]), 0.01 * mean);
+    e.rms += d * d / count;
+    e.max = std::max(e.max, d);
+  }
+  e.rms = std::sqrt(e.rms);
+  e.count = count;
+  return e;
 }
 
 }  // namespace shrm::ibl

@@ -23,7 +23,9 @@
 //  - GGX (Trowbridge-Reitz): D(c) = alpha^2 / (pi ((alpha^2 - 1) c^2 + 1)^2);
 //  - Charlie sheen (Estevez & Kulla 2017, "Production Friendly Microfacet Sheen BRDF"):
 //    D(c) = (2 + 1 / alpha) (1 - c^2)^(1 / (2 alpha)) / (2 pi) (glTF-IBL-Sampler passes
-//    alpha = roughness^2 to it as well).
+//    alpha = roughness^2 to it as well);
+//  - Lambert: K = cos theta (the irradiance E / pi; g_l = A_l / pi with Ramamoorthi & Hanrahan's
+//    A_l, "An Efficient Representation for Irradiance Environment Maps", eq. 8).
 //
 // Roughness per mip level (perceptual roughness r, t = level / (levels - 1)):
 //  - kFilament: cmgen and Filament's iblprefilter, r = 1 - sqrt(1 - t) (the inverse of the
@@ -46,6 +48,7 @@
 #define SHRM_CORE_IBL_SPLIT_SUM_H_
 
 #include <array>
+#include <cstdint>
 #include <span>
 #include <string>
 #include <string_view>
@@ -58,9 +61,12 @@
 
 namespace shrm::ibl {
 
-enum class SpecularLobe { kGgx, kCharlie };
+// kLambert is the clamped cosine (K = (R.l)+, no D): the diffuse irradiance divided by pi, i.e.
+// the cosine-weighted mean radiance (glTF-IBL-Sampler's "lambertian" output); its alpha is
+// ignored (give any alpha > 0, e.g. a chain of roughness 1).
+enum class SpecularLobe { kGgx, kCharlie, kLambert };
 
-// "ggx", "charlie".
+// "ggx", "charlie", "lambert".
 const char* SpecularLobeName(SpecularLobe lobe);
 absl::StatusOr<SpecularLobe> ParseSpecularLobe(std::string_view name);
 
@@ -88,7 +94,7 @@ struct MipChain {
 absl::StatusOr<MipChain> MakeMipChain(RoughnessPreset preset, int face_size, int levels,
                                       std::span<const double> roughness = {});
 
-// The lobe's normal distribution D(cos theta_h) for alpha > 0.
+// The lobe's normal distribution D(cos theta_h) for alpha > 0 (kLambert: 1 / pi).
 double LobeNdf(SpecularLobe lobe, double alpha, double cos_h);
 
 // The split-sum kernel (unnormalized): D(cos(theta / 2)) cos theta for cos theta > 0, else 0.
@@ -134,6 +140,19 @@ struct SpecularChain {
   int light_degree = 0;  // degree of the coefficients computed from the map
   std::vector<SpecularLevel> levels;
 };
+
+// Measured error of one level against SplitSumReference at `count` texel centres drawn from a
+// seeded generator (std::mt19937_64(seed), uniform over the cube's texels): relative error per
+// direction on luminance, |got - ref| / max(|ref|, 0.01 mean |ref|) (the accuracy issue's
+// definition), its RMS and largest value. The base level (alpha = 0) is measured against the map's
+// bilinear radiance. count = 0 gives zeros.
+struct LevelError {
+  int count = 0;
+  double rms = 0;
+  double max = 0;
+};
+LevelError MeasureLevelError(const EnvMap& map, SpecularLobe lobe, const SpecularLevel& level,
+                             const Mat3& rotation, int count, uint64_t seed, int threads = 1);
 
 // The prefiltered mip chain. Errors: InvalidArgument for a bad chain, tolerance, degree or thread
 // count, and LightingCoefficients' errors.
