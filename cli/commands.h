@@ -16,6 +16,7 @@ void RegisterReference(CLI::App& app, absl::Status* status);
 void RegisterRender(CLI::App& app, absl::Status* status);
 void RegisterExplicit(CLI::App& app, absl::Status* status);
 void RegisterIrradiance(CLI::App& app, absl::Status* status);
+void RegisterIbl(CLI::App& app, absl::Status* status);
 void RegisterInfo(CLI::App& app, absl::Status* status);
 void RegisterBatch(CLI::App& app, absl::Status* status);
 

@@ -1,6 +1,6 @@
 // The `shrm` command: frequency-space prefiltering of HDR environment maps, embedded
 // (in-process). Subcommands: analyze, prefilter, eval, reference, render, explicit, irradiance,
-// info, batch. docs/cli.md documents every option and the exit codes.
+// ibl, info, batch. docs/cli.md documents every option and the exit codes.
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <string>
@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
   shrm::cli::RegisterRender(app, &status);
   shrm::cli::RegisterExplicit(app, &status);
   shrm::cli::RegisterIrradiance(app, &status);
+  shrm::cli::RegisterIbl(app, &status);
   shrm::cli::RegisterInfo(app, &status);
   shrm::cli::RegisterBatch(app, &status);
   try {

@@ -224,7 +224,39 @@ std::array<double, 3> SplitSumReference(const EnvMap& map, SpecularLobe lobe, do
   return {sum[0] / norm, sum[1] / norm, sum[2] / norm};
 }
 
-absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const SpecularOptions& options) {
+absl::StatusOr<SpecularLight> ComputeSpecularLight(const EnvMap& map, const Mat3& rotation,
+                                                   int max_degree, int threads) {
+  if (threads < 1) return absl::InvalidArgumentError(absl::StrCat("IBL: threads = ", threads));
+  if (max_degree < 0) {
+    return absl::InvalidArgumentError(absl::StrCat("IBL: negative degree cap ", max_degree));
+  }
+  // The degree the map resolves: its own lat-long grid, or the grid LightingCoefficients
+  // resamples other layouts to.
+  int limit = map.lat_long_image() != nullptr
+                  ? ShtMaxDegree(ShtGrid{map.width(), map.height(), ShtGridKind::kEquiangular})
+                  : map.NativeLatLongWidth() / 2 - 1;
+  if (!IsIdentityRotation(rotation)) limit = std::min(limit, kMaxRotationLmax);
+  if (max_degree > 0) limit = std::min(limit, max_degree);
+  limit = std::max(limit, 0);
+  SpecularLight light;
+  light.degree = limit;
+  light.rotation = rotation;
+  auto coeffs = LightingCoefficients(map, limit, rotation, threads);
+  if (!coeffs.ok()) return coeffs.status();
+  light.coeffs = std::move(coeffs).value();
+  light.energy.assign(limit + 1, 0.0);
+  for (int l = 0; l <= limit; ++l)
+    for (int m = -l; m <= l; ++m) {
+      double y = 0;
+      for (int c = 0; c < 3; ++c)
+        y += kLuma[c] * light.coeffs[static_cast<size_t>(ShIndex(l, m)) * 3 + c];
+      light.energy[l] += y * y;
+    }
+  return light;
+}
+
+absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const SpecularOptions& options,
+                                                const SpecularLight* given) {
   const MipChain& chain = options.chain;
   if (chain.levels() < 1 || chain.roughness.size() != chain.face_size.size()) {
     return absl::InvalidArgumentError("IBL: the mip chain has no levels");
@@ -236,38 +268,23 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
   if (options.threads < 1) {
     return absl::InvalidArgumentError(absl::StrCat("IBL: threads = ", options.threads));
   }
-  if (options.max_degree < 0) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("IBL: negative degree cap ", options.max_degree));
-  }
-  // The degree the map resolves: its own lat-long grid, or the grid LightingCoefficients
-  // resamples other layouts to.
-  int limit = map.lat_long_image() != nullptr
-                  ? ShtMaxDegree(ShtGrid{map.width(), map.height(), ShtGridKind::kEquiangular})
-                  : map.NativeLatLongWidth() / 2 - 1;
-  if (!IsIdentityRotation(options.rotation)) limit = std::min(limit, kMaxRotationLmax);
-  if (options.max_degree > 0) limit = std::min(limit, options.max_degree);
-  limit = std::max(limit, 0);
-
   bool any_convolved = false;
   for (double r : chain.roughness) any_convolved |= r > 0;
   SpecularChain out;
   out.lobe = options.lobe;
-  std::vector<double> light;
-  std::vector<double> energy;  // luminance energy per degree, E_l
-  if (any_convolved) {
-    auto coeffs = LightingCoefficients(map, limit, options.rotation, options.threads);
-    if (!coeffs.ok()) return coeffs.status();
-    light = std::move(coeffs).value();
-    out.light_degree = limit;
-    energy.assign(limit + 1, 0.0);
-    for (int l = 0; l <= limit; ++l)
-      for (int m = -l; m <= l; ++m) {
-        double y = 0;
-        for (int c = 0; c < 3; ++c)
-          y += kLuma[c] * light[static_cast<size_t>(ShIndex(l, m)) * 3 + c];
-        energy[l] += y * y;
-      }
+  SpecularLight computed;
+  const SpecularLight* light = given;
+  if (any_convolved && light == nullptr) {
+    auto l = ComputeSpecularLight(map, options.rotation, options.max_degree, options.threads);
+    if (!l.ok()) return l.status();
+    computed = std::move(l).value();
+    light = &computed;
+  }
+  int limit = 0;
+  if (light != nullptr) {
+    limit = light->degree;
+    if (options.max_degree > 0) limit = std::min(limit, options.max_degree);
+    out.light_degree = light->degree;
   }
   const Mat3 inverse = options.rotation.Transposed();
   for (int k = 0; k < chain.levels(); ++k) {
@@ -295,6 +312,7 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
       continue;
     }
     const std::vector<double> g = SplitSumZonal(options.lobe, level.alpha, limit);
+    const std::vector<double>& energy = light->energy;
     // Smallest F whose dropped energy is within tolerance^2 of the total.
     double total = 0;
     for (int l = 0; l <= limit; ++l) total += g[l] * g[l] * energy[l];
@@ -317,7 +335,7 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
     // The P = 0 SHRM texel holds sum_lm sqrt(4 pi / (2l + 1)) rho_l00 L_lm Y_lm: with
     // rho_l00 = g_l sqrt((2l + 1) / (4 pi)) it is the prefiltered radiance itself.
     for (int l = 0; l <= f; ++l) zonal.values[l] = g[l] * std::sqrt((2 * l + 1) / (4 * kPi));
-    auto synth = ShrmSynthesizer::Create(limit, 3, light, zonal, f, 0);
+    auto synth = ShrmSynthesizer::Create(light->degree, 3, light->coeffs, zonal, f, 0);
     if (!synth.ok()) return synth.status();
     ShrmGridOptions grid;
     grid.threads = options.threads;

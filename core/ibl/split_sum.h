@@ -154,9 +154,23 @@ struct LevelError {
 LevelError MeasureLevelError(const EnvMap& map, SpecularLobe lobe, const SpecularLevel& level,
                              const Mat3& rotation, int count, uint64_t seed, int threads = 1);
 
-// The prefiltered mip chain. Errors: InvalidArgument for a bad chain, tolerance, degree or thread
-// count, and LightingCoefficients' errors.
-absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const SpecularOptions& options);
+// The map's lighting coefficients to the largest degree it resolves (capped by `max_degree` > 0,
+// and by kMaxRotationLmax when rotated), with the luminance energy per degree: computed once and
+// shared by every chain of a job.
+struct SpecularLight {
+  int degree = 0;
+  Mat3 rotation = Mat3::Identity();
+  std::vector<double> coeffs;  // L_lm, coeffs[ShIndex(l, m) * 3 + c]
+  std::vector<double> energy;  // E_l = sum_m |luminance L_lm|^2
+};
+absl::StatusOr<SpecularLight> ComputeSpecularLight(const EnvMap& map, const Mat3& rotation,
+                                                   int max_degree, int threads);
+
+// The prefiltered mip chain, from `light` when given (its rotation must be options.rotation; the
+// base level is resampled from `map`). Errors: InvalidArgument for a bad chain, tolerance,
+// degree or thread count, and LightingCoefficients' errors.
+absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const SpecularOptions& options,
+                                                const SpecularLight* light = nullptr);
 
 }  // namespace shrm::ibl
 

@@ -1,0 +1,222 @@
+#include "jobs/ibl_job.h"
+
+#include <chrono>
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
+#include "core/envmap/lighting.h"
+#include "shrm/version.h"
+
+namespace shrm::jobs {
+namespace {
+
+// Seeds of the job's own check, one per cube (fixed: the same job measures the same texels).
+constexpr uint64_t kSpecularVerifySeed = 0x5eed'1b10'0001;
+constexpr uint64_t kSheenVerifySeed = 0x5eed'1b10'0002;
+constexpr uint64_t kIrradianceVerifySeed = 0x5eed'1b10'0003;
+
+double MsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+absl::Status Measure(const EnvMap& map, const Mat3& rotation, ibl::SpecularLobe lobe, int count,
+                     uint64_t seed, int threads, IblCube& cube) {
+  cube.measured.clear();
+  for (size_t k = 0; k < cube.chain.levels.size(); ++k) {
+    cube.measured.push_back(ibl::MeasureLevelError(map, lobe, cube.chain.levels[k], rotation, count,
+                                                   seed + k, threads));
+  }
+  return absl::OkStatus();
+}
+
+nlohmann::json CubeJson(const IblCube& cube) {
+  nlohmann::json levels = nlohmann::json::array();
+  for (size_t k = 0; k < cube.chain.levels.size(); ++k) {
+    const ibl::SpecularLevel& l = cube.chain.levels[k];
+    nlohmann::json j = {{"level", k},
+                        {"face_size", l.face_size},
+                        {"roughness", l.roughness},
+                        {"alpha", l.alpha},
+                        {"degree", l.degree},
+                        {"truncation_estimate", l.truncation_estimate}};
+    if (k < cube.measured.size() && cube.measured[k].count > 0) {
+      const ibl::LevelError& e = cube.measured[k];
+      j["measured"] = {{"count", e.count}, {"rms", e.rms}, {"max", e.max}};
+    }
+    levels.push_back(j);
+  }
+  return {{"lobe", ibl::SpecularLobeName(cube.chain.lobe)},
+          {"light_degree", cube.chain.light_degree},
+          {"levels", levels}};
+}
+
+}  // namespace
+
+const char* IblFormatName(IblFormat format) {
+  switch (format) {
+    case IblFormat::kRgba16f:
+      return "rgba16f";
+    case IblFormat::kRgba32f:
+      return "rgba32f";
+    case IblFormat::kB10g11r11:
+      return "r11g11b10f";
+    default:
+      return "rgb9e5";
+  }
+}
+
+absl::StatusOr<IblFormat> ParseIblFormat(absl::string_view name) {
+  for (IblFormat f :
+       {IblFormat::kRgba16f, IblFormat::kRgba32f, IblFormat::kB10g11r11, IblFormat::kE5b9g9r9}) {
+    if (name == IblFormatName(f)) return f;
+  }
+  return absl::InvalidArgumentError(
+      absl::StrCat("format must be rgba16f, rgba32f, r11g11b10f or rgb9e5, got '", name, "'"));
+}
+
+double IblFormatRounding(IblFormat format) {
+  switch (format) {
+    case IblFormat::kRgba16f:
+      return std::ldexp(1.0, -11);  // 10 mantissa bits
+    case IblFormat::kRgba32f:
+      return std::ldexp(1.0, -24);
+    case IblFormat::kB10g11r11:
+      return std::ldexp(1.0, -6);  // the 5 mantissa bits of blue
+    default:
+      return std::ldexp(1.0, -9);  // 9 bits below the shared exponent
+  }
+}
+
+absl::Status ValidateIblJob(const IblJob& job) {
+  SHRM_RETURN_IF_ERROR(ValidateEnvironment(job.env));
+  if (!(job.tolerance > 0 && job.tolerance < 1)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("tolerance must be in (0, 1), got ", job.tolerance));
+  }
+  if (job.verify < 0 || job.verify > kMaxIblVerify) {
+    return absl::InvalidArgumentError(absl::StrCat("verify must be in [0, ", kMaxIblVerify,
+                                                   "] directions per level, got ", job.verify));
+  }
+  if (job.irradiance_size < 1 || job.irradiance_size > ibl::kMaxIblFaceSize) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "irradiance size must be in [1, ", ibl::kMaxIblFaceSize, "], got ", job.irradiance_size));
+  }
+  if (job.dfg_size < 1 || job.dfg_size > kMaxDfgSize) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("DFG size must be in [1, ", kMaxDfgSize, "], got ", job.dfg_size));
+  }
+  if (job.preset != ibl::RoughnessPreset::kExplicit && !job.roughness.empty()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("a roughness list needs the explicit preset (got preset ",
+                     ibl::RoughnessPresetName(job.preset), ")"));
+  }
+  return IblJobChain(job).status();
+}
+
+absl::StatusOr<ibl::MipChain> IblJobChain(const IblJob& job) {
+  return ibl::MakeMipChain(job.preset, job.face_size, job.levels, job.roughness);
+}
+
+absl::StatusOr<IblRun> RunIblJob(const IblJob& job, int threads) {
+  SHRM_RETURN_IF_ERROR(ValidateIblJob(job));
+  IblRun run;
+  auto t0 = std::chrono::steady_clock::now();
+  SHRM_ASSIGN_OR_RETURN(EnvMap map, EnvMap::Load(EnvMapOptionsFor(job.env)));
+  SHRM_ASSIGN_OR_RETURN(run.source, LocalSourceIdentity(job.env));
+  run.layout = map.layout();
+  run.replaced_non_finite = map.replaced_non_finite();
+  run.timings.push_back({"decode", MsSince(t0)});
+  const Mat3 rotation = EnvironmentRotation(job.env);
+
+  ibl::SpecularOptions opt;
+  SHRM_ASSIGN_OR_RETURN(opt.chain, IblJobChain(job));
+  opt.tolerance = job.tolerance / kIblSphereToDirectionFactor;
+  opt.rotation = rotation;
+  opt.threads = threads;
+  t0 = std::chrono::steady_clock::now();
+  run.specular.name = "specular";
+  SHRM_ASSIGN_OR_RETURN(run.specular.chain, ibl::PrefilterSpecular(map, opt));
+  run.timings.push_back({"specular", MsSince(t0)});
+  if (job.sheen) {
+    t0 = std::chrono::steady_clock::now();
+    opt.lobe = ibl::SpecularLobe::kCharlie;
+    run.sheen.name = "sheen";
+    SHRM_ASSIGN_OR_RETURN(run.sheen.chain, ibl::PrefilterSpecular(map, opt));
+    run.timings.push_back({"sheen", MsSince(t0)});
+  }
+  t0 = std::chrono::steady_clock::now();
+  ibl::SpecularOptions diffuse = opt;
+  diffuse.lobe = ibl::SpecularLobe::kLambert;
+  const double one[] = {1.0};
+  SHRM_ASSIGN_OR_RETURN(diffuse.chain, ibl::MakeMipChain(ibl::RoughnessPreset::kExplicit,
+                                                         job.irradiance_size, 1, one));
+  run.irradiance.name = "irradiance";
+  SHRM_ASSIGN_OR_RETURN(run.irradiance.chain, ibl::PrefilterSpecular(map, diffuse));
+  SHRM_ASSIGN_OR_RETURN(run.radiance_sh9, LightingCoefficients(map, 2, rotation, threads));
+  run.timings.push_back({"irradiance", MsSince(t0)});
+
+  if (job.verify > 0) {
+    t0 = std::chrono::steady_clock::now();
+    SHRM_RETURN_IF_ERROR(Measure(map, rotation, ibl::SpecularLobe::kGgx, job.verify,
+                                 kSpecularVerifySeed, threads, run.specular));
+    if (job.sheen) {
+      SHRM_RETURN_IF_ERROR(Measure(map, rotation, ibl::SpecularLobe::kCharlie, job.verify,
+                                   kSheenVerifySeed, threads, run.sheen));
+    }
+    SHRM_RETURN_IF_ERROR(Measure(map, rotation, ibl::SpecularLobe::kLambert, job.verify,
+                                 kIrradianceVerifySeed, threads, run.irradiance));
+    run.timings.push_back({"verify", MsSince(t0)});
+  }
+  run.report = IblReportJson(job, run);
+  return run;
+}
+
+nlohmann::json IblReportJson(const IblJob& job, const IblRun& run) {
+  nlohmann::json r;
+  r["shrm_version"] = kVersion;
+  r["source"] = run.source.names;
+  r["source_sha256"] = run.source.sha256;
+  r["layout"] = EnvLayoutName(run.layout);
+  r["preset"] = ibl::RoughnessPresetName(job.preset);
+  r["format"] = IblFormatName(job.format);
+  const double rms = std::max(job.tolerance, IblFormatRounding(job.format));
+  r["tolerance"] = {{"rms", rms}, {"max", kIblMaxErrorFactor * rms}};
+  r["specular"] = CubeJson(run.specular);
+  if (job.sheen) r["sheen"] = CubeJson(run.sheen);
+  r["irradiance"] = CubeJson(run.irradiance);
+  bool met = true;
+  for (const char* key : {"specular", "sheen", "irradiance"}) {
+    if (!r.contains(key)) continue;
+    for (const nlohmann::json& l : r[key]["levels"]) {
+      if (!l.contains("measured")) continue;
+      met &= l["measured"]["rms"].get<double>() <= rms &&
+             l["measured"]["max"].get<double>() <= kIblMaxErrorFactor * rms;
+    }
+  }
+  r["met"] = met;
+  return r;
+}
+
+absl::Status IblOutcome(const IblJob& job, const nlohmann::json& report) {
+  const double rms = report["tolerance"]["rms"].get<double>();
+  const double largest = report["tolerance"]["max"].get<double>();
+  for (const char* key : {"specular", "sheen", "irradiance"}) {
+    if (!report.contains(key)) continue;
+    for (const nlohmann::json& l : report[key]["levels"]) {
+      if (!l.contains("measured")) continue;
+      const double m_rms = l["measured"]["rms"].get<double>();
+      const double m_max = l["measured"]["max"].get<double>();
+      if (m_rms > rms || m_max > largest) {
+        return absl::FailedPreconditionError(absl::StrCat(
+            key, " level ", l["level"].get<int>(), " (roughness ", l["roughness"].get<double>(),
+            "): measured relative RMS ", m_rms, " (target ", rms, "), largest ", m_max, " (target ",
+            largest, ") at ", l["measured"]["count"].get<int>(),
+            " directions; the outputs were written"));
+      }
+    }
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace shrm::jobs

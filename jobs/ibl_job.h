@@ -1,0 +1,108 @@
+// The IBL job (`shrm ibl`): one environment map in, the split-sum image-based-lighting set that
+// PBR engines load out (docs/ibl.md): the GGX-prefiltered radiance mip chain (core/ibl/
+// split_sum.h), optionally the Charlie sheen chain, the diffuse irradiance as a cube (E / pi, the
+// cosine-weighted mean radiance) and as 9 SH coefficients, and the DFG lookup table. This header
+// is the one description of the job: its options, defaults and limits, their validation, the
+// report's keys and the embedded run; the containers the outputs are written in follow from the
+// job (jobs/ibl_outputs.h).
+#ifndef SHRM_JOBS_IBL_JOB_H_
+#define SHRM_JOBS_IBL_JOB_H_
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "core/ibl/split_sum.h"
+#include "core/shrm/prefilter.h"
+#include "jobs/environment.h"
+
+namespace shrm::jobs {
+
+// Storage of the radiance cubes (KTX2 VkFormat; docs/ktx2.md).
+enum class IblFormat { kRgba16f, kRgba32f, kB10g11r11, kE5b9g9r9 };
+
+// "rgba16f", "rgba32f", "r11g11b10f", "rgb9e5", and back (InvalidArgument listing them).
+const char* IblFormatName(IblFormat format);
+absl::StatusOr<IblFormat> ParseIblFormat(absl::string_view name);
+
+// Relative rounding of one stored value (half a unit in the last place of the mantissa, relative
+// to the value; for the shared-exponent format, to the largest channel of the texel): the floor
+// under any measured error of a stored level.
+double IblFormatRounding(IblFormat format);
+
+// Defaults and limits.
+inline constexpr int kDefaultIblFaceSize = 256;
+inline constexpr int kDefaultIrradianceSize = 32;
+inline constexpr int kDefaultDfgSize = 128;
+inline constexpr int kMaxDfgSize = 1024;
+inline constexpr double kDefaultIblTolerance = 1e-3;
+// Directions per level of the job's own check (about 2 ms each at 1024 x 512).
+inline constexpr int kDefaultIblVerify = 16;
+inline constexpr int kMaxIblVerify = 4096;
+// The per-direction error is measured at up to this multiple of the truncation's sphere RMS on
+// the bundled maps (tests/split_sum_test.cc): the core tolerance is the job's divided by it.
+inline constexpr double kIblSphereToDirectionFactor = 10;
+// Largest relative error allowed, as a multiple of the RMS target (the accuracy issue's 1% / 5%).
+inline constexpr double kIblMaxErrorFactor = 5;
+
+struct IblJob {
+  EnvironmentSpec env;
+  ibl::RoughnessPreset preset = ibl::RoughnessPreset::kFilament;
+  std::vector<double> roughness;  // kExplicit: one perceptual roughness per level
+  int face_size = kDefaultIblFaceSize;
+  int levels = 0;      // 0 = the preset's default
+  bool sheen = false;  // also the Charlie chain
+  IblFormat format = IblFormat::kRgba16f;
+  int irradiance_size = kDefaultIrradianceSize;
+  int dfg_size = kDefaultDfgSize;
+  // Per-direction relative RMS target of every level (the largest error: kIblMaxErrorFactor x).
+  double tolerance = kDefaultIblTolerance;
+  int verify = kDefaultIblVerify;  // directions per level of the job's own check; 0 = none
+  bool operator==(const IblJob&) const = default;
+};
+
+// Every option within its range, the chain buildable (MakeMipChain's errors).
+[[nodiscard]] absl::Status ValidateIblJob(const IblJob& job);
+
+// The mip chain of the job.
+absl::StatusOr<ibl::MipChain> IblJobChain(const IblJob& job);
+
+// One convolved or resampled cube and what the job measured on it.
+struct IblCube {
+  std::string name;  // "specular", "sheen", "irradiance"
+  ibl::SpecularChain chain;
+  std::vector<ibl::LevelError> measured;  // per level (count 0 when not checked)
+};
+
+struct IblRun {
+  IblCube specular;
+  IblCube sheen;  // levels empty unless job.sheen
+  IblCube irradiance;
+  // Radiance L_lm, l <= 2, RGB, SH frame (docs/conventions.md): rgb[ShIndex(l, m) * 3 + c].
+  std::vector<double> radiance_sh9;
+  SourceIdentity source;
+  EnvLayout layout = EnvLayout::kAuto;
+  int64_t replaced_non_finite = 0;
+  std::vector<StageTiming> timings;
+  nlohmann::json report;  // IblReportJson
+};
+
+// The embedded run: decode and hash the map, the chains, the irradiance, each measured at
+// job.verify seeded texel centres per level against the brute-force pixel sum.
+absl::StatusOr<IblRun> RunIblJob(const IblJob& job, int threads);
+
+// The report: source, layout, shrm_version, preset, format, tolerance and, per cube and level,
+// face_size, roughness, alpha, degree, truncation_estimate and measured {count, rms, max}; "met"
+// is false when a measured level misses its target. Front ends add the files they wrote.
+nlohmann::json IblReportJson(const IblJob& job, const IblRun& run);
+
+// FailedPrecondition naming the first level whose measured error misses the targets (the files
+// are written all the same), OK otherwise.
+absl::Status IblOutcome(const IblJob& job, const nlohmann::json& report);
+
+}  // namespace shrm::jobs
+
+#endif  // SHRM_JOBS_IBL_JOB_H_

@@ -1,0 +1,27 @@
+// The files of the IBL job (jobs/ibl_job.h), encoded in memory so that every front end writes the
+// same bytes (docs/ibl.md "Files"): the radiance chains, the irradiance cube and the DFG table as
+// KTX2 (core/export/ktx2.h), the SH coefficients in each engine's convention, and the JSON
+// sidecar that describes them all (orientation, units, conventions, the report).
+#ifndef SHRM_JOBS_IBL_OUTPUTS_H_
+#define SHRM_JOBS_IBL_OUTPUTS_H_
+
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "jobs/ibl_job.h"
+
+namespace shrm::jobs {
+
+struct IblFile {
+  std::string name;   // file name inside the output folder
+  std::string bytes;  // contents
+  std::string what;   // one line for the summary
+};
+
+// The job's files, the sidecar "ibl.json" last (it lists the others).
+absl::StatusOr<std::vector<IblFile>> EncodeIblOutputs(const IblJob& job, const IblRun& run);
+
+}  // namespace shrm::jobs
+
+#endif  // SHRM_JOBS_IBL_OUTPUTS_H_
