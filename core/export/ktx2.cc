@@ -1,1 +1,449 @@
 #include "core/export/ktx2.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <numeric>
+
+#include "absl/strings/str_cat.h"
+
+namespace shrm::ktx2 {
+namespace {
+
+constexpr unsigned char kIdentifier[12] = {0xAB, 0x4B, 0x54, 0x58, 0x20, 0x32,
+                                           0x30, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A};
+constexpr uint32_t kHeaderBytes = 80;      // identifier + 9 UInt32 + Index
+constexpr uint32_t kLevelIndexEntry = 24;  // 3 UInt64 per level
+constexpr int kMaxDimension = 1 << 16;
+constexpr int kMaxLayers = 1 << 16;
+// The largest E5B9G9R9 value: (2^N - 1) / 2^N * 2^(Emax - B) with N = 9, Emax = 31, B = 15.
+constexpr double kE5Max = 511.0 / 512.0 * 65536.0;
+
+// Khronos Data Format Specification enumerants.
+constexpr uint32_t kDfVersion13 = 2;
+constexpr uint32_t kDfModelRgbsda = 1;
+constexpr uint32_t kDfPrimariesBt709 = 1;
+constexpr uint32_t kDfTransferLinear = 1;
+constexpr uint8_t kChannelR = 0, kChannelG = 1, kChannelB = 2, kChannelA = 15;
+constexpr uint8_t kQualifierExponent = 0x20, kQualifierSigned = 0x40, kQualifierFloat = 0x80;
+constexpr uint32_t kFloatMinusOne = 0xBF800000u, kFloatOne = 0x3F800000u;
+
+struct Sample {
+  uint16_t bit_offset;
+  uint8_t bits;  // stored as bits - 1
+  uint8_t channel_and_qualifiers;
+  uint32_t lower;
+  uint32_t upper;
+};
+
+struct FormatInfo {
+  const char* name;
+  int channels;
+  int block_bytes;
+  int type_size;
+  bool is_unsigned;
+};
+
+FormatInfo Info(Format f) {
+  switch (f) {
+    case Format::kR16G16Sfloat:
+      return {"R16G16_SFLOAT", 2, 4, 2, false};
+    case Format::kR16G16B16Sfloat:
+      return {"R16G16B16_SFLOAT", 3, 6, 2, false};
+    case Format::kR16G16B16A16Sfloat:
+      return {"R16G16B16A16_SFLOAT", 4, 8, 2, false};
+    case Format::kR32G32Sfloat:
+      return {"R32G32_SFLOAT", 2, 8, 4, false};
+    case Format::kR32G32B32Sfloat:
+      return {"R32G32B32_SFLOAT", 3, 12, 4, false};
+    case Format::kR32G32B32A32Sfloat:
+      return {"R32G32B32A32_SFLOAT", 4, 16, 4, false};
+    case Format::kB10G11R11UfloatPack32:
+      return {"B10G11R11_UFLOAT_PACK32", 3, 4, 4, true};
+    case Format::kE5B9G9R9UfloatPack32:
+      return {"E5B9G9R9_UFLOAT_PACK32", 3, 4, 4, true};
+  }
+  return {"", 0, 0, 0, false};  // not a supported format
+}
+
+// The basic block's samples for `f` (see the header comment).
+std::vector<Sample> Samples(Format f) {
+  constexpr uint8_t kIds[4] = {kChannelR, kChannelG, kChannelB, kChannelA};
+  const FormatInfo info = Info(f);
+  std::vector<Sample> s;
+  if (f == Format::kB10G11R11UfloatPack32) {
+    s.push_back({0, 11, uint8_t(kChannelR | kQualifierFloat), 0, kFloatOne});
+    s.push_back({11, 11, uint8_t(kChannelG | kQualifierFloat), 0, kFloatOne});
+    s.push_back({22, 10, uint8_t(kChannelB | kQualifierFloat), 0, kFloatOne});
+  } else if (f == Format::kE5B9G9R9UfloatPack32) {
+    for (int c = 0; c < 3; ++c) {
+      s.push_back({uint16_t(9 * c), 9, kIds[c], 0, 8448});
+      s.push_back({27, 5, uint8_t(kIds[c] | kQualifierExponent), 15, 31});
+    }
+  } else {
+    const int bits = 8 * info.type_size;
+    for (int c = 0; c < info.channels; ++c) {
+      s.push_back({uint16_t(bits * c), uint8_t(bits),
+                   uint8_t(kIds[c] | kQualifierFloat | kQualifierSigned), kFloatMinusOne,
+                   kFloatOne});
+    }
+  }
+  return s;
+}
+
+void PutU16(std::string* out, uint16_t v) {
+  out->push_back(static_cast<char>(v & 0xFF));
+  out->push_back(static_cast<char>(v >> 8));
+}
+void PutU32(std::string* out, uint32_t v) {
+  for (int i = 0; i < 4; ++i) out->push_back(static_cast<char>((v >> (8 * i)) & 0xFF));
+}
+void PutU64(std::string* out, uint64_t v) {
+  for (int i = 0; i < 8; ++i) out->push_back(static_cast<char>((v >> (8 * i)) & 0xFF));
+}
+void PadTo(std::string* out, uint64_t alignment) {
+  while (out->size() % alignment != 0) out->push_back('\0');
+}
+
+// Nearest integer to q >= 0, ties to even (independent of the FPU rounding mode).
+uint64_t RoundHalfEven(double q) {
+  const double fl = std::floor(q);
+  const double d = q - fl;
+  uint64_t n = static_cast<uint64_t>(fl);
+  if (d > 0.5 || (d == 0.5 && (n & 1))) ++n;
+  return n;
+}
+
+// v (finite) as an unsigned float with a 5-bit exponent (bias 15) and `m` mantissa bits: round
+// to nearest even, subnormals kept, saturating at the largest finite value. v <= 0 gives 0.
+uint32_t EncodeUnsignedSmallFloat(float v, int m) {
+  if (!(v > 0)) return 0;
+  const uint32_t one = 1u << m;
+  int e2 = 0;
+  std::frexp(static_cast<double>(v), &e2);
+  int e = e2 - 1;  // v = 1.f * 2^e
+  if (e < -14) {
+    // Subnormal: units of 2^(-14 - m); a result of 2^m is exactly the smallest normal's bits.
+    return static_cast<uint32_t>(RoundHalfEven(std::ldexp(static_cast<double>(v), 14 + m)));
+  }
+  uint64_t n = RoundHalfEven(std::ldexp(static_cast<double>(v), m - e));  // in [2^m, 2^(m+1)]
+  if (n == 2 * uint64_t{one}) {
+    ++e;
+    n = one;
+  }
+  const int biased = e + 15;
+  if (biased > 30) return (30u << m) | (one - 1);  // the largest finite value
+  return (static_cast<uint32_t>(biased) << m) | static_cast<uint32_t>(n - one);
+}
+
+bool ValidUtf8(std::string_view s) {
+  size_t i = 0;
+  while (i < s.size()) {
+    const auto b = static_cast<unsigned char>(s[i]);
+    int extra;
+    uint32_t cp;
+    if (b < 0x80) {
+      ++i;
+      continue;
+    } else if ((b & 0xE0) == 0xC0) {
+      extra = 1;
+      cp = b & 0x1F;
+    } else if ((b & 0xF0) == 0xE0) {
+      extra = 2;
+      cp = b & 0x0F;
+    } else if ((b & 0xF8) == 0xF0) {
+      extra = 3;
+      cp = b & 0x07;
+    } else {
+      return false;
+    }
+    if (i + extra >= s.size()) return false;  // truncated sequence
+    for (int k = 1; k <= extra; ++k) {
+      const auto c = static_cast<unsigned char>(s[i + k]);
+      if ((c & 0xC0) != 0x80) return false;
+      cp = (cp << 6) | (c & 0x3F);
+    }
+    constexpr uint32_t kMinForLength[4] = {0, 0x80, 0x800, 0x10000};
+    if (cp < kMinForLength[extra] || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) {
+      return false;
+    }
+    i += extra + 1;
+  }
+  return true;
+}
+
+absl::Status Invalid(std::string message) {
+  return absl::InvalidArgumentError(absl::StrCat("KTX2: ", message));
+}
+
+absl::Status CheckText(const std::string& what, std::string_view s) {
+  if (s.find('\0') != std::string_view::npos) return Invalid(absl::StrCat(what, " contains NUL"));
+  if (!ValidUtf8(s)) return Invalid(absl::StrCat(what, " is not valid UTF-8"));
+  return absl::OkStatus();
+}
+
+absl::Status ValidateLayout(const Ktx2Image& im) {
+  const FormatInfo info = Info(im.format);
+  if (info.channels == 0) {
+    return Invalid(absl::StrCat("unsupported format (VkFormat ", uint32_t(im.format), ")"));
+  }
+  if (im.width < 1 || im.height < 1 || im.width > kMaxDimension || im.height > kMaxDimension) {
+    return Invalid(absl::StrCat("image size ", im.width, "x", im.height, " must be within 1..",
+                                kMaxDimension));
+  }
+  if (im.faces != 1 && im.faces != 6) {
+    return Invalid(absl::StrCat("faces is ", im.faces, ", must be 1 or 6 (a cube map)"));
+  }
+  if (im.faces == 6 && im.width != im.height) {
+    return Invalid(absl::StrCat("cube map faces must be square, got ", im.width, "x", im.height));
+  }
+  if (im.layers < 0 || im.layers > kMaxLayers) {
+    return Invalid(
+        absl::StrCat("layers is ", im.layers, ", must be 0 (not an array) or 1..", kMaxLayers));
+  }
+  const int max_levels = MaxLevelCount(im.width, im.height);
+  if (im.levels.empty()) return Invalid("no levels (level 0 is required)");
+  if (static_cast<int>(im.levels.size()) > max_levels) {
+    return Invalid(absl::StrCat(im.levels.size(), " levels given, a ", im.width, "x", im.height,
+                                " image has at most ", max_levels));
+  }
+  for (size_t p = 0; p < im.levels.size(); ++p) {
+    const Level& lv = im.levels[p];
+    const int w = std::max(1, im.width >> p), h = std::max(1, im.height >> p);
+    if (lv.width != w || lv.height != h) {
+      return Invalid(absl::StrCat("level ", p, " is ", lv.width, "x", lv.height, ", level ", p,
+                                  " of a ", im.width, "x", im.height, " image must be ", w, "x",
+                                  h));
+    }
+    const uint64_t expected = uint64_t(std::max(1, im.layers)) * im.faces * w * h * info.channels;
+    if (lv.pixels.size() != expected) {
+      return Invalid(absl::StrCat("level ", p, " has ", lv.pixels.size(), " values, expected ",
+                                  expected, " (", std::max(1, im.layers), " layer(s) x ", im.faces,
+                                  " face(s) x ", w, "x", h, " x ", info.channels, " channels of ",
+                                  info.name, ")"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ValidateKeys(const Ktx2Image& im, const EncodeOptions& options) {
+  if (options.writer.empty()) return Invalid("the writer (KTXwriter) is empty");
+  if (absl::Status s = CheckText("the writer (KTXwriter)", options.writer); !s.ok()) return s;
+  for (const auto& [key, value] : im.key_values) {
+    if (key.empty()) return Invalid("an empty key in key_values");
+    const std::string_view prefix = std::string_view(key).substr(0, 3);
+    if (prefix == "KTX" || prefix == "ktx") {
+      return Invalid(absl::StrCat("key '", key, "' is reserved (keys starting KTX/ktx)"));
+    }
+    if (absl::Status s = CheckText(absl::StrCat("key '", key, "'"), key); !s.ok()) return s;
+    if (absl::Status s = CheckText(absl::StrCat("the value of key '", key, "'"), value); !s.ok()) {
+      return s;
+    }
+  }
+  return absl::OkStatus();
+}
+
+// Names the texel of value index `i` in level `p` for error messages.
+std::string Where(const Ktx2Image& im, size_t p, size_t i) {
+  const Level& lv = im.levels[p];
+  const size_t channels = Info(im.format).channels;
+  const size_t t = i / channels, w = lv.width, h = lv.height;
+  return absl::StrCat("level ", p, ", layer ", t / (w * h * im.faces), ", face ",
+                      (t / (w * h)) % im.faces, ", x ", t % w, ", y ", (t / w) % h, ", channel ",
+                      i % channels);
+}
+
+// Level p's bytes (the levelImages of "Mip Level Array"), or the first unrepresentable value.
+absl::StatusOr<std::string> EncodeLevel(const Ktx2Image& im, size_t p, Negatives negatives) {
+  const FormatInfo info = Info(im.format);
+  const std::vector<float>& v = im.levels[p].pixels;
+  for (size_t i = 0; i < v.size(); ++i) {
+    if (!std::isfinite(v[i])) {
+      return Invalid(absl::StrCat(std::isnan(v[i]) ? "NaN" : "infinity", " at ", Where(im, p, i),
+                                  " (", info.name, " stores finite values only)"));
+    }
+    if (info.is_unsigned && v[i] < 0 && negatives == Negatives::kReject) {
+      return Invalid(absl::StrCat("negative value ", v[i], " at ", Where(im, p, i), " (", info.name,
+                                  " is unsigned; EncodeOptions::negatives can clamp to 0)"));
+    }
+  }
+  std::string out;
+  const size_t texels = v.size() / info.channels;
+  out.reserve(texels * info.block_bytes);
+  switch (im.format) {
+    case Format::kR16G16Sfloat:
+    case Format::kR16G16B16Sfloat:
+    case Format::kR16G16B16A16Sfloat:
+      for (float x : v) PutU16(&out, FloatToHalf(x));
+      break;
+    case Format::kR32G32Sfloat:
+    case Format::kR32G32B32Sfloat:
+    case Format::kR32G32B32A32Sfloat:
+      for (float x : v) {
+        uint32_t bits;
+        std::memcpy(&bits, &x, sizeof(bits));
+        PutU32(&out, bits);
+      }
+      break;
+    case Format::kB10G11R11UfloatPack32:
+      for (size_t t = 0; t < texels; ++t) {
+        PutU32(&out, PackB10G11R11(v[3 * t], v[3 * t + 1], v[3 * t + 2]));
+      }
+      break;
+    case Format::kE5B9G9R9UfloatPack32:
+      for (size_t t = 0; t < texels; ++t) {
+        PutU32(&out, PackE5B9G9R9(v[3 * t], v[3 * t + 1], v[3 * t + 2]));
+      }
+      break;
+  }
+  return out;
+}
+
+// One Key/Value Data entry: keyAndValueByteLength, key NUL value NUL, valuePadding.
+void PutKeyValue(std::string* out, std::string_view key, std::string_view value) {
+  PutU32(out, static_cast<uint32_t>(key.size() + 1 + value.size() + 1));
+  out->append(key);
+  out->push_back('\0');
+  out->append(value);
+  out->push_back('\0');
+  PadTo(out, 4);  // the KVD starts 4-aligned, so this aligns the file offset
+}
+
+}  // namespace
+
+int ChannelCount(Format format) { return Info(format).channels; }
+int TexelBlockBytes(Format format) { return Info(format).block_bytes; }
+int TypeSize(Format format) { return Info(format).type_size; }
+std::string_view FormatName(Format format) { return Info(format).name; }
+
+int MaxLevelCount(int width, int height) {
+  int m = std::max(width, height), n = 0;
+  while (m > 0) {
+    ++n;
+    m >>= 1;
+  }
+  return n;
+}
+
+uint16_t FloatToHalf(float value) {
+  const uint16_t sign = std::signbit(value) ? 0x8000 : 0;
+  return static_cast<uint16_t>(sign | EncodeUnsignedSmallFloat(std::fabs(value), 10));
+}
+
+uint32_t PackB10G11R11(float r, float g, float b) {
+  return EncodeUnsignedSmallFloat(r, 6) | (EncodeUnsignedSmallFloat(g, 6) << 11) |
+         (EncodeUnsignedSmallFloat(b, 5) << 22);
+}
+
+uint32_t PackE5B9G9R9(float r, float g, float b) {
+  // Vulkan specification, "Shared Exponent": N = 9 mantissa bits, B = 15, Emax = 31.
+  constexpr int kN = 9, kB = 15;
+  auto clamp = [](float x) { return x > 0 ? std::min(static_cast<double>(x), kE5Max) : 0.0; };
+  const double rc = clamp(r), gc = clamp(g), bc = clamp(b);
+  const double max_c = std::max({rc, gc, bc});
+  int floor_log2 = -kB - 1;  // max(-B - 1, floor(log2(max_c))), log2(0) = -infinity
+  if (max_c > 0) {
+    int e2 = 0;
+    std::frexp(max_c, &e2);
+    floor_log2 = std::max(floor_log2, e2 - 1);
+  }
+  int exp_shared = floor_log2 + 1 + kB;
+  const auto max_s =
+      static_cast<int>(std::floor(max_c / std::ldexp(1.0, exp_shared - kB - kN) + 0.5));
+  if (max_s == (1 << kN)) ++exp_shared;
+  const double scale = std::ldexp(1.0, exp_shared - kB - kN);
+  auto mantissa = [&](double x) { return static_cast<uint32_t>(std::floor(x / scale + 0.5)); };
+  return (static_cast<uint32_t>(exp_shared) << 27) | (mantissa(bc) << 18) | (mantissa(gc) << 9) |
+         mantissa(rc);
+}
+
+absl::StatusOr<std::string> EncodeKtx2(const Ktx2Image& image, const EncodeOptions& options) {
+  if (absl::Status s = ValidateLayout(image); !s.ok()) return s;
+  if (absl::Status s = ValidateKeys(image, options); !s.ok()) return s;
+  const FormatInfo info = Info(image.format);
+  const size_t num_levels = image.levels.size();
+
+  std::vector<std::string> level_bytes(num_levels);
+  for (size_t p = 0; p < num_levels; ++p) {
+    absl::StatusOr<std::string> bytes = EncodeLevel(image, p, options.negatives);
+    if (!bytes.ok()) return bytes.status();
+    level_bytes[p] = *std::move(bytes);
+  }
+
+  // Data Format Descriptor: dfdTotalSize, then one basic descriptor block.
+  const std::vector<Sample> samples = Samples(image.format);
+  std::string dfd;
+  const auto block_size = static_cast<uint32_t>(24 + 16 * samples.size());
+  PutU32(&dfd, 4 + block_size);
+  PutU32(&dfd, 0);  // vendorId KHRONOS (0), descriptorType BASICFORMAT (0)
+  PutU32(&dfd, kDfVersion13 | (block_size << 16));
+  PutU32(&dfd, kDfModelRgbsda | (kDfPrimariesBt709 << 8) | (kDfTransferLinear << 16));  // flags 0
+  PutU32(&dfd, 0);                                        // texelBlockDimension0..3: 1x1x1x1
+  PutU32(&dfd, static_cast<uint32_t>(info.block_bytes));  // bytesPlane0; planes 1..3 = 0
+  PutU32(&dfd, 0);                                        // bytesPlane4..7
+  for (const Sample& s : samples) {
+    PutU32(&dfd, s.bit_offset | (uint32_t(s.bits - 1) << 16) |
+                     (uint32_t(s.channel_and_qualifiers) << 24));
+    PutU32(&dfd, 0);  // samplePosition0..3
+    PutU32(&dfd, s.lower);
+    PutU32(&dfd, s.upper);
+  }
+
+  // Key/Value Data, sorted by key bytes (unsigned: the UTF-8 order of code points).
+  std::vector<std::pair<std::string_view, std::string_view>> kv = {{"KTXorientation", "rd"},
+                                                                   {"KTXwriter", options.writer}};
+  for (const auto& [key, value] : image.key_values) kv.emplace_back(key, value);
+  std::sort(kv.begin(), kv.end(), [](const auto& a, const auto& b) {
+    return std::lexicographical_compare(
+        a.first.begin(), a.first.end(), b.first.begin(), b.first.end(), [](char x, char y) {
+          return static_cast<unsigned char>(x) < static_cast<unsigned char>(y);
+        });
+  });
+  std::string kvd;
+  for (const auto& [key, value] : kv) PutKeyValue(&kvd, key, value);
+
+  const uint64_t dfd_offset = kHeaderBytes + kLevelIndexEntry * num_levels;
+  const uint64_t kvd_offset = dfd_offset + dfd.size();
+  const uint64_t alignment = std::lcm(uint64_t(info.block_bytes), uint64_t{4});
+  // Level offsets: smallest level first, each after mipPadding to `alignment`.
+  std::vector<uint64_t> offsets(num_levels);
+  uint64_t end = kvd_offset + kvd.size();
+  for (size_t p = num_levels; p-- > 0;) {
+    end = (end + alignment - 1) / alignment * alignment;
+    offsets[p] = end;
+    end += level_bytes[p].size();
+  }
+
+  std::string out;
+  out.reserve(end);
+  out.append(reinterpret_cast<const char*>(kIdentifier), sizeof(kIdentifier));
+  PutU32(&out, static_cast<uint32_t>(image.format));
+  PutU32(&out, static_cast<uint32_t>(info.type_size));
+  PutU32(&out, static_cast<uint32_t>(image.width));
+  PutU32(&out, static_cast<uint32_t>(image.height));
+  PutU32(&out, 0);  // pixelDepth
+  PutU32(&out, static_cast<uint32_t>(image.layers));
+  PutU32(&out, static_cast<uint32_t>(image.faces));
+  PutU32(&out, static_cast<uint32_t>(num_levels));
+  PutU32(&out, 0);  // supercompressionScheme: none
+  PutU32(&out, static_cast<uint32_t>(dfd_offset));
+  PutU32(&out, static_cast<uint32_t>(dfd.size()));
+  PutU32(&out, static_cast<uint32_t>(kvd_offset));
+  PutU32(&out, static_cast<uint32_t>(kvd.size()));
+  PutU64(&out, 0);  // sgdByteOffset
+  PutU64(&out, 0);  // sgdByteLength
+  for (size_t p = 0; p < num_levels; ++p) {
+    PutU64(&out, offsets[p]);
+    PutU64(&out, level_bytes[p].size());  // byteLength
+    PutU64(&out, level_bytes[p].size());  // uncompressedByteLength
+  }
+  out += dfd;
+  out += kvd;
+  for (size_t p = num_levels; p-- > 0;) {
+    out.resize(offsets[p], '\0');  // mipPadding
+    out += level_bytes[p];
+  }
+  return out;
+}
+
+}  // namespace shrm::ktx2
