@@ -1,11 +1,13 @@
 #include "jobs/ibl_job.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
+#include "core/sh/sh.h"
 #include "shrm/version.h"
 
 namespace shrm::jobs {
@@ -30,6 +32,29 @@ absl::Status Measure(const EnvMap& map, const Mat3& rotation, ibl::SpecularLobe 
   return absl::OkStatus();
 }
 
+// Clamps negatives to 0 and rounds every texel as `format` stores it.
+void StoreAs(IblFormat format, IblCube& cube) {
+  const ktx2::Format f = IblKtx2Format(format);
+  for (ibl::SpecularLevel& level : cube.chain.levels) {
+    std::vector<float>& d = level.cube.data;
+    double mean = 0;
+    for (size_t i = 0; i < d.size(); i += 3)
+      mean += (0.2126 * d[i] + 0.7152 * d[i + 1] + 0.0722 * d[i + 2]) / (d.size() / 3);
+    for (size_t i = 0; i < d.size(); i += 3) {
+      float v[4] = {d[i], d[i + 1], d[i + 2], 1.0f};
+      for (int c = 0; c < 3; ++c) {
+        if (v[c] < 0) {
+          ++cube.clamped;
+          if (mean > 0) cube.most_negative = std::min(cube.most_negative, v[c] / mean);
+          v[c] = 0;
+        }
+      }
+      ktx2::RoundTrip(f, v);
+      for (int c = 0; c < 3; ++c) d[i + c] = v[c];
+    }
+  }
+}
+
 nlohmann::json CubeJson(const IblCube& cube) {
   nlohmann::json levels = nlohmann::json::array();
   for (size_t k = 0; k < cube.chain.levels.size(); ++k) {
@@ -48,6 +73,8 @@ nlohmann::json CubeJson(const IblCube& cube) {
   }
   return {{"lobe", ibl::SpecularLobeName(cube.chain.lobe)},
           {"light_degree", cube.chain.light_degree},
+          {"clamped_negative_values", cube.clamped},
+          {"most_negative_relative", cube.most_negative},
           {"levels", levels}};
 }
 
@@ -73,6 +100,19 @@ absl::StatusOr<IblFormat> ParseIblFormat(absl::string_view name) {
   }
   return absl::InvalidArgumentError(
       absl::StrCat("format must be rgba16f, rgba32f, r11g11b10f or rgb9e5, got '", name, "'"));
+}
+
+ktx2::Format IblKtx2Format(IblFormat format) {
+  switch (format) {
+    case IblFormat::kRgba16f:
+      return ktx2::Format::kR16G16B16A16Sfloat;
+    case IblFormat::kRgba32f:
+      return ktx2::Format::kR32G32B32A32Sfloat;
+    case IblFormat::kB10g11r11:
+      return ktx2::Format::kB10G11R11UfloatPack32;
+    default:
+      return ktx2::Format::kE5B9G9R9UfloatPack32;
+  }
 }
 
 double IblFormatRounding(IblFormat format) {
@@ -135,14 +175,18 @@ absl::StatusOr<IblRun> RunIblJob(const IblJob& job, int threads) {
   opt.rotation = rotation;
   opt.threads = threads;
   t0 = std::chrono::steady_clock::now();
+  SHRM_ASSIGN_OR_RETURN(const ibl::SpecularLight light,
+                        ibl::ComputeSpecularLight(map, rotation, 0, threads));
+  run.timings.push_back({"lighting", MsSince(t0)});
+  t0 = std::chrono::steady_clock::now();
   run.specular.name = "specular";
-  SHRM_ASSIGN_OR_RETURN(run.specular.chain, ibl::PrefilterSpecular(map, opt));
+  SHRM_ASSIGN_OR_RETURN(run.specular.chain, ibl::PrefilterSpecular(map, opt, &light));
   run.timings.push_back({"specular", MsSince(t0)});
   if (job.sheen) {
     t0 = std::chrono::steady_clock::now();
     opt.lobe = ibl::SpecularLobe::kCharlie;
     run.sheen.name = "sheen";
-    SHRM_ASSIGN_OR_RETURN(run.sheen.chain, ibl::PrefilterSpecular(map, opt));
+    SHRM_ASSIGN_OR_RETURN(run.sheen.chain, ibl::PrefilterSpecular(map, opt, &light));
     run.timings.push_back({"sheen", MsSince(t0)});
   }
   t0 = std::chrono::steady_clock::now();
@@ -152,10 +196,13 @@ absl::StatusOr<IblRun> RunIblJob(const IblJob& job, int threads) {
   SHRM_ASSIGN_OR_RETURN(diffuse.chain, ibl::MakeMipChain(ibl::RoughnessPreset::kExplicit,
                                                          job.irradiance_size, 1, one));
   run.irradiance.name = "irradiance";
-  SHRM_ASSIGN_OR_RETURN(run.irradiance.chain, ibl::PrefilterSpecular(map, diffuse));
-  SHRM_ASSIGN_OR_RETURN(run.radiance_sh9, LightingCoefficients(map, 2, rotation, threads));
+  SHRM_ASSIGN_OR_RETURN(run.irradiance.chain, ibl::PrefilterSpecular(map, diffuse, &light));
+  run.radiance_sh9.assign(ShCount(2) * 3, 0.0);  // zeros above the degree of a tiny map
+  std::copy_n(light.coeffs.begin(), std::min<size_t>(light.coeffs.size(), ShCount(2) * 3),
+              run.radiance_sh9.begin());
   run.timings.push_back({"irradiance", MsSince(t0)});
 
+  for (IblCube* cube : {&run.specular, &run.sheen, &run.irradiance}) StoreAs(job.format, *cube);
   if (job.verify > 0) {
     t0 = std::chrono::steady_clock::now();
     SHRM_RETURN_IF_ERROR(Measure(map, rotation, ibl::SpecularLobe::kGgx, job.verify,

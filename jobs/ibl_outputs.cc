@@ -1,13 +1,89 @@
 #include "jobs/ibl_outputs.h"
 
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "core/base/status_macros.h"
+#include "core/export/ktx2.h"
+#include "shrm/version.h"
+
 namespace shrm::jobs {
+namespace {
+
+// The cube convention every cube file states (docs/ibl.md "Orientation").
+constexpr char kCubeConvention[] =
+    "faces +X,-X,+Y,-Y,+Z,-Z in the OpenGL/Vulkan cube-map convention (row 0 = t 0); world frame "
+    "right-handed, +Y up (shrm docs/conventions.md)";
+
+absl::StatusOr<std::string> EncodeCube(const IblJob& job, const IblRun& run, const IblCube& cube) {
+  const ktx2::Format format = IblKtx2Format(job.format);
+  const int channels = ktx2::ChannelCount(format);
+  ktx2::Ktx2Image image;
+  image.format = format;
+  image.faces = 6;
+  image.width = image.height = cube.chain.levels.front().face_size;
+  std::vector<std::string> roughness, degree, measured;
+  for (size_t k = 0; k < cube.chain.levels.size(); ++k) {
+    const ibl::SpecularLevel& l = cube.chain.levels[k];
+    ktx2::Level level;
+    level.width = level.height = l.face_size;
+    const size_t texels = static_cast<size_t>(6) * l.face_size * l.face_size;
+    level.pixels.resize(texels * channels);
+    for (size_t t = 0; t < texels; ++t) {
+      for (int c = 0; c < 3; ++c) level.pixels[t * channels + c] = l.cube.data[t * 3 + c];
+      if (channels == 4) level.pixels[t * channels + 3] = 1.0f;
+    }
+    image.levels.push_back(std::move(level));
+    roughness.push_back(absl::StrCat(l.roughness));
+    degree.push_back(absl::StrCat(l.degree));
+    if (k < cube.measured.size() && cube.measured[k].count > 0) {
+      measured.push_back(absl::StrCat(cube.measured[k].rms, "/", cube.measured[k].max));
+    }
+  }
+  std::map<std::string, std::string>& kv = image.key_values;
+  kv["shrm:version"] = kVersion;
+  kv["shrm:content"] =
+      cube.name == "irradiance"
+          ? "irradiance / pi (cosine-weighted mean radiance) by normal"
+          : absl::StrCat("split-sum prefiltered radiance (N = V = R), lobe ",
+                         ibl::SpecularLobeName(cube.chain.lobe), ", one roughness per level");
+  kv["shrm:units"] = absl::StrCat("linear radiance, working space ", job.env.working_colour_space);
+  kv["shrm:cube"] = kCubeConvention;
+  kv["shrm:preset"] = ibl::RoughnessPresetName(job.preset);
+  kv["shrm:roughness"] = absl::StrJoin(roughness, ",");
+  kv["shrm:alpha"] = "roughness^2";
+  kv["shrm:degree"] = absl::StrJoin(degree, ",");
+  if (!measured.empty()) kv["shrm:measured_error"] = absl::StrJoin(measured, ",");
+  kv["shrm:source"] = run.source.names;
+  kv["shrm:source_sha256"] = run.source.sha256;
+  ktx2::EncodeOptions opt;
+  opt.writer = absl::StrCat("shrm ", kVersion);
+  opt.negatives = ktx2::Negatives::kClampToZero;  // already clamped (StoreAs); -0.0 stays 0
+  return ktx2::EncodeKtx2(image, opt);
+}
+
+}  // namespace
 
 absl::StatusOr<std::vector<IblFile>> EncodeIblOutputs(const IblJob& job, const IblRun& run) {
   std::vector<IblFile> files;
+  const std::string fmt = IblFormatName(job.format);
+  SHRM_ASSIGN_OR_RETURN(std::string specular, EncodeCube(job, run, run.specular));
+  files.push_back(
+      {"specular.ktx2", std::move(specular),
+       absl::StrCat("GGX radiance cube, ", run.specular.chain.levels.size(), " levels, ", fmt)});
+  if (job.sheen) {
+    SHRM_ASSIGN_OR_RETURN(std::string sheen, EncodeCube(job, run, run.sheen));
+    files.push_back({"sheen.ktx2", std::move(sheen),
+                     absl::StrCat("Charlie sheen radiance cube, ", run.sheen.chain.levels.size(),
+                                  " levels, ", fmt)});
+  }
+  SHRM_ASSIGN_OR_RETURN(std::string irradiance, EncodeCube(job, run, run.irradiance));
+  files.push_back(
+      {"irradiance.ktx2", std::move(irradiance), absl::StrCat("irradiance / pi cube, ", fmt)});
   nlohmann::json sidecar = run.report;
   nlohmann::json list = nlohmann::json::array();
   for (const IblFile& f : files) list.push_back({{"name", f.name}, {"what", f.what}});
   sidecar["files"] = list;
+  sidecar["cube_convention"] = kCubeConvention;
   files.push_back({"ibl.json", sidecar.dump(2) + "\n", "the set's description and report"});
   return files;
 }

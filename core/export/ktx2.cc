@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <numeric>
 
 #include "absl/strings/str_cat.h"
@@ -355,6 +356,58 @@ uint32_t PackE5B9G9R9(float r, float g, float b) {
   auto mantissa = [&](double x) { return static_cast<uint32_t>(std::floor(x / scale + 0.5)); };
   return (static_cast<uint32_t>(exp_shared) << 27) | (mantissa(bc) << 18) | (mantissa(gc) << 9) |
          mantissa(rc);
+}
+
+namespace {
+
+// An unsigned float with 5 exponent bits (bias 15) and `mantissa_bits` bits.
+float DecodeUnsignedSmallFloat(uint32_t bits, int mantissa_bits) {
+  const uint32_t e = bits >> mantissa_bits, m = bits & ((1u << mantissa_bits) - 1);
+  if (e == 0) return static_cast<float>(std::ldexp(static_cast<double>(m), -14 - mantissa_bits));
+  if (e == 31)
+    return m == 0 ? std::numeric_limits<float>::infinity()
+                  : std::numeric_limits<float>::quiet_NaN();
+  return static_cast<float>(std::ldexp(1.0 + std::ldexp(static_cast<double>(m), -mantissa_bits),
+                                       static_cast<int>(e) - 15));
+}
+
+}  // namespace
+
+float HalfToFloat(uint16_t bits) {
+  const float v = DecodeUnsignedSmallFloat(bits & 0x7FFFu, 10);
+  return (bits & 0x8000u) ? -v : v;
+}
+
+void UnpackB10G11R11(uint32_t packed, float rgb[3]) {
+  rgb[0] = DecodeUnsignedSmallFloat(packed & 0x7FFu, 6);
+  rgb[1] = DecodeUnsignedSmallFloat((packed >> 11) & 0x7FFu, 6);
+  rgb[2] = DecodeUnsignedSmallFloat(packed >> 22, 5);
+}
+
+void UnpackE5B9G9R9(uint32_t packed, float rgb[3]) {
+  const double scale = std::ldexp(1.0, static_cast<int>(packed >> 27) - 15 - 9);
+  rgb[0] = static_cast<float>((packed & 0x1FFu) * scale);
+  rgb[1] = static_cast<float>(((packed >> 9) & 0x1FFu) * scale);
+  rgb[2] = static_cast<float>(((packed >> 18) & 0x1FFu) * scale);
+}
+
+void RoundTrip(Format format, float* values) {
+  switch (format) {
+    case Format::kR16G16Sfloat:
+    case Format::kR16G16B16Sfloat:
+    case Format::kR16G16B16A16Sfloat:
+      for (int c = 0; c < ChannelCount(format); ++c)
+        values[c] = HalfToFloat(FloatToHalf(values[c]));
+      break;
+    case Format::kB10G11R11UfloatPack32:
+      UnpackB10G11R11(PackB10G11R11(values[0], values[1], values[2]), values);
+      break;
+    case Format::kE5B9G9R9UfloatPack32:
+      UnpackE5B9G9R9(PackE5B9G9R9(values[0], values[1], values[2]), values);
+      break;
+    default:
+      break;  // 32-bit floats are stored as they are
+  }
 }
 
 absl::StatusOr<std::string> EncodeKtx2(const Ktx2Image& image, const EncodeOptions& options) {

@@ -127,6 +127,14 @@ uint16_t FloatToHalf(float value);                  // saturating at +-65504
 uint32_t PackB10G11R11(float r, float g, float b);  // negatives become 0
 uint32_t PackE5B9G9R9(float r, float g, float b);   // negatives become 0
 
+// Their inverses (Vulkan specification, "Unsigned 11-Bit / 10-Bit Floating-Point Numbers" and
+// "Shared Exponent"), and the value a texel reads back as after storage in `format`: what a
+// job measures its stored outputs with. `rgb` holds ChannelCount(format) values (up to 4).
+float HalfToFloat(uint16_t bits);
+void UnpackB10G11R11(uint32_t packed, float rgb[3]);
+void UnpackE5B9G9R9(uint32_t packed, float rgb[3]);
+void RoundTrip(Format format, float* values);
+
 }  // namespace shrm::ktx2
 
 #endif  // SHRM_CORE_EXPORT_KTX2_H_
