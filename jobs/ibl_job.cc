@@ -232,6 +232,13 @@ nlohmann::json IblReportJson(const IblJob& job, const IblRun& run) {
   r["specular"] = CubeJson(run.specular);
   if (job.sheen) r["sheen"] = CubeJson(run.sheen);
   r["irradiance"] = CubeJson(run.irradiance);
+  // L_lm, l <= 2, in the project's real SH and SH frame (docs/conventions.md): [[r, g, b] x 9]
+  // in ShIndex order.
+  nlohmann::json sh = nlohmann::json::array();
+  for (int k = 0; k < 9 && static_cast<size_t>(3 * k + 2) < run.radiance_sh9.size(); ++k)
+    sh.push_back(
+        {run.radiance_sh9[3 * k], run.radiance_sh9[3 * k + 1], run.radiance_sh9[3 * k + 2]});
+  r["radiance_sh9"] = sh;
   bool met = true;
   for (const char* key : {"specular", "sheen", "irradiance"}) {
     if (!r.contains(key)) continue;
