@@ -1,0 +1,170 @@
+// The IBL job (jobs/ibl_job.h, jobs/ibl_outputs.h): validation of every option, the embedded run
+// on a real map (its cubes against the brute-force pixel sum at texels the job did not check
+// itself), the stored values equal to what the format stores, the report's verdict, and the
+// files: their names, order and KTX2 sizes.
+#include "jobs/ibl_job.h"
+
+#include <cmath>
+#include <random>
+
+#include "core/base/cubemap.h"
+#include "core/export/ktx2.h"
+#include "core/io/image.h"
+#include "gtest/gtest.h"
+#include "jobs/ibl_outputs.h"
+#include "tests/test_maps.h"
+#include "tests/test_paths.h"
+
+namespace shrm::jobs {
+namespace {
+
+IblJob SmallJob(const std::string& map) {
+  IblJob job;
+  job.env.files = {map};
+  job.preset = ibl::RoughnessPreset::kGltf;
+  job.face_size = 32;
+  job.irradiance_size = 8;
+  job.dfg_size = 16;
+  job.verify = 8;
+  return job;
+}
+
+TEST(IblJobTest, EveryOptionIsValidated) {
+  const IblJob ok = SmallJob("x.exr");
+  EXPECT_TRUE(ValidateIblJob(ok).ok()) << ValidateIblJob(ok);
+  auto bad = [&](auto edit, const char* word) {
+    IblJob j = ok;
+    edit(j);
+    const absl::Status st = ValidateIblJob(j);
+    EXPECT_EQ(st.code(), absl::StatusCode::kInvalidArgument) << word;
+    EXPECT_NE(std::string(st.message()).find(word), std::string::npos) << st;
+  };
+  bad([](IblJob& j) { j.tolerance = 0; }, "tolerance");
+  bad([](IblJob& j) { j.tolerance = 1; }, "tolerance");
+  bad([](IblJob& j) { j.verify = -1; }, "verify");
+  bad([](IblJob& j) { j.verify = kMaxIblVerify + 1; }, "verify");
+  bad([](IblJob& j) { j.irradiance_size = 0; }, "irradiance");
+  bad([](IblJob& j) { j.dfg_size = kMaxDfgSize + 1; }, "DFG");
+  bad([](IblJob& j) { j.face_size = 100; }, "power of two");
+  bad([](IblJob& j) { j.levels = 7; }, "levels");
+  bad([](IblJob& j) { j.roughness = {0, 0.5}; }, "explicit");
+  bad([](IblJob& j) { j.env.files.clear(); }, "");
+  EXPECT_FALSE(ParseIblFormat("rgb8").ok());
+  for (IblFormat f :
+       {IblFormat::kRgba16f, IblFormat::kRgba32f, IblFormat::kB10g11r11, IblFormat::kE5b9g9r9}) {
+    auto back = ParseIblFormat(IblFormatName(f));
+    ASSERT_TRUE(back.ok());
+    EXPECT_EQ(*back, f);
+  }
+}
+
+// Targets of the default tolerance (1e-3 RMS, 5e-3 largest) at texels the job did not check.
+constexpr double kRmsTol = kDefaultIblTolerance;
+constexpr double kMaxTol = kIblMaxErrorFactor * kDefaultIblTolerance;
+
+// Each cube of `run` against the pixel sum at 24 texels per level drawn with a seed of its own.
+void ExpectWithinTolerance(const std::string& path, const IblRun& run) {
+  auto map = EnvMap::Load({.paths = {path}});
+  ASSERT_TRUE(map.ok());
+  std::mt19937 rng(99);  // not the job's seeds
+  for (const IblCube* cube : {&run.specular, &run.sheen, &run.irradiance}) {
+    for (const ibl::SpecularLevel& level : cube->chain.levels) {
+      if (level.alpha == 0) continue;
+      const int s = level.face_size;
+      std::uniform_int_distribution<int> pick(0, 6 * s * s - 1);
+      std::vector<double> got, ref;
+      for (int i = 0; i < 24; ++i) {
+        const int t = pick(rng), face = t / (s * s), y = (t / s) % s, x = t % s;
+        const std::array<double, 3> want = ibl::SplitSumReference(
+            *map, cube->chain.lobe, level.alpha, CubeTexelDirection(face, x, y, s));
+        double a = 0, b = 0;
+        const double w[3] = {0.2126, 0.7152, 0.0722};
+        for (int c = 0; c < 3; ++c) {
+          const float v = level.cube.data[level.cube.Index(face, x, y, c)];
+          // Stored as half floats: the value reads back unchanged.
+          EXPECT_EQ(v, ktx2::HalfToFloat(ktx2::FloatToHalf(v)));
+          a += w[c] * v;
+          b += w[c] * want[c];
+        }
+        got.push_back(a);
+        ref.push_back(b);
+      }
+      double mean = 0, rms = 0, largest = 0;
+      for (double v : ref) mean += std::abs(v) / ref.size();
+      for (size_t i = 0; i < ref.size(); ++i) {
+        const double d = std::abs(got[i] - ref[i]) / std::max(std::abs(ref[i]), 0.01 * mean);
+        rms += d * d / ref.size();
+        largest = std::max(largest, d);
+      }
+      EXPECT_LE(std::sqrt(rms), kRmsTol) << cube->name << " r " << level.roughness;
+      EXPECT_LE(largest, kMaxTol) << cube->name << " r " << level.roughness;
+    }
+  }
+}
+
+TEST(IblJobTest, SheenAtFullResolutionIsWithinItsTolerance) {
+  // The Charlie lobe at N = V = R is a ring next to 90 degrees from R: its low-roughness levels
+  // need the degrees of the full 1024 x 512 map.
+  IblJob job = SmallJob(std::string(SHRM_SOURCE_DIR) + "/data/envmaps/city.exr");
+  job.face_size = 16;
+  job.irradiance_size = 4;
+  job.sheen = true;
+  job.verify = 4;
+  auto run = RunIblJob(job, 2);
+  ASSERT_TRUE(run.ok()) << run.status();
+  EXPECT_TRUE(run->report["met"].get<bool>()) << run->report["sheen"].dump(1);
+  ExpectWithinTolerance(job.env.files[0], *run);
+}
+
+TEST(IblJobTest, RunsOnARealMapWithinItsTolerance) {
+  const std::string path = testing::UniqueTempPath("ibl_job_city.exr");
+  ASSERT_TRUE(WriteExr(path, testing::LoadBundledMap("city.exr", 256)).ok());
+  IblJob job = SmallJob(path);
+  auto run = RunIblJob(job, 2);
+  ASSERT_TRUE(run.ok()) << run.status();
+  EXPECT_TRUE(run->report["met"].get<bool>()) << run->report.dump(1);
+  EXPECT_TRUE(IblOutcome(job, run->report).ok());
+  ASSERT_EQ(run->specular.chain.levels.size(), 5u);  // gltf: floor(log2(32)) levels
+  EXPECT_TRUE(run->sheen.chain.levels.empty());
+  ASSERT_EQ(run->irradiance.chain.levels.size(), 1u);
+  EXPECT_EQ(run->report["specular"]["levels"].size(), 5u);
+  EXPECT_EQ(run->report["specular"]["levels"][1]["measured"]["count"].get<int>(), 8);
+
+  ExpectWithinTolerance(path, *run);
+
+  auto files = EncodeIblOutputs(job, *run);
+  ASSERT_TRUE(files.ok()) << files.status();
+  std::vector<std::string> names;
+  for (const IblFile& f : *files) names.push_back(f.name);
+  const std::vector<std::string> want = {"specular.ktx2", "irradiance.ktx2", "ibl.json"};
+  EXPECT_EQ(names, want);
+  // RGBA16F cube, 5 levels 32..2: 6 faces x 8 bytes per texel, plus headers (< 4 KiB).
+  size_t texels = 0;
+  for (int s = 32; s >= 2; s /= 2) texels += 6 * s * s;
+  EXPECT_GE((*files)[0].bytes.size(), texels * 8);
+  EXPECT_LT((*files)[0].bytes.size(), texels * 8 + 4096);
+  EXPECT_EQ((*files)[0].bytes.substr(1, 6), "KTX 20");
+  const nlohmann::json sidecar = nlohmann::json::parse(files->back().bytes);
+  EXPECT_EQ(sidecar["files"].size(), 2u);
+  EXPECT_EQ(sidecar["format"], "rgba16f");
+  std::remove(path.c_str());
+}
+
+TEST(IblJobTest, AMissedTargetIsReportedWithTheLevel) {
+  IblJob job = SmallJob("x.exr");
+  nlohmann::json report = {{"tolerance", {{"rms", 1e-3}, {"max", 5e-3}}},
+                           {"specular",
+                            {{"levels",
+                              {{{"level", 0},
+                                {"roughness", 0.0},
+                                {"measured", {{"count", 8}, {"rms", 1e-4}, {"max", 2e-4}}}},
+                               {{"level", 1},
+                                {"roughness", 0.25},
+                                {"measured", {{"count", 8}, {"rms", 2e-3}, {"max", 4e-3}}}}}}}}};
+  const absl::Status st = IblOutcome(job, report);
+  EXPECT_EQ(st.code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_NE(std::string(st.message()).find("specular level 1"), std::string::npos) << st;
+}
+
+}  // namespace
+}  // namespace shrm::jobs
