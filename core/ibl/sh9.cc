@@ -411,7 +411,20 @@ absl::StatusOr<Sh9WindowReport> WindowSh9(std::span<double> radiance, int lmax,
 
   ShWindow kind = options.window;
   double width = options.width;
-  if (options.automatic) {
+  if (options.automatic && options.cmgen_compatible) {
+    kind = ShWindow::kSinc4;
+    width = 13;  // cmgen: cutoff = numBands * 4 + 1
+    for (int c = 0; c < 3; ++c) {
+      double lo = 3, hi = 13;
+      for (int it = 0; it < 16 && lo + 0.1 < hi; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        auto m = min_of(windowed(kind, mid));
+        if (!m.ok()) return m.status();
+        ((*m)[c] < 0 ? hi : lo) = mid;
+      }
+      width = std::min(width, lo);
+    }
+  } else if (options.automatic) {
     if (kind == ShWindow::kNone) kind = ShWindow::kHanning;
     if (all_non_negative(*min_before)) return report;  // nothing to fix
     constexpr double kNarrowest = 1.0;                 // only band 0 survives

@@ -150,6 +150,13 @@ struct Sh9WindowOptions {
   // Choose the largest w of `window`'s family (kNone means kHanning) that keeps the irradiance
   // non-negative; no window at all if it already is.
   bool automatic = false;
+  // With `automatic`: reproduce cmgen's default --sh-window=auto instead (CubemapSH::windowSH):
+  // family kSinc4 whatever `window` says; per channel, bisection on w in [3, 13] while
+  // lo + 0.1 < hi (at most 16 steps), lo = 3 taken as valid without a check; the smallest of the
+  // three widths is applied, EVEN IF the unwindowed irradiance is already non-negative (then
+  // w ~ 12.9: bands 1 and 2 scaled by ~0.96 and ~0.84). Like cmgen, w = 3 itself is not checked
+  // (min_after reports the outcome).
+  bool cmgen_compatible = false;
   int num_directions = 16384;
 };
 
