@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -558,7 +559,17 @@ TEST_P(Sh9AutoWindowTest, AutoMakesIrradianceNonNegativeAndReportsItsChange) {
 INSTANTIATE_TEST_SUITE_P(Families, Sh9AutoWindowTest,
                          ::testing::Combine(::testing::Values(ShWindow::kHanning,
                                                               ShWindow::kLanczos, ShWindow::kSinc4),
-                                            ::testing::Values(0, 1, 2, 3, 4, 5)));
+                                            ::testing::Values(0, 1, 2, 3, 4, 5)),
+                         [](const auto& param_info) {
+                           const ShWindow w = std::get<0>(param_info.param);
+                           std::string s = w == ShWindow::kHanning   ? "hanning_"
+                                           : w == ShWindow::kLanczos ? "lanczos_"
+                                                                     : "sinc4_";
+                           const std::string name = Maps()[std::get<1>(param_info.param)].name;
+                           for (char ch : name)
+                             if (std::isalnum(static_cast<unsigned char>(ch))) s += ch;
+                           return s;
+                         });
 
 TEST(Sh9WindowTest, CmgenCompatibleAutoReproducesCmgensSearch) {
   Sh9WindowOptions opt;

@@ -56,11 +56,15 @@
 //    sum_i A_l k_i c_i P_i = E(n); then RE_IndirectDiffuse multiplies by BRDF_Lambert = albedo/pi.
 //  - kUnity: UnityEngine.Rendering.SphericalHarmonicsL2, sh[rgb, i] (Manual "Light Probes:
 //    technical information": order L00, L1-1, L10, L11, L2-2, L2-1, L20, L21, L22; reconstruction
-//    of Sloan's "Stupid SH tricks" App. A10 in UnityCG.cginc). c_i = k_i A_l L_i / pi with L_i in
-//    the basis without Condon-Shortley signs (numerically the same as kFilament's c_i in Unity's
-//    frame). The engine copies it to unity_SHA*/SHB*/SHC as (c3, c1, c2, c0 - c6), (c4, c5, 3 c6,
-//    c7), c8 and ShadeSH9 returns dot(SHA, (n, 1)) + dot(SHB, n.xyzz * n.yzzx) + SHC (x^2 - y^2)
-//    = E(n) / pi (Unity's Standard shader multiplies it by the diffuse colour).
+//    of Sloan's "Stupid SH tricks" App. A10 in UnityCG.cginc). c_i = s_i k_i A_l L_i / pi with
+//    L_i in the Condon-Shortley basis (the engine's SphericalHarmonicsL2::kNormalizationConstants
+//    {1/2 sqrt(1/pi), -1/3 sqrt(3/pi), ..., 1/16 sqrt(15/pi)} as inverted by HDRP's
+//    SphericalHarmonicMath.UndoCosineRescaling, "see SetSHEMapConstants() in Stupid SH Tricks";
+//    pema99's SHTools says the same: raw coefficients times basis constant / pi) — numerically
+//    kFilament's c_i in Unity's frame. SphericalHarmonicMath.PackCoefficients copies it to
+//    unity_SHA*/SHB*/SHC as (c3, c1, c2, c0 - c6), (c4, c5, 3 c6, c7), c8 and ShadeSH9 returns
+//    dot(SHA, (n, 1)) + dot(SHB, n.xyzz * n.yzzx) + SHC (x^2 - y^2) = E(n) / pi (Unity's
+//    Standard shader multiplies it by the diffuse colour).
 //
 // WINDOWING (Sloan, "Stupid Spherical Harmonics (SH) Tricks", 2008, sec. on windowing; Sloan,
 // "Deringing Spherical Harmonics", 2017): the l <= 2 irradiance of a map with a sun rings negative
