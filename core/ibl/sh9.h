@@ -26,9 +26,10 @@
 //  - kGltf, kGltfBabylon: glTF's frame is right-handed +Y up like ours; the EXT_lights_image_based
 //    cube faces are written in it: n = (x, y, z) (identity).
 //  - kThreeJs: three.js's equirectangular mapping (common.glsl equirectUv: u = atan(z, x) / 2pi +
-//    0.5, so u = 0.5 at +X, u = 0.75 at +Z): n = (-z, y, x), a -90 degree turn about +Y.
-//  - kUnity: Unity is left-handed (+Y up, +Z forward); its lat-long import / Skybox-Panoramic
-//    (ToRadialCoords: u = 0.5 - atan2(z, x) / 2pi, so u = 0.5 at +X, u = 0.25 at +Z):
+//    0.5, so u = 0.5 at +X, u = 0.75 at +Z): n = (-z, y, x), a -90 degree turn about +Y. (A
+//    CubeTexture of GL faces written in a frame F is shown mirrored, at (-x, y, z) of F.)
+//  - kUnity: Unity is left-handed (+Y up, +Z forward); its Skybox/Panoramic shader's lat-long
+//    lookup (ToRadialCoords: u = 0.5 - atan2(z, x) / 2pi, so u = 0.5 at +X, u = 0.25 at +Z):
 //    n = (-z, y, -x) (improper: the handedness flip). UnityGLTF's mesh convention would be
 //    (-x, y, z) instead: pre-rotate the lighting by yaw 90 degrees to get that placement.
 //
@@ -72,7 +73,7 @@
 //   Hanning  h_l = (1 + cos(pi l / w)) / 2 for l < w, else 0;
 //   Lanczos  h_l = sin(pi l / w) / (pi l / w) for l < w, else 0;
 //   Sinc4    h_l = (Lanczos h_l)^4 (cmgen's CubemapSH::sincWindow, --sh-window).
-// Larger w blurs less (w -> infinity: no window). kAuto picks, per map (the three channels
+// Larger w blurs less (w -> infinity: no window). `automatic` picks, per map (the three channels
 // together), the weakest window of its family — the largest w to 1e-3 by bisection, as cmgen
 // does — whose irradiance is non-negative at a dense set of directions (MinIrradianceOnSphere).
 #ifndef SHRM_CORE_IBL_SH9_H_
