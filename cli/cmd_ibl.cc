@@ -35,6 +35,7 @@ struct IblArgs {
   int dfg_size = jobs::kDefaultDfgSize;
   double tolerance = jobs::kDefaultIblTolerance;
   int verify = jobs::kDefaultIblVerify;
+  std::string sh_window = "auto";
   int threads = 0;
   bool json = false;
   bool verbose = false;
@@ -63,6 +64,7 @@ absl::StatusOr<jobs::IblJob> JobFromArgs(const IblArgs& a) {
   job.dfg_size = a.dfg_size;
   job.tolerance = a.tolerance;
   job.verify = a.verify;
+  SHRM_ASSIGN_OR_RETURN(job.sh_window, jobs::ParseIblShWindow(a.sh_window));
   SHRM_RETURN_IF_ERROR(jobs::ValidateIblJob(job));
   return job;
 }
@@ -162,6 +164,11 @@ void RegisterIbl(CLI::App& app, absl::Status* status) {
                   "directions per level checked against the brute-force sum (0: none)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  sub->add_option("--sh-window", args->sh_window,
+                  "SH9 ringing control: auto (weakest window keeping the irradiance >= 0), none, "
+                  "cmgen (cmgen's --sh-window=auto)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "none", "cmgen"}));
   sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
       ->check(CLI::NonNegativeNumber);
   sub->add_flag("--json", args->json, "print the report as JSON on stdout");

@@ -16,6 +16,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "core/export/ktx2.h"
+#include "core/ibl/sh9.h"
 #include "core/ibl/split_sum.h"
 #include "core/shrm/prefilter.h"
 #include "jobs/environment.h"
@@ -52,6 +53,12 @@ inline constexpr double kIblSphereToDirectionFactor = 30;
 // Largest relative error allowed, as a multiple of the RMS target (the accuracy issue's 1% / 5%).
 inline constexpr double kIblMaxErrorFactor = 5;
 
+// Ringing control of the SH9 (core/ibl/sh9.h): kAuto = the weakest Hanning window that keeps the
+// l <= 2 irradiance non-negative (nothing when it already is), kCmgen = cmgen's --sh-window=auto.
+enum class IblShWindow { kAuto, kNone, kCmgen };
+const char* IblShWindowName(IblShWindow window);  // "auto", "none", "cmgen"
+absl::StatusOr<IblShWindow> ParseIblShWindow(absl::string_view name);
+
 struct IblJob {
   EnvironmentSpec env;
   ibl::RoughnessPreset preset = ibl::RoughnessPreset::kFilament;
@@ -65,6 +72,7 @@ struct IblJob {
   // Per-direction relative RMS target of every level (the largest error: kIblMaxErrorFactor x).
   double tolerance = kDefaultIblTolerance;
   int verify = kDefaultIblVerify;  // directions per level of the job's own check; 0 = none
+  IblShWindow sh_window = IblShWindow::kAuto;
   bool operator==(const IblJob&) const = default;
 };
 
@@ -89,8 +97,12 @@ struct IblRun {
   IblCube specular;
   IblCube sheen;  // levels empty unless job.sheen
   IblCube irradiance;
-  // Radiance L_lm, l <= 2, RGB, SH frame (docs/conventions.md): rgb[ShIndex(l, m) * 3 + c].
+  // Radiance L_lm, l <= 2, RGB, SH frame (docs/conventions.md): rgb[ShIndex(l, m) * 3 + c],
+  // after the SH window (sh_window says which and what it changed).
   std::vector<double> radiance_sh9;
+  ibl::Sh9WindowReport sh_window;
+  // The l <= 2 irradiance / pi against the pixel sum at job.verify seeded normals.
+  ibl::LevelError sh9_measured;
   SourceIdentity source;
   EnvLayout layout = EnvLayout::kAuto;
   int64_t replaced_non_finite = 0;

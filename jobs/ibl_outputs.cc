@@ -4,6 +4,7 @@
 #include "absl/strings/str_join.h"
 #include "core/base/status_macros.h"
 #include "core/export/ktx2.h"
+#include "core/ibl/sh9.h"
 #include "shrm/version.h"
 
 namespace shrm::jobs {
@@ -61,6 +62,39 @@ absl::StatusOr<std::string> EncodeCube(const IblJob& job, const IblRun& run, con
   return ktx2::EncodeKtx2(image, opt);
 }
 
+// The SH9 in every consumer's convention (core/ibl/sh9.h) with its frame and what its formula
+// returns.
+absl::StatusOr<nlohmann::json> Sh9Json(const IblRun& run) {
+  nlohmann::json out;
+  for (ibl::Sh9Convention conv :
+       {ibl::Sh9Convention::kFilament, ibl::Sh9Convention::kGltf, ibl::Sh9Convention::kGltfBabylon,
+        ibl::Sh9Convention::kThreeJs, ibl::Sh9Convention::kUnity}) {
+    SHRM_ASSIGN_OR_RETURN(const ibl::Sh9Rgb c, ibl::ConvertRadianceSh9(run.radiance_sh9, 2, conv));
+    nlohmann::json j;
+    if (conv == ibl::Sh9Convention::kUnity) {
+      j["coefficients"] = ibl::UnityLayout(c);  // SphericalHarmonicsL2 [channel * 9 + i]
+    } else {
+      j["coefficients"] = c;  // [i][r, g, b]
+    }
+    const Mat3 m = ibl::ConsumerFrameMatrix(conv);
+    j["frame_from_world"] = {m.m[0], m.m[1], m.m[2]};
+    switch (ibl::ConsumerOutput(conv)) {
+      case ibl::Sh9Output::kIrradiance:
+        j["evaluates_to"] = "irradiance E";
+        break;
+      case ibl::Sh9Output::kIrradianceOverPi:
+        j["evaluates_to"] = "irradiance / pi";
+        break;
+      default:
+        j["evaluates_to"] =
+            "Babylon's doubly convolved irradiance (the literal E_lm of the glTF "
+            "extension)";
+    }
+    out[ibl::Sh9ConventionName(conv)] = j;
+  }
+  return out;
+}
+
 }  // namespace
 
 absl::StatusOr<std::vector<IblFile>> EncodeIblOutputs(const IblJob& job, const IblRun& run) {
@@ -79,6 +113,12 @@ absl::StatusOr<std::vector<IblFile>> EncodeIblOutputs(const IblJob& job, const I
   SHRM_ASSIGN_OR_RETURN(std::string irradiance, EncodeCube(job, run, run.irradiance));
   files.push_back(
       {"irradiance.ktx2", std::move(irradiance), absl::StrCat("irradiance / pi cube, ", fmt)});
+  SHRM_ASSIGN_OR_RETURN(nlohmann::json sh9, Sh9Json(run));
+  nlohmann::json sh9_file = {{"radiance_sh9", run.report["radiance_sh9"]},
+                             {"sh_window", run.report["sh_window"]},
+                             {"conventions", sh9}};
+  files.push_back({"sh9.json", sh9_file.dump(2) + "\n",
+                   "irradiance SH9 for Filament, glTF, three.js and Unity"});
   nlohmann::json sidecar = run.report;
   nlohmann::json list = nlohmann::json::array();
   for (const IblFile& f : files) list.push_back({{"name", f.name}, {"what", f.what}});
