@@ -136,7 +136,8 @@ TEST(IblJobTest, RunsOnARealMapWithinItsTolerance) {
   ASSERT_TRUE(files.ok()) << files.status();
   std::vector<std::string> names;
   for (const IblFile& f : *files) names.push_back(f.name);
-  const std::vector<std::string> want = {"specular.ktx2", "irradiance.ktx2", "ibl.json"};
+  const std::vector<std::string> want = {"specular.ktx2", "irradiance.ktx2", "sh9.json",
+                                         "ibl.json"};
   EXPECT_EQ(names, want);
   // RGBA16F cube, 5 levels 32..2: 6 faces x 8 bytes per texel, plus headers (< 4 KiB).
   size_t texels = 0;
@@ -145,7 +146,15 @@ TEST(IblJobTest, RunsOnARealMapWithinItsTolerance) {
   EXPECT_LT((*files)[0].bytes.size(), texels * 8 + 4096);
   EXPECT_EQ((*files)[0].bytes.substr(1, 6), "KTX 20");
   const nlohmann::json sidecar = nlohmann::json::parse(files->back().bytes);
-  EXPECT_EQ(sidecar["files"].size(), 2u);
+  EXPECT_EQ(sidecar["files"].size(), 3u);
+  const nlohmann::json sh9 = nlohmann::json::parse((*files)[2].bytes);
+  for (const char* conv : {"filament", "gltf", "gltf-babylon", "three", "unity"}) {
+    ASSERT_TRUE(sh9["conventions"].contains(conv)) << conv;
+  }
+  EXPECT_EQ(sh9["conventions"]["unity"]["coefficients"].size(), 27u);
+  EXPECT_EQ(sh9["conventions"]["three"]["coefficients"].size(), 9u);
+  // The l <= 2 truncation is measured and reported (a few percent on real maps).
+  EXPECT_GT(run->report["sh9_measured"]["rms"].get<double>(), 0.0);
   EXPECT_EQ(sidecar["format"], "rgba16f");
   std::remove(path.c_str());
 }
