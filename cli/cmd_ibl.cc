@@ -69,23 +69,33 @@ absl::StatusOr<jobs::IblJob> JobFromArgs(const IblArgs& a) {
   return job;
 }
 
-// The output folder, created when missing (its parent must exist).
-absl::Status PrepareFolder(const std::string& dir) {
+// Before any work: the output folder is a writable folder, or can be created (its parent is a
+// writable folder). Returns whether it must be created.
+absl::StatusOr<bool> CheckFolder(const std::string& dir) {
   struct stat st;
   if (stat(dir.c_str(), &st) == 0) {
     if (!S_ISDIR(st.st_mode)) {
       return absl::InvalidArgumentError(absl::StrCat("--output: ", dir, " is not a folder"));
     }
-  } else if (mkdir(dir.c_str(), 0777) != 0) {
+    SHRM_RETURN_IF_ERROR(CheckOutputPath(dir + "/ibl.json", "--output"));
+    return false;
+  }
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(dir, "--output"));
+  return true;
+}
+
+// Creates the folder after the computation succeeded (so a failed run leaves nothing).
+absl::Status CreateFolder(const std::string& dir) {
+  if (mkdir(dir.c_str(), 0777) != 0 && errno != EEXIST) {
     return absl::InvalidArgumentError(
         absl::StrCat("--output: cannot create folder ", dir, ": ", std::strerror(errno)));
   }
-  return CheckOutputPath(dir + "/ibl.json", "--output");
+  return absl::OkStatus();
 }
 
 absl::Status RunIbl(const IblArgs& a) {
   SHRM_ASSIGN_OR_RETURN(const jobs::IblJob job, JobFromArgs(a));
-  SHRM_RETURN_IF_ERROR(PrepareFolder(a.output));
+  SHRM_ASSIGN_OR_RETURN(const bool create, CheckFolder(a.output));
   const int threads = ResolveThreads(a.threads);
   Progress progress(a.verbose, a.json);
   progress.Begin("ibl");
@@ -94,6 +104,7 @@ absl::Status RunIbl(const IblArgs& a) {
   WarnReplacedNonFinite(run.replaced_non_finite);
   const auto t0 = std::chrono::steady_clock::now();
   SHRM_ASSIGN_OR_RETURN(std::vector<jobs::IblFile> files, jobs::EncodeIblOutputs(job, run));
+  if (create) SHRM_RETURN_IF_ERROR(CreateFolder(a.output));
   OutputTransaction tx;
   for (const jobs::IblFile& f : files) {
     SHRM_RETURN_IF_ERROR(WriteFileAtomically(tx.Temp(a.output + "/" + f.name), f.bytes));

@@ -80,8 +80,8 @@ head -c 4096 /dev/zero >>inputs/huge.hdr
 
 # Output files that must not exist after a failed command (in the case's folder).
 leftovers() {
-  find "$1" -mindepth 1 -maxdepth 1 \( -name '*.shrm.exr' -o -name '*.tmp-*' -o -name '*.png' \
-    -o -name '*.json' -o -name '*.exr' \) -print 2>/dev/null
+  find "$1" -mindepth 1 -maxdepth 2 \( -name '*.shrm.exr' -o -name '*.tmp-*' -o -name '*.png' \
+    -o -name '*.json' -o -name '*.exr' -o -name '*.ktx2' -o -name 'ibl_out' \) -print 2>/dev/null
 }
 
 # expect_error NAME RC REGEX CMD...: runs CMD in a fresh folder cases/NAME (outputs go there),
@@ -324,6 +324,48 @@ else
   fail "eval vs reference: prefilter failed: $(cat d.stderr)"
 fi
 cd "$TMP" || exit 2
+
+# --- shrm ibl: bad inputs leave no folder and no file ----------------------------------------
+IBL=(ibl --size 16 --verify 2 -o ibl_out)
+expect_error ibl_size_not_power_of_two 1 'face size 24.*power of two' \
+  "$SHRM" ibl --size 24 -o ibl_out --env "$IN/ok.pfm"
+expect_error ibl_unknown_preset 2 'preset' "$SHRM" "${IBL[@]}" --preset cmft --env "$IN/ok.pfm"
+expect_error ibl_unknown_format 2 'format' "$SHRM" "${IBL[@]}" --format rgb8 --env "$IN/ok.pfm"
+expect_error ibl_too_many_levels 1 '9 levels.*16-texel face allows 1 to 5' \
+  "$SHRM" "${IBL[@]}" --levels 9 --env "$IN/ok.pfm"
+expect_error ibl_bad_roughness 1 'roughness must not decrease' \
+  "$SHRM" "${IBL[@]}" --roughness 0,0.6,0.3 --env "$IN/ok.pfm"
+expect_error ibl_roughness_not_a_number 1 "roughness: 'x' is not a number" \
+  "$SHRM" "${IBL[@]}" --roughness 0,x --env "$IN/ok.pfm"
+expect_error ibl_tolerance 1 'tolerance must be in' "$SHRM" "${IBL[@]}" --tolerance 0 --env "$IN/ok.pfm"
+expect_error ibl_corrupt_map 1 'corrupt\.exr' "$SHRM" "${IBL[@]}" --env "$IN/corrupt.exr"
+mkdir -p "$TMP/cases/ibl_output_is_a_file" && : >"$TMP/cases/ibl_output_is_a_file/ibl_file"
+expect_error ibl_output_is_a_file 1 'ibl_file is not a folder' \
+  "$SHRM" ibl --size 16 -o ibl_file --env "$IN/ok.pfm"
+rm -f "$TMP/cases/ibl_output_is_a_file/ibl_file"
+expect_error ibl_output_parent_missing 1 'no/such' \
+  "$SHRM" ibl --size 16 -o no/such/dir --env "$IN/ok.pfm"
+
+# Happy path: the set's files, the report's verdict (a constant map: every level exact).
+CHECKS=$((CHECKS + 1))
+if "$SHRM" ibl --env "$IN/ok.pfm" --size 16 --preset gltf --sheen -o "$TMP/ibl_ok" \
+  >"$TMP/ibl_ok.stdout" 2>"$TMP/ibl_ok.stderr"; then
+  missing=""
+  for f in specular.ktx2 sheen.ktx2 irradiance.ktx2 sh9.json ibl.json; do
+    [ -s "$TMP/ibl_ok/$f" ] || missing="$missing $f"
+  done
+  if [ -n "$missing" ]; then
+    fail "ibl: missing outputs:$missing"
+  elif ! json_ok "$TMP/ibl_ok/ibl.json"; then
+    fail "ibl: ibl.json is not valid JSON"
+  elif ! grep -q '"met": true' "$TMP/ibl_ok/ibl.json"; then
+    fail "ibl: a constant map's set is not within its tolerance"
+  else
+    echo "ok: ibl writes the set (constant map within tolerance)"
+  fi
+else
+  fail "ibl happy path: $(head -c 400 "$TMP/ibl_ok.stderr")"
+fi
 
 echo "$CHECKS checks, $FAILURES failures"
 [ "$FAILURES" -eq 0 ]
