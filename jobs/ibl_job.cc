@@ -207,13 +207,22 @@ absl::StatusOr<ibl::MipChain> IblJobChain(const IblJob& job) {
 
 absl::StatusOr<IblRun> RunIblJob(const IblJob& job, int threads) {
   SHRM_RETURN_IF_ERROR(ValidateIblJob(job));
-  IblRun run;
-  auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = std::chrono::steady_clock::now();
   SHRM_ASSIGN_OR_RETURN(EnvMap map, EnvMap::Load(EnvMapOptionsFor(job.env)));
-  SHRM_ASSIGN_OR_RETURN(run.source, LocalSourceIdentity(job.env));
+  SHRM_ASSIGN_OR_RETURN(const SourceIdentity source, LocalSourceIdentity(job.env));
+  return RunIblJobOnMap(job, map, source, MsSince(t0), threads);
+}
+
+absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
+                                      const SourceIdentity& source, double decode_ms,
+                                      int threads) {
+  SHRM_RETURN_IF_ERROR(ValidateIblJob(job));
+  IblRun run;
+  run.source = source;
   run.layout = map.layout();
   run.replaced_non_finite = map.replaced_non_finite();
-  run.timings.push_back({"decode", MsSince(t0)});
+  run.timings.push_back({"decode", decode_ms});
+  auto t0 = std::chrono::steady_clock::now();
   const Mat3 rotation = EnvironmentRotation(job.env);
 
   ibl::SpecularOptions opt;
@@ -221,7 +230,6 @@ absl::StatusOr<IblRun> RunIblJob(const IblJob& job, int threads) {
   opt.tolerance = job.tolerance / kIblSphereToDirectionFactor;
   opt.rotation = rotation;
   opt.threads = threads;
-  t0 = std::chrono::steady_clock::now();
   SHRM_ASSIGN_OR_RETURN(const ibl::SpecularLight light,
                         ibl::ComputeSpecularLight(map, rotation, 0, threads));
   run.timings.push_back({"lighting", MsSince(t0)});
@@ -278,6 +286,8 @@ nlohmann::json IblReportJson(const IblJob& job, const IblRun& run) {
   r["source"] = run.source.names;
   r["source_sha256"] = run.source.sha256;
   r["layout"] = EnvLayoutName(run.layout);
+  r["working_space"] = job.env.working_colour_space;
+  if (job.env.rotate_ypr_deg) r["rotate_ypr_deg"] = RotationAttribute(job.env);
   r["preset"] = ibl::RoughnessPresetName(job.preset);
   r["format"] = IblFormatName(job.format);
   const double rms = std::max(job.tolerance, IblFormatRounding(job.format));

@@ -115,6 +115,11 @@ struct IblRun {
 // job.verify seeded texel centres against the brute-force pixel sum.
 absl::StatusOr<IblRun> RunIblJob(const IblJob& job, int threads);
 
+// The same on a map already decoded (the service decodes blobs): `source` is what the outputs
+// record, `decode_ms` the time it took to get the map.
+absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
+                                      const SourceIdentity& source, double decode_ms, int threads);
+
 // The report: source, layout, shrm_version, preset, format, tolerance and, per cube and level,
 // face_size, roughness, alpha, degree, truncation_estimate and measured {count, rms, max}; "met"
 // is false when a measured level misses its target. Front ends add the files they wrote.

@@ -56,6 +56,7 @@ absl::StatusOr<std::string> EncodeCube(const IblJob& job, const IblRun& run, con
   if (!measured.empty()) kv["shrm:measured_error"] = absl::StrJoin(measured, ",");
   kv["shrm:source"] = run.source.names;
   kv["shrm:source_sha256"] = run.source.sha256;
+  if (job.env.rotate_ypr_deg) kv["shrm:rotate_ypr_deg"] = RotationAttribute(job.env);
   ktx2::EncodeOptions opt;
   opt.writer = absl::StrCat("shrm ", kVersion);
   opt.negatives = ktx2::Negatives::kClampToZero;  // already clamped (StoreAs); -0.0 stays 0
