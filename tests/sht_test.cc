@@ -191,6 +191,25 @@ TEST(ShtTest, MatchesBruteForcePixelSum) {
   }
 }
 
+TEST(ShtTest, PixelSumQuadratureMatchesTheBruteForceSumAtEveryDegree) {
+  // kPixelSum integrates with the grid's own Fejer rule up to lmax = H - 1 (no theta
+  // resampling): the brute-force pixel sum, also where the exact path differs (H < 2 lmax + 1).
+  for (auto [g, lmax] : {std::pair{ShtGrid{32, 16, ShtGridKind::kEquiangular}, 15},
+                         std::pair{ShtGrid{31, 15, ShtGridKind::kEquiangular}, 12},
+                         std::pair{ShtGrid{64, 32, ShtGridKind::kEquiangular}, 31}}) {
+    const int ch = 3;
+    const std::vector<double> map =
+        RandomValues(static_cast<size_t>(g.width) * g.height * ch, 12, 0.0, 1.0);
+    auto got = ForwardSht(g, lmax, ch, std::span<const double>(map), 2, ShtQuadrature::kPixelSum);
+    ASSERT_TRUE(got.ok()) << got.status();
+    EXPECT_LT(MaxAbsDiff(*got, BruteForce(g, lmax, ch, map)), kBruteForceTol)
+        << g.width << "x" << g.height;
+    auto exact = ForwardSht(g, lmax, ch, std::span<const double>(map));
+    ASSERT_TRUE(exact.ok());
+    EXPECT_GT(MaxAbsDiff(*got, *exact), 100 * kBruteForceTol) << "the paths should differ here";
+  }
+}
+
 TEST(ShtTest, SingleHarmonicHasItsOwnCoefficientOnly) {
   // Map = Y_{3,-2} (real, evaluated with the textbook EvalShSlow in SH angles theta, phi_s).
   const ShtGrid g{64, 32, ShtGridKind::kEquiangular};

@@ -80,7 +80,8 @@ int LightingResampleWidth(const EnvMap& map, int lmax) {
 
 absl::StatusOr<std::vector<double>> LightingCoefficients(const EnvMap& map, int lmax,
                                                          const Mat3& world_rotation,
-                                                         int num_threads) {
+                                                         int num_threads,
+                                                         ShtQuadrature quadrature) {
   SHRM_RETURN_IF_ERROR(CheckArgs(lmax, world_rotation, num_threads));
   std::vector<double> coeffs;
   if (const Image* img = map.lat_long_image()) {
@@ -90,12 +91,14 @@ absl::StatusOr<std::vector<double>> LightingCoefficients(const EnvMap& map, int 
           "a ", img->width, " x ", img->height, " lat-long map resolves SH degrees up to ",
           ShtMaxDegree(grid), " (min(H - 1, (W - 1) / 2)), asked for ", lmax));
     }
-    SHRM_ASSIGN_OR_RETURN(coeffs, ForwardSht(grid, lmax, kChannels, img->pixels, num_threads));
+    SHRM_ASSIGN_OR_RETURN(coeffs,
+                          ForwardSht(grid, lmax, kChannels, img->pixels, num_threads, quadrature));
   } else {
     const int w = LightingResampleWidth(map, lmax);
     SHRM_ASSIGN_OR_RETURN(Image resampled, map.ToLatLong(w, num_threads));
     const ShtGrid grid{resampled.width, resampled.height, ShtGridKind::kEquiangular};
-    SHRM_ASSIGN_OR_RETURN(coeffs, ForwardSht(grid, lmax, kChannels, resampled.pixels, num_threads));
+    SHRM_ASSIGN_OR_RETURN(
+        coeffs, ForwardSht(grid, lmax, kChannels, resampled.pixels, num_threads, quadrature));
   }
   if (!IsIdentity(world_rotation)) {
     SHRM_RETURN_IF_ERROR(RotateLighting(lmax, world_rotation, coeffs));

@@ -30,6 +30,7 @@
 #include "absl/status/statusor.h"
 #include "core/base/geometry.h"
 #include "core/envmap/envmap.h"
+#include "core/transform/sht.h"
 
 namespace shrm {
 
@@ -57,9 +58,11 @@ int LightingResampleWidth(const EnvMap& map, int lmax);
 // unrotated), (lmax + 1)^2 * 3 values, coeff[ShIndex(l, m) * 3 + c]. Errors: InvalidArgument for
 // lmax < 0, num_threads < 1, a lat-long map too small for lmax (ShtMaxDegree), a non-rotation, or
 // lmax > kMaxRotationLmax with a non-identity rotation.
+// `quadrature` (core/transform/sht.h): kPixelSum gives the projection of the (lat-long or
+// resampled) pixels themselves, as LightingCoefficientsDirect does for a lat-long map.
 absl::StatusOr<std::vector<double>> LightingCoefficients(
-    const EnvMap& map, int lmax, const Mat3& world_rotation = Mat3::Identity(),
-    int num_threads = 1);
+    const EnvMap& map, int lmax, const Mat3& world_rotation = Mat3::Identity(), int num_threads = 1,
+    ShtQuadrature quadrature = ShtQuadrature::kExact);
 
 // The same by direct summation over map.samples() (see the header comment), split over
 // num_threads threads (the partial sums, and so the last bits, depend on num_threads). Same

@@ -241,7 +241,8 @@ absl::StatusOr<SpecularLight> ComputeSpecularLight(const EnvMap& map, const Mat3
   SpecularLight light;
   light.degree = limit;
   light.rotation = rotation;
-  auto coeffs = LightingCoefficients(map, limit, rotation, threads);
+  // The pixels' own quadrature: the convolution is then the pixel sum with the degree-F kernel.
+  auto coeffs = LightingCoefficients(map, limit, rotation, threads, ShtQuadrature::kPixelSum);
   if (!coeffs.ok()) return coeffs.status();
   light.coeffs = std::move(coeffs).value();
   light.energy.assign(limit + 1, 0.0);

@@ -126,17 +126,19 @@ size_t ShtPlan::coeff_size() const { return static_cast<size_t>(ShCount(lmax_)) 
 ShtPlan::~ShtPlan() = default;
 
 absl::StatusOr<std::shared_ptr<const ShtPlan>> ShtPlan::Create(const ShtGrid& grid, int lmax,
-                                                               int channels) {
-  return CreateImpl(grid, lmax, channels, /*synthesis=*/false);
+                                                               int channels,
+                                                               ShtQuadrature quadrature) {
+  return CreateImpl(grid, lmax, channels, /*synthesis=*/false, quadrature);
 }
 
 absl::StatusOr<std::shared_ptr<const ShtPlan>> ShtPlan::CreateForSynthesis(const ShtGrid& grid,
                                                                            int lmax, int channels) {
-  return CreateImpl(grid, lmax, channels, /*synthesis=*/true);
+  return CreateImpl(grid, lmax, channels, /*synthesis=*/true, ShtQuadrature::kExact);
 }
 
 absl::StatusOr<std::shared_ptr<const ShtPlan>> ShtPlan::CreateImpl(const ShtGrid& grid, int lmax,
-                                                                   int channels, bool synthesis) {
+                                                                   int channels, bool synthesis,
+                                                                   ShtQuadrature quadrature) {
   if (grid.width < 1 || grid.height < 1) {
     return absl::InvalidArgumentError(absl::StrCat("SHT: empty grid ", grid.width, "x", grid.height,
                                                    " (width and height must be >= 1)"));
@@ -166,7 +168,8 @@ absl::StatusOr<std::shared_ptr<const ShtPlan>> ShtPlan::CreateImpl(const ShtGrid
       grid.kind == ShtGridKind::kEquiangular ? FejerFirstRule(h) : GaussLegendreRule(h);
   plan->rings_ = MakeRingSet(q, lmax);
   const int np = plan->rings_.num_pairs;
-  const bool resample = resolvable && grid.kind == ShtGridKind::kEquiangular && h < 2 * lmax + 1;
+  const bool resample = resolvable && grid.kind == ShtGridKind::kEquiangular && h < 2 * lmax + 1 &&
+                        quadrature == ShtQuadrature::kExact;
   plan->ring_scale_.assign(PadPairs(np), 0.0);
   for (int p = 0; p < np; ++p) {
     plan->ring_scale_[p] = 2.0 * kPi / w * (resample ? 1.0 : q.weight[p]);
@@ -583,15 +586,16 @@ absl::Status ShtPlan::Inverse(std::span<const double> coeffs, std::span<double> 
 }
 
 absl::StatusOr<std::shared_ptr<const ShtPlan>> GetShtPlan(const ShtGrid& grid, int lmax,
-                                                          int channels) {
-  using Key = std::tuple<int, int, int, int, int>;
+                                                          int channels, ShtQuadrature quadrature) {
+  using Key = std::tuple<int, int, int, int, int, int>;
   static std::mutex* mu = new std::mutex;
   static auto* cache = new std::map<Key, std::shared_ptr<const ShtPlan>>;
-  const Key key{grid.width, grid.height, static_cast<int>(grid.kind), lmax, channels};
+  const Key key{grid.width, grid.height, static_cast<int>(grid.kind),
+                lmax,       channels,    static_cast<int>(quadrature)};
   std::lock_guard<std::mutex> lock(*mu);
   auto it = cache->find(key);
   if (it != cache->end()) return it->second;
-  auto plan = ShtPlan::Create(grid, lmax, channels);
+  auto plan = ShtPlan::Create(grid, lmax, channels, quadrature);
   if (!plan.ok()) return plan.status();
   cache->emplace(key, *plan);
   return *plan;
@@ -600,8 +604,9 @@ absl::StatusOr<std::shared_ptr<const ShtPlan>> GetShtPlan(const ShtGrid& grid, i
 namespace {
 template <typename T>
 absl::StatusOr<std::vector<double>> ForwardShtImpl(const ShtGrid& grid, int lmax, int channels,
-                                                   std::span<const T> map, int num_threads) {
-  auto plan = GetShtPlan(grid, lmax, channels);
+                                                   std::span<const T> map, int num_threads,
+                                                   ShtQuadrature quadrature) {
+  auto plan = GetShtPlan(grid, lmax, channels, quadrature);
   if (!plan.ok()) return plan.status();
   std::vector<double> coeffs((*plan)->coeff_size());
   absl::Status s = (*plan)->Forward(map, std::span<double>(coeffs), num_threads);
@@ -611,12 +616,14 @@ absl::StatusOr<std::vector<double>> ForwardShtImpl(const ShtGrid& grid, int lmax
 }  // namespace
 
 absl::StatusOr<std::vector<double>> ForwardSht(const ShtGrid& grid, int lmax, int channels,
-                                               std::span<const float> map, int num_threads) {
-  return ForwardShtImpl<float>(grid, lmax, channels, map, num_threads);
+                                               std::span<const float> map, int num_threads,
+                                               ShtQuadrature quadrature) {
+  return ForwardShtImpl<float>(grid, lmax, channels, map, num_threads, quadrature);
 }
 absl::StatusOr<std::vector<double>> ForwardSht(const ShtGrid& grid, int lmax, int channels,
-                                               std::span<const double> map, int num_threads) {
-  return ForwardShtImpl<double>(grid, lmax, channels, map, num_threads);
+                                               std::span<const double> map, int num_threads,
+                                               ShtQuadrature quadrature) {
+  return ForwardShtImpl<double>(grid, lmax, channels, map, num_threads, quadrature);
 }
 
 absl::StatusOr<std::vector<double>> InverseSht(const ShtGrid& grid, int lmax, int channels,

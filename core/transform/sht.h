@@ -67,6 +67,17 @@ enum class ShtGridKind {
   kGaussLegendre,  // cos(theta_j) = roots of the Legendre polynomial P_H
 };
 
+// How Forward() integrates in theta on an equiangular grid with H < 2 lmax + 1:
+//  - kExact: the theta-resampling path of the header comment (exact for band-limited data of
+//    degree <= H - 1);
+//  - kPixelSum: the grid's own Fejer-1 rule at every degree, i.e. the projection of the pixel
+//    samples, L_lm = sum_ij (2 pi / W) w_j f_ij Y_lm(d_ij): what a brute-force sum over the pixels
+//    with their solid angles gives (LightingCoefficientsDirect of a lat-long map), so that a
+//    zonal convolution of these coefficients is the pixel sum with the truncated kernel. About
+//    2x less Legendre work and no resampling; exact for band-limited data only for
+//    H >= 2 lmax + 1 (where both are the same). Gauss-Legendre grids ignore it.
+enum class ShtQuadrature { kExact, kPixelSum };
+
 // A W x H lat-long grid.
 struct ShtGrid {
   int width = 0;   // W, pixels per ring (columns)
@@ -99,8 +110,9 @@ class ShtPlan {
  public:
   // Plan for analysis and synthesis. Errors (InvalidArgument): W or H < 1 ("empty grid"),
   // lmax < 0, channels < 1, lmax > H - 1 or W < 2 lmax + 1 (the grid cannot resolve the degree).
-  static absl::StatusOr<std::shared_ptr<const ShtPlan>> Create(const ShtGrid& grid, int lmax,
-                                                               int channels);
+  static absl::StatusOr<std::shared_ptr<const ShtPlan>> Create(
+      const ShtGrid& grid, int lmax, int channels,
+      ShtQuadrature quadrature = ShtQuadrature::kExact);
   // Plan for synthesis only: any W, H >= 1 (frequencies above W / 2 alias as a real sampled
   // signal does). Forward() on such a plan fails with FailedPrecondition when the grid cannot
   // resolve lmax.
@@ -155,7 +167,8 @@ class ShtPlan {
   ShtPlan() = default;
   // Shared validation and precomputation; `synthesis` skips the sampling-limit check.
   static absl::StatusOr<std::shared_ptr<const ShtPlan>> CreateImpl(const ShtGrid& grid, int lmax,
-                                                                   int channels, bool synthesis);
+                                                                   int channels, bool synthesis,
+                                                                   ShtQuadrature quadrature);
   // Analysis / synthesis for float and double maps: a phi stage (one r2c / c2r FFT batch per ring
   // pair, parallel over pairs) and a theta stage (Legendre recurrences, parallel over m), with the
   // per-m buffer E/O[m][parity][channel][re, im][pair] between them.
@@ -182,18 +195,21 @@ class ShtPlan {
   std::unique_ptr<FftwState> fftw_;
 };
 
-// Process-wide cache of analysis plans keyed by (W, H, kind, lmax, channels); plans are created on
-// first use (with ShtPlan::Create, same errors) and kept for the life of the process.
-absl::StatusOr<std::shared_ptr<const ShtPlan>> GetShtPlan(const ShtGrid& grid, int lmax,
-                                                          int channels);
+// Process-wide cache of analysis plans keyed by (W, H, kind, lmax, channels, quadrature); plans
+// are created on first use (with ShtPlan::Create, same errors) and kept for the life of the
+// process.
+absl::StatusOr<std::shared_ptr<const ShtPlan>> GetShtPlan(
+    const ShtGrid& grid, int lmax, int channels, ShtQuadrature quadrature = ShtQuadrature::kExact);
 
 // Convenience wrappers around GetShtPlan(): analysis of a W x H map (grid.width, grid.height)
 // returning (lmax + 1)^2 * channels coefficients, and synthesis onto `grid` returning
 // W * H * channels doubles.
 absl::StatusOr<std::vector<double>> ForwardSht(const ShtGrid& grid, int lmax, int channels,
-                                               std::span<const float> map, int num_threads = 1);
+                                               std::span<const float> map, int num_threads = 1,
+                                               ShtQuadrature quadrature = ShtQuadrature::kExact);
 absl::StatusOr<std::vector<double>> ForwardSht(const ShtGrid& grid, int lmax, int channels,
-                                               std::span<const double> map, int num_threads = 1);
+                                               std::span<const double> map, int num_threads = 1,
+                                               ShtQuadrature quadrature = ShtQuadrature::kExact);
 absl::StatusOr<std::vector<double>> InverseSht(const ShtGrid& grid, int lmax, int channels,
                                                std::span<const double> coeffs, int num_threads = 1);
 
