@@ -17,13 +17,16 @@ namespace {
 
 // Quadrature orders (docs/ibl_dfg.md "Accuracy": chosen against a 4x finer run of the same
 // scheme and checked against brute force in tests/dfg_test.cc).
-constexpr double kPanelLength = 2.5;     // panel width in the log-CDF variable
+constexpr double kPanelLength = 3.5;     // panel width in the log-CDF variable
 constexpr int kThetaNodes = 6;           // Gauss-Legendre nodes per theta panel (full circle)
 constexpr int kCutThetaNodes = 12;       // ... per panel of the horizon-cut segment
 constexpr double kMaxThetaPanel = 0.25;  // widest theta panel (theta-space lobes)
-constexpr int kHorizonGrading = 5;       // halvings of the panel at a horizon end
-constexpr int kFullPhiNodes = 12;        // midpoint nodes on [0, pi] (full circle, periodic)
-constexpr int kCutPhiNodes = 10;         // Gauss-Legendre nodes on [0, phi0] (cut circle)
+constexpr int kHorizonGrading = 6;       // most halvings of the panel at a horizon end
+// No grading where the lobe's u-density times the integrand bound is below this.
+constexpr double kGradingWeightFloor = 1e-6;
+constexpr int kFullPhiNodes = 12;    // midpoint nodes on [0, pi] (full circle, periodic)
+constexpr int kMinFullPhiNodes = 4;  // fewest (exact for Fc, a quintic in cos(phi))
+constexpr int kCutPhiNodes = 10;     // Gauss-Legendre nodes on [0, phi0] (cut circle)
 // Lobe tails whose whole u-measure times an integrand bound is below this are dropped.
 constexpr double kTailCutoff = 1e-13;
 
@@ -152,7 +155,11 @@ void AzimuthAt(const View& v, double theta, double w_theta, bool full, double la
     const double nl_pi = 2.0 * (c - s) * ch - v.nv;
     const double d2 = s > 0 ? std::max(layer, nl_pi) / (ch * s) : 1e300;
     const int g = d2 > 1.0 ? 0 : d2 > 0.25 ? 1 : d2 > 0.04 ? 2 : 3;
-    const int m = kFullPhiNodes;
+    // Few nodes when n.l varies little (2 ch s) against its distance to the feature.
+    const double ratio = 2.0 * ch * s / (std::max(nl_pi, 0.0) + layer + 1e-300);
+    const int m = g > 0 ? kFullPhiNodes
+                        : std::clamp(static_cast<int>(std::ceil(kMinFullPhiNodes + 8.0 * ratio)),
+                                     kMinFullPhiNodes, kFullPhiNodes);
     const PhiRule& rule = FullPhiRule(m, g);
     for (int k = 0; k < m; ++k) {
       const double vh = s * rule.cos_phi[k] + c;
@@ -205,21 +212,34 @@ void IntegrateHalfVector(const View& v, const Lobe& lobe, double bound, double l
     }
     const bool horizon_lo = !lo_clipped && (!full || !increasing);
     const bool horizon_hi = !full || increasing;
-    auto grade = [&](bool at_lo) {
+    // Halvings needed for the smallest sub-panel to resolve the feature: it spans ~layer / 2 in
+    // theta, so ~|dx/dtheta| layer / 2 in x; none where the lobe's weight there is negligible.
+    auto levels_at = [&](double x_end, double theta_end) {
+      if (layer <= 0 || std::exp(x_end) * bound < kGradingWeightFloor) return 0;
+      const double eps = 1e-6;
+      const double t2 = theta_end + (theta_end > 0.5 * kPi - 2 * eps ? -eps : eps);
+      const double dxdt = std::abs((lobe.XOfTheta(t2) - x_end) / eps);
+      const double width = dxdt * 0.5 * layer;
+      const double h = (x_hi - x_lo) / uniform;
+      if (!(width < h)) return 0;
+      return std::min(kHorizonGrading, static_cast<int>(std::ceil(std::log2(h / width))));
+    };
+    auto grade = [&](bool at_lo, int levels) {
       std::vector<double> g;
       const double a = at_lo ? xs[0] : xs[xs.size() - 1];
       const double b = at_lo ? xs[1] : xs[xs.size() - 2];
-      for (int k = kHorizonGrading; k >= 1; --k) g.push_back(a + (b - a) * std::ldexp(1.0, -k));
+      for (int k = levels; k >= 1; --k) g.push_back(a + (b - a) * std::ldexp(1.0, -k));
       if (at_lo) {
         xs.insert(xs.begin() + 1, g.begin(), g.end());
       } else {
         xs.insert(xs.end() - 1, g.rbegin(), g.rend());
       }
     };
-    if (horizon_lo) grade(true);
-    if (horizon_hi && (xs.size() > 2 || !horizon_lo)) grade(false);
+    const double theta_at_lo = increasing ? theta_a : theta_b;
+    const double theta_at_hi = increasing ? theta_b : theta_a;
+    if (horizon_lo) grade(true, levels_at(x_lo, theta_at_lo));
+    if (horizon_hi) grade(false, levels_at(x_hi, theta_at_hi));
     const int panels = static_cast<int>(xs.size()) - 1;
-    const UnitRule& r = full ? ThetaRule() : CutThetaRule();
     auto theta_of = [&](double x, bool is_lo_end, bool is_hi_end) {
       if (is_lo_end && !lo_clipped) return increasing ? theta_a : theta_b;
       if (is_hi_end) return increasing ? theta_b : theta_a;
@@ -252,6 +272,7 @@ void IntegrateHalfVector(const View& v, const Lobe& lobe, double bound, double l
       for (int b = 0; b < sub; ++b) {
         const double lo = z0 + b * hz;
         const bool s_lo = sing0 && b == 0, s_hi = sing1 && b + 1 == sub;
+        const UnitRule& r = s_lo || s_hi ? CutThetaRule() : ThetaRule();
         for (size_t q = 0; q < r.x.size(); ++q) {
           const double tq = r.x[q];
           double z, dz;
@@ -326,7 +347,7 @@ SheenPair SheenAt(const View& v, double alpha, bool want_charlie, bool want_albe
   SheenPair r;
   const double lv = want_albedo ? SheenLambda(v.nv, alpha) : 0.0;
   const double bound = 4.0 / std::sin(std::max(v.theta1, 1e-300));
-  IntegrateHalfVector(v, CharlieLobe{2.0 + 1.0 / alpha}, bound, want_albedo ? 0.0 : v.nv,
+  IntegrateHalfVector(v, CharlieLobe{2.0 + 1.0 / alpha}, bound, v.nv,
                       [&](double ch, double, double vh, double nl, double w) {
                         const double j = w * 4.0 * vh / ch * nl;
                         if (want_charlie) r.charlie += j / (4.0 * (nl + v.nv - nl * v.nv));
