@@ -17,19 +17,19 @@ namespace {
 
 // Quadrature orders (docs/ibl_dfg.md "Accuracy": chosen against a 4x finer run of the same
 // scheme and checked against brute force in tests/dfg_test.cc).
-constexpr double kPanelLength = 3.5;     // panel width in the log-CDF variable
-constexpr int kThetaNodes = 6;           // Gauss-Legendre nodes per theta panel (full circle)
-constexpr int kCutThetaNodes = 12;       // ... per panel of the horizon-cut segment
-constexpr double kMaxThetaPanel = 0.25;  // widest theta panel (theta-space lobes)
-constexpr int kHorizonGrading = 6;       // most halvings of the panel at a horizon end
-// No grading where the lobe's u-density times the integrand bound is below this.
-constexpr double kGradingWeightFloor = 1e-6;
+constexpr double kPanelLength = 3.5;    // panel width in the log-CDF variable
+constexpr int kThetaNodes = 5;          // Gauss-Legendre nodes per theta panel (full circle)
+constexpr int kCutThetaNodes = 12;      // ... per panel of the horizon-cut segment
+constexpr double kMaxThetaPanel = 0.5;  // widest theta panel (theta-space lobes)
+constexpr int kHorizonGrading = 6;      // most halvings of the panel at a horizon end
+// No grading where the feature's weight (u-density x width x integrand bound) is below this.
+constexpr double kGradingWeightFloor = 1e-8;
 constexpr int kFullPhiNodes = 12;    // midpoint nodes on [0, pi] (full circle, periodic)
 constexpr int kMinFullPhiNodes = 4;  // fewest (exact for Fc, a quintic in cos(phi))
 constexpr int kCutPhiNodes = 10;     // Gauss-Legendre nodes on [0, phi0] (cut circle)
 constexpr int kMaxPhiNodes = std::max(kFullPhiNodes, kCutPhiNodes);
 // Lobe tails whose whole u-measure times an integrand bound is below this are dropped.
-constexpr double kTailCutoff = 1e-13;
+constexpr double kTailCutoff = 1e-9;
 
 // Gauss-Legendre nodes and weights on [0, 1].
 struct UnitRule {
@@ -245,13 +245,14 @@ void IntegrateHalfVector(const View& v, const Lobe& lobe, double bound, double l
     const bool horizon_lo = !lo_clipped && (!full || !increasing);
     const bool horizon_hi = !full || increasing;
     // Halvings needed for the smallest sub-panel to resolve the feature: it spans ~layer / 2 in
-    // theta, so ~|dx/dtheta| layer / 2 in x; none where the lobe's weight there is negligible.
+    // theta, so ~|dx/dtheta| layer / 2 in x; none where its weight is negligible.
     auto levels_at = [&](double x_end, double theta_end) {
-      if (layer <= 0 || std::exp(x_end) * bound < kGradingWeightFloor) return 0;
+      if (layer <= 0) return 0;
       const double eps = 1e-6;
       const double t2 = theta_end + (theta_end > 0.5 * kPi - 2 * eps ? -eps : eps);
       const double dxdt = std::abs((lobe.XOfTheta(t2) - x_end) / eps);
       const double width = dxdt * 0.5 * layer;
+      if (std::exp(x_end) * width * bound < kGradingWeightFloor) return 0;
       const double h = (x_hi - x_lo) / uniform;
       if (!(width < h)) return 0;
       return std::min(kHorizonGrading, static_cast<int>(std::ceil(std::log2(h / width))));
