@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <utility>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -18,8 +19,8 @@ namespace {
 // Quadrature orders (docs/ibl_dfg.md "Accuracy": chosen against a 4x finer run of the same
 // scheme and checked against brute force in tests/dfg_test.cc).
 constexpr double kPanelLength = 3.5;    // panel width in the log-CDF variable
-constexpr int kThetaNodes = 5;          // Gauss-Legendre nodes per theta panel (full circle)
-constexpr int kCutThetaNodes = 12;      // ... per panel of the horizon-cut segment
+constexpr int kThetaNodes = 5;          // Gauss-Legendre nodes per theta panel
+constexpr int kCutThetaNodes = 12;      // ... per panel with a singular (|.|^1.5) end
 constexpr double kMaxThetaPanel = 0.5;  // widest theta panel (theta-space lobes)
 constexpr int kHorizonGrading = 6;      // most halvings of the panel at a horizon end
 // No grading where the feature's weight (u-density x width x integrand bound) is below this.

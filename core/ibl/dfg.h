@@ -36,15 +36,15 @@
 // Axes: column i samples n.v = (i + 0.5) / n; row j samples the roughness coordinate
 // y = (j + 0.5 + offset) / n (clamped to 1) in the consumer's row order; with the perceptual axis
 // alpha = y^2 (Filament, glTF, Babylon all index by perceptual roughness), with the alpha axis
-// alpha = y. Quadrature: over the half vector, in the log of the lobe's own CDF (GGX:
-// log(1 - u), u = tan^2 / (tan^2 + alpha^2); Charlie: log(u), u = sin^(2 + 1/alpha)), so nodes
-// follow the lobe at every roughness, split where the horizon (n.l = 0) starts and stops cutting
-// the azimuth circle; Gauss-Legendre panels in theta, the periodic midpoint rule (full circle) or
-// Gauss-Legendre (cut circle) in the azimuth. No random sampling.
+// alpha = y. Quadrature (deterministic, no random sampling): over the half vector, panels of equal
+// width in the log of the lobe's own CDF (GGX: log(1 - u), u = tan^2 / (tan^2 + alpha^2);
+// Charlie: log(u), u = sin^(2 + 1/alpha)), so nodes follow the lobe at every roughness; split
+// where the horizon (n.l = 0) starts and stops cutting the azimuth circle, graded into those
+// ends; Gauss-Legendre in each panel, the periodic midpoint rule (full circle, mapped towards
+// phi = pi) or Gauss-Legendre (cut circle) in the azimuth. Accuracy and time: docs/ibl_dfg.md.
 #ifndef SHRM_CORE_IBL_DFG_H_
 #define SHRM_CORE_IBL_DFG_H_
 
-#include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
