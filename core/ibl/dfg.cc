@@ -135,8 +135,11 @@ struct GgxLobe {
   }
   double XAtPole() const { return 0.0; }
   double ThetaOfX(double x) const { return std::atan(alpha * std::sqrt(std::expm1(-x))); }
-  void Angles(double x, double* ch, double* sh) const {
-    const double t2 = alpha2 * std::expm1(-x);
+  // cos, sin of theta at x and the u-density e^x, from one expm1.
+  void Angles(double x, double* ch, double* sh, double* ex) const {
+    const double em1 = std::expm1(x);  // -u
+    *ex = 1.0 + em1;
+    const double t2 = -alpha2 * em1 / *ex;
     *ch = 1.0 / std::sqrt(1.0 + t2);
     *sh = std::sqrt(t2) * *ch;
   }
@@ -158,9 +161,10 @@ struct CharlieLobe {
   double ThetaOfX(double x) const {
     return std::atan2(std::exp(x / k), std::sqrt(-std::expm1(2.0 * x / k)));
   }
-  void Angles(double x, double* ch, double* sh) const {
+  void Angles(double x, double* ch, double* sh, double* ex) const {
     *sh = std::exp(x / k);
     *ch = std::sqrt(-std::expm1(2.0 * x / k));
+    *ex = std::exp(x);
   }
   // du/dtheta = k sin^(k-1) cos.
   double Density(double ch, double sh) const {
@@ -329,8 +333,9 @@ void IntegrateHalfVector(const View& v, const Lobe& lobe, double bound, double l
             sh = std::sin(z);
             w = r.w[q] * dz * lobe.Density(ch, sh);
           } else {
-            lobe.Angles(z, &ch, &sh);
-            w = r.w[q] * dz * std::exp(z);
+            double ez;
+            lobe.Angles(z, &ch, &sh, &ez);
+            w = r.w[q] * dz * ez;
           }
           if (w > 0) AzimuthAt(v, ch, sh, w, full, layer, body);
         }
