@@ -36,6 +36,7 @@ struct IblArgs {
   double tolerance = jobs::kDefaultIblTolerance;
   int verify = jobs::kDefaultIblVerify;
   std::string sh_window = "auto";
+  std::string dfg = "auto";
   int threads = 0;
   bool json = false;
   bool verbose = false;
@@ -65,6 +66,7 @@ absl::StatusOr<jobs::IblJob> JobFromArgs(const IblArgs& a) {
   job.tolerance = a.tolerance;
   job.verify = a.verify;
   SHRM_ASSIGN_OR_RETURN(job.sh_window, jobs::ParseIblShWindow(a.sh_window));
+  job.dfg = a.dfg;
   SHRM_RETURN_IF_ERROR(jobs::ValidateIblJob(job));
   return job;
 }
@@ -180,6 +182,11 @@ void RegisterIbl(CLI::App& app, absl::Status* status) {
                   "cmgen (cmgen's --sh-window=auto)")
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "none", "cmgen"}));
+  sub->add_option("--dfg", args->dfg,
+                  "DFG table for: auto (the preset's engine), none, filament, "
+                  "filament-cmgen-exact, filament-single-scatter, gltf-lut-ggx, gltf-lut-charlie, "
+                  "gltf-lut-sheen-e, babylon, karis")
+      ->capture_default_str();
   sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
       ->check(CLI::NonNegativeNumber);
   sub->add_flag("--json", args->json, "print the report as JSON on stdout");

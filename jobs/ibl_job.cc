@@ -149,6 +149,39 @@ absl::StatusOr<IblShWindow> ParseIblShWindow(absl::string_view name) {
       absl::StrCat("SH window must be auto, none or cmgen, got '", name, "'"));
 }
 
+namespace {
+constexpr ibl::DfgConsumer kDfgConsumers[] = {ibl::DfgConsumer::kFilament,
+                                              ibl::DfgConsumer::kFilamentCmgenExact,
+                                              ibl::DfgConsumer::kFilamentSingleScatter,
+                                              ibl::DfgConsumer::kGltfLutGgx,
+                                              ibl::DfgConsumer::kGltfLutCharlie,
+                                              ibl::DfgConsumer::kGltfLutSheenE,
+                                              ibl::DfgConsumer::kBabylon,
+                                              ibl::DfgConsumer::kKaris};
+}  // namespace
+
+absl::Status ValidateDfgChoice(absl::string_view choice) {
+  if (choice == "auto" || choice == "none") return absl::OkStatus();
+  std::string names = "auto, none";
+  for (ibl::DfgConsumer c : kDfgConsumers) {
+    if (choice == ibl::DfgConsumerName(c)) return absl::OkStatus();
+    absl::StrAppend(&names, ", ", ibl::DfgConsumerName(c));
+  }
+  return absl::InvalidArgumentError(
+      absl::StrCat("DFG table must be one of ", names, ", got '", choice, "'"));
+}
+
+std::optional<ibl::DfgConsumer> ResolvedDfg(const IblJob& job) {
+  if (job.dfg == "none") return std::nullopt;
+  if (job.dfg == "auto") {
+    return job.preset == ibl::RoughnessPreset::kFilament ? ibl::DfgConsumer::kFilament
+                                                         : ibl::DfgConsumer::kGltfLutGgx;
+  }
+  for (ibl::DfgConsumer c : kDfgConsumers)
+    if (job.dfg == ibl::DfgConsumerName(c)) return c;
+  return std::nullopt;
+}
+
 ktx2::Format IblKtx2Format(IblFormat format) {
   switch (format) {
     case IblFormat::kRgba16f:
@@ -193,6 +226,7 @@ absl::Status ValidateIblJob(const IblJob& job) {
     return absl::InvalidArgumentError(
         absl::StrCat("DFG size must be in [1, ", kMaxDfgSize, "], got ", job.dfg_size));
   }
+  SHRM_RETURN_IF_ERROR(ValidateDfgChoice(job.dfg));
   if (job.preset != ibl::RoughnessPreset::kExplicit && !job.roughness.empty()) {
     return absl::InvalidArgumentError(
         absl::StrCat("a roughness list needs the explicit preset (got preset ",
@@ -214,8 +248,7 @@ absl::StatusOr<IblRun> RunIblJob(const IblJob& job, int threads) {
 }
 
 absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
-                                      const SourceIdentity& source, double decode_ms,
-                                      int threads) {
+                                      const SourceIdentity& source, double decode_ms, int threads) {
   SHRM_RETURN_IF_ERROR(ValidateIblJob(job));
   IblRun run;
   run.source = source;
@@ -262,6 +295,11 @@ absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
   SHRM_ASSIGN_OR_RETURN(run.sh_window, ibl::WindowSh9(run.radiance_sh9, 2, window));
   run.timings.push_back({"irradiance", MsSince(t0)});
 
+  if (const std::optional<ibl::DfgConsumer> consumer = ResolvedDfg(job)) {
+    t0 = std::chrono::steady_clock::now();
+    SHRM_ASSIGN_OR_RETURN(run.dfg, ibl::ComputeDfgLut(job.dfg_size, *consumer, threads));
+    run.timings.push_back({"dfg", MsSince(t0)});
+  }
   for (IblCube* cube : {&run.specular, &run.sheen, &run.irradiance}) StoreAs(job.format, *cube);
   if (job.verify > 0) {
     t0 = std::chrono::steady_clock::now();
@@ -310,6 +348,12 @@ nlohmann::json IblReportJson(const IblJob& job, const IblRun& run) {
   if (run.sh_window.width > 0)
     w["window"] = run.sh_window.window == ibl::ShWindow::kSinc4 ? "sinc4" : "hanning";
   r["sh_window"] = w;
+  if (run.dfg) {
+    const std::optional<ibl::DfgConsumer> consumer = ResolvedDfg(job);
+    r["dfg"] = {{"consumer", ibl::DfgConsumerName(*consumer)},
+                {"size", run.dfg->size},
+                {"channels", run.dfg->channels}};
+  }
   if (run.sh9_measured.count > 0) {
     // The l <= 2 truncation itself (about 3-10% on real maps; the irradiance cube is the exact
     // form): reported, not held to the tolerance.

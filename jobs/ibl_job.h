@@ -9,6 +9,7 @@
 #define SHRM_JOBS_IBL_JOB_H_
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "core/export/ktx2.h"
+#include "core/ibl/dfg.h"
 #include "core/ibl/sh9.h"
 #include "core/ibl/split_sum.h"
 #include "core/shrm/prefilter.h"
@@ -59,6 +61,13 @@ enum class IblShWindow { kAuto, kNone, kCmgen };
 const char* IblShWindowName(IblShWindow window);  // "auto", "none", "cmgen"
 absl::StatusOr<IblShWindow> ParseIblShWindow(absl::string_view name);
 
+// The DFG lookup table's consumer (core/ibl/dfg.h): a name of DfgConsumerName, "auto" (the
+// preset's: filament -> "filament", otherwise "gltf-lut-ggx") or "none".
+absl::Status ValidateDfgChoice(absl::string_view choice);
+// The consumer `job.dfg` resolves to; nullopt for "none".
+struct IblJob;
+std::optional<ibl::DfgConsumer> ResolvedDfg(const IblJob& job);
+
 struct IblJob {
   EnvironmentSpec env;
   ibl::RoughnessPreset preset = ibl::RoughnessPreset::kFilament;
@@ -73,6 +82,7 @@ struct IblJob {
   double tolerance = kDefaultIblTolerance;
   int verify = kDefaultIblVerify;  // directions per level of the job's own check; 0 = none
   IblShWindow sh_window = IblShWindow::kAuto;
+  std::string dfg = "auto";
   bool operator==(const IblJob&) const = default;
 };
 
@@ -103,6 +113,7 @@ struct IblRun {
   ibl::Sh9WindowReport sh_window;
   // The l <= 2 irradiance / pi against the pixel sum at job.verify seeded normals.
   ibl::LevelError sh9_measured;
+  std::optional<ibl::DfgLut> dfg;
   SourceIdentity source;
   EnvLayout layout = EnvLayout::kAuto;
   int64_t replaced_non_finite = 0;

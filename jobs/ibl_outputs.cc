@@ -5,6 +5,7 @@
 #include "core/base/status_macros.h"
 #include "core/export/ktx2.h"
 #include "core/ibl/sh9.h"
+#include "core/io/image.h"
 #include "shrm/version.h"
 
 namespace shrm::jobs {
@@ -63,6 +64,52 @@ absl::StatusOr<std::string> EncodeCube(const IblJob& job, const IblRun& run, con
   return ktx2::EncodeKtx2(image, opt);
 }
 
+// The DFG table as a 2D KTX2 (half floats: 1-2 channels R16G16, 3 R16G16B16, 4 R16G16B16A16),
+// and as 3-channel float EXR and 8-bit PNG images (missing channels 0; the PNG clamps to
+// [0, 1] like the glTF sample viewer's LUT files, so the Charlie channel's values above 1 at
+// grazing views are only in the KTX2 and EXR); rows as the consumer stores them (row 0 first:
+// GL t = 0, the PNG's top row).
+absl::Status EncodeDfg(const IblJob& job, const IblRun& run, std::vector<IblFile>* files) {
+  const ibl::DfgLut& lut = *run.dfg;
+  const std::string consumer = ibl::DfgConsumerName(*ResolvedDfg(job));
+  const int ch = lut.channels;
+  const ktx2::Format format = ch <= 2   ? ktx2::Format::kR16G16Sfloat
+                              : ch == 3 ? ktx2::Format::kR16G16B16Sfloat
+                                        : ktx2::Format::kR16G16B16A16Sfloat;
+  const int kch = ktx2::ChannelCount(format);
+  const size_t texels = static_cast<size_t>(lut.size) * lut.size;
+  ktx2::Ktx2Image image;
+  image.format = format;
+  image.width = image.height = lut.size;
+  ktx2::Level level;
+  level.width = level.height = lut.size;
+  level.pixels.assign(texels * kch, 0.0f);
+  Image rgb;
+  rgb.width = rgb.height = lut.size;
+  rgb.channels = 3;
+  rgb.pixels.assign(texels * 3, 0.0f);
+  for (size_t t = 0; t < texels; ++t)
+    for (int c = 0; c < ch; ++c) {
+      level.pixels[t * kch + c] = lut.data[t * ch + c];
+      if (c < 3) rgb.pixels[t * 3 + c] = lut.data[t * ch + c];
+    }
+  image.levels.push_back(std::move(level));
+  image.key_values["shrm:version"] = kVersion;
+  image.key_values["shrm:content"] = absl::StrCat(
+      "split-sum DFG lookup table for ", consumer,
+      ": column i at N.V = (i + 0.5) / n, row j at roughness (j + 0.5) / n (docs/ibl_dfg.md)");
+  ktx2::EncodeOptions opt;
+  opt.writer = absl::StrCat("shrm ", kVersion);
+  SHRM_ASSIGN_OR_RETURN(std::string ktx, ktx2::EncodeKtx2(image, opt));
+  SHRM_ASSIGN_OR_RETURN(std::string exr, EncodeImage(rgb, ImageEncoding::kExrFloat));
+  SHRM_ASSIGN_OR_RETURN(std::string png, EncodeImage(rgb, ImageEncoding::kPng8));
+  const std::string what = absl::StrCat("DFG table (", consumer, "), ", lut.size, " x ", lut.size);
+  files->push_back({"dfg.ktx2", std::move(ktx), what});
+  files->push_back({"dfg.exr", std::move(exr), what + ", float"});
+  files->push_back({"dfg.png", std::move(png), what + ", 8-bit"});
+  return absl::OkStatus();
+}
+
 // The SH9 in every consumer's convention (core/ibl/sh9.h) with its frame and what its formula
 // returns.
 absl::StatusOr<nlohmann::json> Sh9Json(const IblRun& run) {
@@ -114,6 +161,7 @@ absl::StatusOr<std::vector<IblFile>> EncodeIblOutputs(const IblJob& job, const I
   SHRM_ASSIGN_OR_RETURN(std::string irradiance, EncodeCube(job, run, run.irradiance));
   files.push_back(
       {"irradiance.ktx2", std::move(irradiance), absl::StrCat("irradiance / pi cube, ", fmt)});
+  if (run.dfg) SHRM_RETURN_IF_ERROR(EncodeDfg(job, run, &files));
   SHRM_ASSIGN_OR_RETURN(nlohmann::json sh9, Sh9Json(run));
   nlohmann::json sh9_file = {{"radiance_sh9", run.report["radiance_sh9"]},
                              {"sh_window", run.report["sh_window"]},

@@ -9,6 +9,7 @@
 
 #include "core/base/cubemap.h"
 #include "core/export/ktx2.h"
+#include "core/io/atomic_file.h"
 #include "core/io/image.h"
 #include "gtest/gtest.h"
 #include "jobs/ibl_outputs.h"
@@ -136,8 +137,8 @@ TEST(IblJobTest, RunsOnARealMapWithinItsTolerance) {
   ASSERT_TRUE(files.ok()) << files.status();
   std::vector<std::string> names;
   for (const IblFile& f : *files) names.push_back(f.name);
-  const std::vector<std::string> want = {"specular.ktx2", "irradiance.ktx2", "sh9.json",
-                                         "ibl.json"};
+  const std::vector<std::string> want = {"specular.ktx2", "irradiance.ktx2", "dfg.ktx2", "dfg.exr",
+                                         "dfg.png",       "sh9.json",        "ibl.json"};
   EXPECT_EQ(names, want);
   // RGBA16F cube, 5 levels 32..2: 6 faces x 8 bytes per texel, plus headers (< 4 KiB).
   size_t texels = 0;
@@ -146,8 +147,29 @@ TEST(IblJobTest, RunsOnARealMapWithinItsTolerance) {
   EXPECT_LT((*files)[0].bytes.size(), texels * 8 + 4096);
   EXPECT_EQ((*files)[0].bytes.substr(1, 6), "KTX 20");
   const nlohmann::json sidecar = nlohmann::json::parse(files->back().bytes);
-  EXPECT_EQ(sidecar["files"].size(), 3u);
-  const nlohmann::json sh9 = nlohmann::json::parse((*files)[2].bytes);
+  EXPECT_EQ(sidecar["files"].size(), 6u);
+  // gltf preset: the glTF sample viewer's lut_ggx, (A, B, C); the images read back (OpenImageIO)
+  // equal the table.
+  ASSERT_TRUE(run->dfg.has_value());
+  EXPECT_EQ(sidecar["dfg"]["consumer"], "gltf-lut-ggx");
+  constexpr double kExrTol = 0;                 // float EXR
+  constexpr double kPngTol = 0.5 / 255 + 1e-6;  // 8-bit rounding
+  for (auto [index, tol] : {std::pair{3, kExrTol}, std::pair{4, kPngTol}}) {
+    const std::string tmp = testing::UniqueTempPath((*files)[index].name);
+    ASSERT_TRUE(WriteFileAtomically(tmp, (*files)[index].bytes).ok());
+    auto img = ReadImageRgb(tmp);
+    ASSERT_TRUE(img.ok()) << img.status();
+    ASSERT_EQ(img->width, job.dfg_size);
+    for (int y = 0; y < img->height; ++y)
+      for (int x = 0; x < img->width; ++x)
+        for (int c = 0; c < 3; ++c)
+          ASSERT_NEAR(img->at(x, y, c),
+                      index == 4 ? std::min(1.0f, run->dfg->At(y, x, c)) : run->dfg->At(y, x, c),
+                      tol)
+              << (*files)[index].name;  // the PNG clamps to [0, 1] (C exceeds 1 at grazing)
+    std::remove(tmp.c_str());
+  }
+  const nlohmann::json sh9 = nlohmann::json::parse((*files)[5].bytes);
   for (const char* conv : {"filament", "gltf", "gltf-babylon", "three", "unity"}) {
     ASSERT_TRUE(sh9["conventions"].contains(conv)) << conv;
   }

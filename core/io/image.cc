@@ -1,5 +1,6 @@
 #include "core/io/image.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -197,6 +198,39 @@ absl::Status WriteImage8Bit(const std::string& path, const Image& image) {
   }
   return WriteAtomically(path, image, format, OIIO::TypeDesc::UINT8, bytes.data(),
                          OIIO::TypeDesc::UINT8);
+}
+
+absl::StatusOr<std::string> EncodeImage(const Image& image, ImageEncoding encoding) {
+  if (image.width <= 0 || image.height <= 0 || image.channels <= 0 ||
+      image.pixels.size() != static_cast<size_t>(image.width) * image.height * image.channels) {
+    return absl::InvalidArgumentError(absl::StrCat("inconsistent image to encode (", image.width,
+                                                   " x ", image.height, " x ", image.channels,
+                                                   ")"));
+  }
+  const bool exr = encoding == ImageEncoding::kExrFloat;
+  std::vector<unsigned char> bytes;
+  if (!exr) {
+    bytes.resize(image.pixels.size());
+    for (size_t i = 0; i < bytes.size(); ++i) {
+      const float v = image.pixels[i];
+      const float c = std::isnan(v) ? 0.0f : std::clamp(v, 0.0f, 1.0f);
+      bytes[i] = static_cast<unsigned char>(std::lround(c * 255.0f));
+    }
+  }
+  OIIO::Filesystem::IOVecOutput proxy;
+  auto out = OIIO::ImageOutput::create(exr ? "openexr" : "png");
+  if (!out) return absl::InternalError("no OpenImageIO writer for the in-memory encoding");
+  const OIIO::TypeDesc type = exr ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8;
+  OIIO::ImageSpec spec(image.width, image.height, image.channels, type);
+  if (exr) spec.attribute("compression", "zip");
+  spec.attribute("DateTime", "1970:01:01 00:00:00");
+  if (!out->set_ioproxy(&proxy) || !out->open(exr ? "memory.exr" : "memory.png", spec) ||
+      !out->write_image(type, exr ? static_cast<const void*>(image.pixels.data())
+                                  : static_cast<const void*>(bytes.data())) ||
+      !out->close()) {
+    return absl::InternalError(absl::StrCat("cannot encode the image: ", out->geterror()));
+  }
+  return std::string(proxy.buffer().begin(), proxy.buffer().end());
 }
 
 absl::Status WritePreviewPng(const std::string& path, const Image& linear, double exposure) {
