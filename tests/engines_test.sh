@@ -3,7 +3,8 @@
 #   1. ktx-parse (npm) reads every KTX2 file of sets in all four formats: header, level sizes,
 #      DFD, key/value data against ibl.json and the specifications; decoded values against the
 #      inputs (a constant map; a map with patches at +X, +Y, -Z); radiance_sh9 against the SH of
-#      the cube, and its conversion to three.js's SH basis against three's own code;
+#      the input, and its conversion to three.js's SH basis against three's own code; a mirrored
+#      and an upside-down copy of a set must fail (negative controls);
 #   2. three.js in headless Chromium (Debian's chromium, WebGL2 on SwiftShader, playwright-core)
 #      reads every texel back through GL's cube-map selection, renders the cube on a sphere (which
 #      side is +X), three's own IBL path and a LightProbe from radiance_sh9.
@@ -67,10 +68,11 @@ done
 MAPS="$TMP/maps"
 mkdir -p "$MAPS"
 oiiotool --pattern constant:color=1,1,1 64x32 3 -d float -o "$MAPS/white.exr"
-# 256 x 128: grey 0.05; red 8 in columns 184..199 x rows 56..71 (around u = 0.75, v = 0.5: +X);
-# green 8 in rows 0..7 (+Y); blue 8 in columns 120..135 x rows 56..71 (u = 0.5: -Z).
+# 256 x 128: grey 0.05; red 8 in columns 184..199 x rows 40..55 (around u = 0.75: +X, 11 to 34
+# degrees up); green 8 in rows 0..7 (+Y); blue 8 in columns 120..135 x rows 56..71 (u = 0.5: -Z).
+# tests/engines/ktx_cube.mjs PATCHES describes the same map.
 oiiotool --pattern constant:color=0.05,0.05,0.05 256x128 3 \
-  --fill:color=8,0,0 16x16+184+56 --fill:color=0,8,0 256x8+0+0 --fill:color=0,0,8 16x16+120+56 \
+  --fill:color=8,0,0 16x16+184+40 --fill:color=0,8,0 256x8+0+0 --fill:color=0,0,8 16x16+120+56 \
   -d float -o "$MAPS/patches.exr"
 
 # --- sets ------------------------------------------------------------------------------------------
@@ -97,6 +99,11 @@ make_set white-rgba16f white.exr --size 16 --format rgba16f --sheen --verify 0
 make_set white-rgba32f white.exr --size 16 --format rgba32f --sheen --preset gltf --verify 0
 make_set white-r11g11b10f white.exr --size 16 --format r11g11b10f --roughness 0,0.3,0.6,1 --verify 0
 make_set white-rgb9e5 white.exr --size 16 --format rgb9e5 --sheen --levels 3 --verify 0
+# A real map (lookups and the file checks; radiance_sh9 only loosely against the cube).
+COURTYARD="$ROOT/data/envmaps/courtyard.exr"
+[ -f "$COURTYARD" ] || { echo "FAIL: missing bundled map $COURTYARD"; exit 1; }
+cp "$COURTYARD" "$MAPS/"
+make_set courtyard-rgba16f courtyard.exr --size 32 --preset gltf --verify 0
 [ "$FAILURES" -eq 0 ] || { echo "FAIL: $FAILURES set(s) not made"; exit 1; }
 
 # --- 1. ktx-parse -----------------------------------------------------------------------------------
@@ -116,12 +123,31 @@ done
 for f in rgba16f rgba32f r11g11b10f rgb9e5; do
   run_node "ktx-white-$f" check_ktx2.mjs "$SETS/white-$f" --constant 1,1,1
 done
+run_node ktx-courtyard check_ktx2.mjs "$SETS/courtyard-rgba16f"
+
+# Negative controls: a mirrored and an upside-down copy of the patches set must fail the
+# orientation checks (which shows that they can fail).
+for how in mirror-x flip-rows; do
+  run_node "break-$how" break_set.mjs "$SETS/patches-rgba16f" "$SETS/broken-$how" "$how"
+  if (cd "$NODE_DIR" && node check_ktx2.mjs "$SETS/broken-$how" --patches) >"$TMP/neg-$how.log" 2>&1; then
+    echo "FAIL: negative control $how: check_ktx2.mjs --patches accepted it" | tee -a "$TMP/break-$how.out"
+    FAILURES=$((FAILURES + 1))
+  elif grep -q '^FAIL: patches: specular level 0 holds' "$TMP/neg-$how.log"; then
+    echo "PASS: negative control $how: check_ktx2.mjs rejects it: $(grep '^FAIL: patches' "$TMP/neg-$how.log" | head -n 1 | cut -c7-)" |
+      tee -a "$TMP/break-$how.out"
+  else
+    echo "FAIL: negative control $how: check_ktx2.mjs failed for another reason:" | tee -a "$TMP/break-$how.out"
+    grep '^FAIL' "$TMP/neg-$how.log" || tail -n 5 "$TMP/neg-$how.log"
+    FAILURES=$((FAILURES + 1))
+  fi
+done
 
 # --- 2. three.js in Chromium ------------------------------------------------------------------------
 OUT="$CACHE/engines-out"
 rm -rf "$OUT"
 CHROMIUM="$CHROMIUM" run_node browser run_browser.mjs "$OUT" "$SETS/patches-rgba16f" \
-  "$SETS/patches-rgba32f" "$SETS/patches-r11g11b10f" "$SETS/patches-rgb9e5"
+  "$SETS/patches-rgba32f" "$SETS/patches-r11g11b10f" "$SETS/patches-rgb9e5" "$SETS/courtyard-rgba16f" \
+  --broken "$SETS/broken-mirror-x" "$SETS/broken-flip-rows"
 
 PASSED=$(cat "$TMP"/*.out | grep -c '^PASS' || true)
 echo "engines_test: $(($(date +%s) - START)) s"

@@ -196,13 +196,14 @@ export function projectToThreeSh9(p) {
 
 // The map engines_test.sh makes with oiiotool (keep the two in step): 256 x 128 lat-long, grey
 // background, value 8 in one channel in each patch (pixel columns x0..x1-1, rows y0..y1-1):
-// red around u = 0.75, v = 0.5 (+X), green in the top rows (+Y), blue around u = 0.5 (-Z).
+// red around u = 0.75 (+X) 11..34 degrees above the horizon (so that an upside-down face shows),
+// green in the top rows (+Y), blue around u = 0.5 (-Z) on the horizon.
 export const PATCHES = {
   width: 256,
   height: 128,
   background: [0.05, 0.05, 0.05],
   patches: [
-    { name: 'R', rgb: [8, 0, 0], x0: 184, x1: 200, y0: 56, y1: 72 },
+    { name: 'R', rgb: [8, 0, 0], x0: 184, x1: 200, y0: 40, y1: 56 },
     { name: 'G', rgb: [0, 8, 0], x0: 0, x1: 256, y0: 0, y1: 8 },
     { name: 'B', rgb: [0, 0, 8], x0: 120, x1: 136, y0: 56, y1: 72 },
   ],
@@ -210,4 +211,10 @@ export const PATCHES = {
 export function patchesPixel(i, j) {
   const p = PATCHES.patches.find((q) => i >= q.x0 && i < q.x1 && j >= q.y0 && j < q.y1);
   return p ? p.rgb : PATCHES.background;
+}
+
+// The centre direction of a patch's pixel box.
+export function patchCentre(name) {
+  const p = PATCHES.patches.find((q) => q.name === name);
+  return latLongDirection((p.x0 + p.x1) / 2 / PATCHES.width, (p.y0 + p.y1) / 2 / PATCHES.height);
 }

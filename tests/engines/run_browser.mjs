@@ -1,10 +1,13 @@
 // three.js in headless Chromium (Debian's /usr/bin/chromium, WebGL2 on SwiftShader, driven by
 // playwright-core) consumes `shrm ibl` sets served from a loopback HTTP server started here.
 //
-// Usage: node run_browser.mjs OUT_DIR PATCH_SET [LOOKUP_SET ...]
-//   PATCH_SET: a set made from make_maps' patches.exr (red at +X, green at +Y, blue at -Z), with
-//              --sheen: every check below. LOOKUP_SET: further sets (other formats): lookups only.
-//   OUT_DIR:   screenshots (PNG) and the browser's console log.
+// Usage: node run_browser.mjs OUT_DIR PATCH_SET [LOOKUP_SET ...] [--broken BROKEN_SET ...]
+//   PATCH_SET:  a set made from engines_test.sh's patches.exr (ktx_cube.mjs PATCHES: red at +X,
+//               green at +Y, blue at -Z), with --sheen: every check below.
+//   LOOKUP_SET: further sets (other formats, other maps): lookups only.
+//   BROKEN_SET: break_set.mjs copies of PATCH_SET (mirrored, upside down): the orientation check
+//               must reject them (negative controls; their lookups still match, as they should).
+//   OUT_DIR:    screenshots (PNG) and the browser's console log.
 // Checks (PASS/FAIL lines, exit 1 on any FAIL):
 //   lookup:      every texel of every level of every cube, fetched by GL's cube-map selection at
 //                the texel's direction (textureLod, float render target, readPixels), equals the
@@ -26,11 +29,14 @@ import { fileURLToPath } from 'node:url';
 import { chromium } from 'playwright-core';
 import { read } from 'ktx-parse';
 import {
-  FACE_NAMES, decodeCubeLevel, texelDirection, sampleNearest, normalize, projectToThreeSh9,
+  decodeCubeLevel, texelDirection, sampleNearest, normalize, projectToThreeSh9, patchCentre,
 } from './ktx_cube.mjs';
 
 const HERE = dirname(fileURLToPath(import.meta.url));
-const [outDir, patchSet, ...lookupSets] = process.argv.slice(2).map((p) => resolve(p));
+const argv = process.argv.slice(2);
+const cut = argv.includes('--broken') ? argv.indexOf('--broken') : argv.length;
+const [outDir, patchSet, ...lookupSets] = argv.slice(0, cut).map((p) => resolve(p));
+const brokenSets = argv.slice(cut + 1).map((p) => resolve(p));
 if (!outDir || !patchSet) {
   console.error('usage: node run_browser.mjs OUT_DIR PATCH_SET [LOOKUP_SET ...]');
   process.exit(2);
@@ -48,7 +54,7 @@ const fail = (m) => { console.log(`FAIL: ${m}`); failures++; };
 const check = (ok, m) => (ok ? pass(m) : fail(m));
 
 // --- loopback server: /engines/ = this folder, /node_modules/, /set/<k>/ = the sets -----------
-const sets = [patchSet, ...lookupSets];
+const sets = [patchSet, ...lookupSets, ...brokenSets];
 const MIME = { '.html': 'text/html', '.mjs': 'text/javascript', '.js': 'text/javascript', '.json': 'application/json' };
 const server = createServer((req, res) => {
   const url = decodeURIComponent(new URL(req.url, 'http://x').pathname);
@@ -80,8 +86,8 @@ const relDiff = (a, b) => Math.abs(a - b) / Math.max(Math.abs(b), 1e-3);
 
 // --- the checks ---------------------------------------------------------------------------------
 async function runChecks() {
-  // 1. lookups of every texel, every file of every set.
-  for (let si = 0; si < sets.length; ++si) {
+  // 1. lookups of every texel, every file of every set (not the broken copies).
+  for (let si = 0; si < 1 + lookupSets.length; ++si) {
     const json = JSON.parse(readFileSync(join(sets[si], 'ibl.json'), 'utf8'));
     for (const f of json.files.filter((x) => x.name.endsWith('.ktx2'))) {
       const cube = loadCube(join(sets[si], f.name));
@@ -120,6 +126,7 @@ async function runChecks() {
   const S = 256, VIEW = 1.1;
   // Pixel (i, j) of the float image (j = 0 at the bottom) -> the world normal there, or null
   // (page.mjs sphereScene: orthographic camera at (1, 1, 1), +Y up).
+  const RED = patchCentre('R'); // +X, 22.5 degrees up
   const CAM = { right: normalize([1, 0, -1]), up: normalize([-1, 2, -1]), back: normalize([1, 1, 1]) };
   const screenOf = (i, j) => [-VIEW + ((i + 0.5) * 2 * VIEW) / S, -VIEW + ((j + 0.5) * 2 * VIEW) / S];
   const normalAt = (i, j, rmax = 0.97) => {
@@ -150,11 +157,15 @@ async function runChecks() {
     }
     const dir = normalize(c);
     const deg = (axis) => (Math.acos(Math.max(-1, Math.min(1, dir[0] * axis[0] + dir[1] * axis[1] + dir[2] * axis[2]))) * 180) / Math.PI;
-    return { lo, peak, dir, screen: [sc[0] / sw, sc[1] / sw], toX: deg([1, 0, 0]), toMinusX: deg([-1, 0, 0]), toY: deg([0, 1, 0]) };
+    return { lo, peak, dir, screen: [sc[0] / sw, sc[1] / sw], toX: deg([1, 0, 0]), toRed: deg(RED), toY: deg([0, 1, 0]) };
   };
-  const describe = (r, g) => `red peak ${r.peak.toFixed(3)} (min ${r.lo.toFixed(3)}), centroid at screen (${r.screen.map((v) => v.toFixed(2))}) = ${r.toX.toFixed(1)} deg from +X; green peak ${g.peak.toFixed(3)}, centroid at screen (${g.screen.map((v) => v.toFixed(2))}) = ${g.toY.toFixed(1)} deg from +Y`;
+  const describe = (r, g) => `red peak ${r.peak.toFixed(3)} (min ${r.lo.toFixed(3)}), centroid at screen (${r.screen.map((v) => v.toFixed(2))}) = ${r.toRed.toFixed(1)} deg from the red patch's centre (${r.toX.toFixed(1)} from +X); green peak ${g.peak.toFixed(3)}, centroid at screen (${g.screen.map((v) => v.toFixed(2))}) = ${g.toY.toFixed(1)} deg from +Y`;
   const shot = async (name) => page.locator('#c').screenshot({ path: join(outDir, name) });
   const fmt = (v) => v.toFixed(3);
+
+  // The globe shows the patches where they are: red centroid near the red patch's centre, green
+  // near +Y (the visible hemisphere pulls rough levels' centroids towards the camera).
+  const globeOk = (r, g, level) => r.peak > 3 * r.lo && g.peak > 3 * g.lo && r.toRed < (level ? 30 : 15) && g.toY < (level ? 30 : 15);
 
   // 3. orientation: the cube as a globe, level 0 and the rough level nearest roughness 0.5.
   const rough = json.specular.levels.reduce((b, l, k, a) => (Math.abs(l.roughness - 0.5) < Math.abs(a[b].roughness - 0.5) ? k : b), 0);
@@ -162,8 +173,7 @@ async function runChecks() {
     const img = await page.evaluate(([l]) => window.shrmEngines.normalSphere('/set/0/specular.ktx2', l, 256, 0.5), [level]);
     await shot(`specular_level${level}.png`);
     const r = where(img, 0), g = where(img, 1);
-    check(r.peak > 3 * r.lo && r.toX < 30 && g.peak > 3 * g.lo && g.toY < 30,
-      `orientation specular level ${level} (roughness ${+json.specular.levels[level].roughness.toFixed(4)}), camera at (1,1,1): ${describe(r, g)} (want < 30 deg, peaks > 3 x min)`);
+    check(globeOk(r, g, level), `orientation specular level ${level} (roughness ${+json.specular.levels[level].roughness.toFixed(4)}), camera at (1,1,1): ${describe(r, g)} (want < ${level ? 30 : 15} deg, peaks > 3 x min)`);
     // Every sphere pixel equals the file's texel at the pixel's normal (nearest filtering; the
     // interpolated normal may pick a neighbouring texel next to texel edges: accepted when a
     // direction within 0.3 texel of the normal selects that value).
@@ -226,8 +236,15 @@ async function runChecks() {
   check(r.toX < 45 && g.toY < 45, `LightProbe (radiance_sh9 -> three SphericalHarmonics3): ${describe(r, g)} (want < 45 deg)`);
   check(worst < 2e-3, `LightProbe: ${n} pixels = three's SH irradiance / pi at the pixel normal, evaluated in node (worst ${worst.toExponential(2)} of the +X value ${fmt(scale)})`);
   check(worstIrr < 0.25, `LightProbe vs irradiance.ktx2 (an order-2 SH against the full irradiance of a map with sharp patches): worst ${worstIrr.toFixed(3)} of the +X value (tolerance 0.25)`);
+  // 6. negative controls: the broken copies must fail the globe check at level 0.
+  for (let b = 0; b < brokenSets.length; ++b) {
+    const si = 1 + lookupSets.length + b;
+    const img = await page.evaluate(([u]) => window.shrmEngines.normalSphere(u, 0, 256, 0.5), [`/set/${si}/specular.ktx2`]);
+    await shot(`broken_${basename(brokenSets[b])}.png`);
+    const r = where(img, 0), g = where(img, 1);
+    check(!globeOk(r, g, 0), `negative control ${basename(brokenSets[b])}: the orientation check rejects it: ${describe(r, g)}`);
+  }
   console.log(`INFO: screenshots in ${outDir}: ${['specular_level0', `specular_level${rough}`, 'three_standard_cubetexture', 'three_standard_rendertarget', 'three_lightprobe'].map((s) => `${s}.png`).join(' ')}`);
-  void FACE_NAMES;
 }
 
 // --- main (last: the helpers above are initialized by now) ---------------------------------
