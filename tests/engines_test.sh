@@ -106,6 +106,8 @@ cp "$COURTYARD" "$MAPS/"
 make_set courtyard-rgba16f courtyard.exr --size 32 --preset gltf --verify 0
 [ "$FAILURES" -eq 0 ] || { echo "FAIL: $FAILURES set(s) not made"; exit 1; }
 
+echo "(sets made: $(($(date +%s) - START)) s)"
+
 # --- 1. ktx-parse -----------------------------------------------------------------------------------
 run_node() { # log name, script, args...
   local log="$TMP/$1.out"
@@ -141,6 +143,8 @@ for how in mirror-x flip-rows; do
     FAILURES=$((FAILURES + 1))
   fi
 done
+
+echo "(ktx-parse checks done: $(($(date +%s) - START)) s)"
 
 # --- 2. three.js in Chromium ------------------------------------------------------------------------
 OUT="$CACHE/engines-out"

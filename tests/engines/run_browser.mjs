@@ -86,6 +86,9 @@ const relDiff = (a, b) => Math.abs(a - b) / Math.max(Math.abs(b), 1e-3);
 
 // --- the checks ---------------------------------------------------------------------------------
 async function runChecks() {
+  const t0 = Date.now();
+  const phases = [];
+  const phase = (name) => phases.push(`${name} ${((Date.now() - t0) / 1000).toFixed(1)} s`);
   // 1. lookups of every texel, every file of every set (not the broken copies).
   for (let si = 0; si < 1 + lookupSets.length; ++si) {
     const json = JSON.parse(readFileSync(join(sets[si], 'ibl.json'), 'utf8'));
@@ -115,6 +118,7 @@ async function runChecks() {
     }
   }
 
+  phase('lookups');
   // 2. three's KTX2Loader, for the record.
   const rep = await page.evaluate(() => window.shrmEngines.loaderReport('/set/0/specular.ktx2'));
   console.log(`INFO: three r${(await page.evaluate(() => window.shrmEngines.info())).three} KTX2Loader on specular.ktx2 -> ${rep.class} (isCubeTexture ${rep.isCubeTexture}), ${rep.width}x${rep.height}, ${rep.mipmaps} mipmaps, level 0 holds ${rep.level0Values} values (6 faces); it does not build cube textures from uncompressed KTX2 cubes, so the page builds a THREE.CubeTexture from ktx-parse's levels`);
@@ -195,6 +199,7 @@ async function runChecks() {
     check(wrong === 0, `values specular level ${level}: ${n} sphere pixels = the file's texel at the pixel normal (${wrong} differ${wrong ? `, worst ${worst.toExponential(2)}` : ''})`);
   }
 
+  phase('globe');
   // 4. three's own IBL path (PMREM of the cube, MeshStandardMaterial): documents three's convention.
   for (const asRT of [false, true]) {
     const img = await page.evaluate(([rt]) => window.shrmEngines.standardSphere('/set/0/specular.ktx2', 256, 1.5, rt), [asRT]);
@@ -206,6 +211,7 @@ async function runChecks() {
     else check(r.toX > 90 && g.toY < 45, `three IBL with the cube as a plain THREE.CubeTexture is mirrored in x, as three r187 does for every non-render-target CubeTexture (WebGLMaterials, PMREMGenerator flipEnvMap = -1): red lights the -X side, green the +Y side`);
   }
 
+  phase('three IBL');
   // 5. LightProbe from radiance_sh9.
   const coef = Array.from({ length: 9 }, () => [0, 0, 0]);
   for (let ch = 0; ch < 3; ++ch) projectToThreeSh9(json.radiance_sh9.map((c) => c[ch])).forEach((v, k) => { coef[k][ch] = v; });
@@ -236,6 +242,7 @@ async function runChecks() {
   check(r.toX < 45 && g.toY < 45, `LightProbe (radiance_sh9 -> three SphericalHarmonics3): ${describe(r, g)} (want < 45 deg)`);
   check(worst < 2e-3, `LightProbe: ${n} pixels = three's SH irradiance / pi at the pixel normal, evaluated in node (worst ${worst.toExponential(2)} of the +X value ${fmt(scale)})`);
   check(worstIrr < 0.25, `LightProbe vs irradiance.ktx2 (an order-2 SH against the full irradiance of a map with sharp patches): worst ${worstIrr.toFixed(3)} of the +X value (tolerance 0.25)`);
+  phase('LightProbe');
   // 6. negative controls: the broken copies must fail the globe check at level 0.
   for (let b = 0; b < brokenSets.length; ++b) {
     const si = 1 + lookupSets.length + b;
@@ -244,6 +251,8 @@ async function runChecks() {
     const r = where(img, 0), g = where(img, 1);
     check(!globeOk(r, g, 0), `negative control ${basename(brokenSets[b])}: the orientation check rejects it: ${describe(r, g)}`);
   }
+  phase('negative controls');
+  console.log(`INFO: elapsed (cumulative): ${phases.join(', ')}`);
   console.log(`INFO: screenshots in ${outDir}: ${['specular_level0', `specular_level${rough}`, 'three_standard_cubetexture', 'three_standard_rendertarget', 'three_lightprobe'].map((s) => `${s}.png`).join(' ')}`);
 }
 
