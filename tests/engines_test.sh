@@ -103,6 +103,9 @@ make_set white-rgb9e5 white.exr --size 16 --format rgb9e5 --sheen --levels 3 --v
 COURTYARD="$ROOT/data/envmaps/courtyard.exr"
 [ -f "$COURTYARD" ] || { echo "FAIL: missing bundled map $COURTYARD"; exit 1; }
 cp "$COURTYARD" "$MAPS/"
+# Its pixels for the node checks (radiance_sh9, irradiance): downsized to 256 x 128, as text.
+oiiotool "$COURTYARD" --resize 256x128 -d float -o "$MAPS/courtyard256.exr"
+oiiotool --dumpdata "$MAPS/courtyard256.exr" >"$MAPS/courtyard256.txt"
 make_set courtyard-rgba16f courtyard.exr --size 32 --preset gltf --verify 0
 [ "$FAILURES" -eq 0 ] || { echo "FAIL: $FAILURES set(s) not made"; exit 1; }
 
@@ -125,7 +128,7 @@ done
 for f in rgba16f rgba32f r11g11b10f rgb9e5; do
   run_node "ktx-white-$f" check_ktx2.mjs "$SETS/white-$f" --constant 1,1,1
 done
-run_node ktx-courtyard check_ktx2.mjs "$SETS/courtyard-rgba16f"
+run_node ktx-courtyard check_ktx2.mjs "$SETS/courtyard-rgba16f" --map "$MAPS/courtyard256.txt"
 
 # Negative controls: a mirrored and an upside-down copy of the patches set must fail the
 # orientation checks (which shows that they can fail).

@@ -2,11 +2,15 @@
 // it against the set's ibl.json and the KTX 2.0 / Data Format specifications; decodes the values
 // and checks them against what the input map implies.
 //
-// Usage: node check_ktx2.mjs SET_DIR [--constant R,G,B] [--patches]
+// Usage: node check_ktx2.mjs SET_DIR [--constant R,G,B] [--patches] [--map PIXELS.txt]
 //   --constant: the input was a constant map: every texel of every level is that colour.
 //   --patches:  the input was engines_test.sh's patches.exr (ktx_cube.mjs PATCHES: red patch at
 //               +X, green band at +Y, blue patch at -Z on grey): level 0 holds them in those
 //               directions, and every level's face means are largest on those faces.
+//   --map:      the input map's pixels as `oiiotool --dumpdata` prints them (lat-long; may be a
+//               downsized copy): radiance_sh9 and irradiance.ktx2 are checked against it.
+// With any of the three, radiance_sh9 is checked against the SH projection of the map's pixels
+// and irradiance.ktx2 against the cosine-weighted integral of the map's pixels.
 // Prints PASS/FAIL lines; exits 1 on any FAIL.
 import { readFileSync } from 'node:fs';
 import { join } from 'node:path';
@@ -22,6 +26,8 @@ const dir = args[0];
 const constIdx = args.indexOf('--constant');
 const constant = constIdx > 0 ? args[constIdx + 1].split(',').map(Number) : null;
 const patches = args.includes('--patches');
+const mapIdx = args.indexOf('--map');
+const mapFile = mapIdx > 0 ? args[mapIdx + 1] : null;
 
 let failures = 0;
 const pass = (m) => console.log(`PASS: ${m}`);
@@ -191,9 +197,34 @@ if (patches) {
   }
 }
 
+// The input map as lat-long pixels (W, H, rgb(i, j)), when the input is known.
+function knownMap() {
+  if (constant) return { W: 64, H: 32, rgb: () => constant, what: 'the constant map' };
+  if (patches) return { W: PATCHES.width, H: PATCHES.height, rgb: patchesPixel, what: 'patches.exr' };
+  if (!mapFile) return null;
+  const px = new Map();
+  let W = 0, H = 0;
+  for (const m of readFileSync(mapFile, 'utf8').matchAll(/Pixel \((\d+), (\d+)\):\s*(\S+)\s+(\S+)\s+(\S+)/g)) {
+    const [i, j] = [+m[1], +m[2]];
+    px.set(j * 100000 + i, [+m[3], +m[4], +m[5]]);
+    W = Math.max(W, i + 1); H = Math.max(H, j + 1);
+  }
+  if (px.size !== W * H) throw new Error(`${mapFile}: ${px.size} pixels, not ${W} x ${H}`);
+  return { W, H, rgb: (i, j) => px.get(j * 100000 + i), what: `${mapFile.split('/').pop()} (${W} x ${H})` };
+}
+// Its pixels as (direction, solid angle, rgb), docs/conventions.md lat-long, exact ring areas.
+const map = knownMap();
+const mapPixels = [];
+if (map) {
+  for (let j = 0; j < map.H; ++j) for (let i = 0; i < map.W; ++i) {
+    const w = ((2 * Math.PI) / map.W) * (Math.cos((Math.PI * j) / map.H) - Math.cos((Math.PI * (j + 1)) / map.H));
+    mapPixels.push({ d: latLongDirection((i + 0.5) / map.W, (j + 0.5) / map.H), w, rgb: map.rgb(i, j) });
+  }
+}
+
 // radiance_sh9 against the SH projection, in the project's convention (ktx_cube.mjs projectSh9,
-// from docs/conventions.md), of the input: the known map's pixels (constant, patches) exactly;
-// otherwise of specular level 0 (the map point-sampled onto the cube), loosely.
+// from docs/conventions.md), of the input map's pixels; without a known map, of specular level 0
+// (the map point-sampled onto the cube), loosely.
 {
   const sh = Array.from({ length: 9 }, () => [0, 0, 0]);
   const add = (w, d, rgb) => {
@@ -201,13 +232,9 @@ if (patches) {
     for (let k = 0; k < 9; ++k) for (let ch = 0; ch < 3; ++ch) sh[k][ch] += w * b[k] * rgb[ch];
   };
   let what, tol;
-  if (constant || patches) {
-    const W = PATCHES.width, H = PATCHES.height;
-    for (let j = 0; j < H; ++j) for (let i = 0; i < W; ++i) {
-      const w = ((2 * Math.PI) / W) * (Math.cos((Math.PI * j) / H) - Math.cos((Math.PI * (j + 1)) / H));
-      add(w, latLongDirection((i + 0.5) / W, (j + 0.5) / H), constant ?? patchesPixel(i, j));
-    }
-    [what, tol] = ['of the input map (pixel sums)', 5e-3];
+  if (map) {
+    for (const p of mapPixels) add(p.w, p.d, p.rgb);
+    [what, tol] = [`of ${map.what}`, mapFile ? 0.01 : 5e-3];
   } else {
     const l0 = cubes.specular.levels[0];
     for (let face = 0; face < 6; ++face) for (let y = 0; y < l0.size; ++y) for (let x = 0; x < l0.size; ++x) {
@@ -237,6 +264,42 @@ if (patches) {
     worstConv = Math.max(worstConv, Math.abs(t.x - p[0]) / scale, Math.abs(t.y - p[1]) / scale, Math.abs(t.z - p[2]) / scale);
   }
   check(worstConv < 1e-4, `${tag}: radiance_sh9 converted to three.SphericalHarmonics3 evaluates (three's getAt) as the project's basis does (worst ${worstConv.toExponential(2)} of max L00)`);
+}
+
+// irradiance.ktx2 against (1/pi) * integral of L(l) max(0, n.l) over the map's pixels, at texel
+// centres spread over the six faces.
+if (map) {
+  const l0 = cubes.irradiance.levels[0];
+  const step = Math.max(1, l0.size / (constant ? 4 : 8)); // 384 texels (96 for a constant map)
+  let worst = 0, where = '', n = 0, peak = 0;
+  const rows = [];
+  for (let face = 0; face < 6; ++face) for (let y = step >> 1; y < l0.size; y += step) for (let x = step >> 1; x < l0.size; x += step) {
+    const d = texelDirection(face, x, y, l0.size);
+    const e = [0, 0, 0];
+    for (const p of mapPixels) {
+      const c = d[0] * p.d[0] + d[1] * p.d[1] + d[2] * p.d[2];
+      if (c > 0) for (let ch = 0; ch < 3; ++ch) e[ch] += (p.w * c * p.rgb[ch]) / Math.PI;
+    }
+    const i = (y * l0.size + x) * 4;
+    rows.push([e, Array.from(l0.faces[face].subarray(i, i + 3)), `${FACE_NAMES[face]} (${x},${y})`]);
+    peak = Math.max(peak, ...e);
+    n++;
+  }
+  // Allowed: the storage rounding (E5B9G9R9: relative to the texel's largest channel) twice, plus
+  // `q` relative (floor 5% of the peak) for the map's quadrature and shrm's band limit.
+  const q = mapFile ? 0.01 : 2e-3;
+  let worstRel = 0;
+  for (const [e, got, at] of rows) for (let ch = 0; ch < 3; ++ch) {
+    const round = 2 * ROUNDING[json.format] * (json.format === 'rgb9e5' ? Math.max(...got) : got[ch]);
+    const allowed = round + q * Math.max(e[ch], 0.05 * peak);
+    const diff = Math.abs(got[ch] - e[ch]);
+    if (diff / allowed > worst) {
+      worst = diff / allowed;
+      where = `${at} channel ${ch}: ${got[ch].toFixed(5)} vs ${e[ch].toFixed(5)}`;
+    }
+    worstRel = Math.max(worstRel, diff / Math.max(e[ch], 0.05 * peak));
+  }
+  check(worst <= 1, `${tag}: irradiance.ktx2 = irradiance / pi of ${map.what} by brute force at ${n} texels: worst difference ${worstRel.toExponential(2)} relative (floor 5% of the peak ${peak.toFixed(4)}), ${worst.toFixed(2)} of the allowed ${q} + 2 x ${json.format} rounding (at ${where})`);
 }
 
 console.log(`${tag}: ${failures === 0 ? 'all checks passed' : `${failures} check(s) failed`}`);
