@@ -154,7 +154,7 @@ OUT="$CACHE/engines-out"
 rm -rf "$OUT"
 CHROMIUM="$CHROMIUM" run_node browser run_browser.mjs "$OUT" "$SETS/patches-rgba16f" \
   "$SETS/patches-rgba32f" "$SETS/patches-r11g11b10f" "$SETS/patches-rgb9e5" "$SETS/courtyard-rgba16f" \
-  --broken "$SETS/broken-mirror-x" "$SETS/broken-flip-rows"
+  --broken "$SETS/broken-mirror-x" "$SETS/broken-flip-rows" --probe "$SETS/courtyard-rgba16f"
 
 PASSED=$(cat "$TMP"/*.out | grep -c '^PASS' || true)
 echo "engines_test: $(($(date +%s) - START)) s"

@@ -14,7 +14,7 @@
 // Prints PASS/FAIL lines; exits 1 on any FAIL.
 import { readFileSync } from 'node:fs';
 import { join } from 'node:path';
-import { read } from 'ktx-parse';
+import { read, write } from 'ktx-parse';
 import * as THREE from 'three';
 import {
   FORMATS, FACE_NAMES, decodeCubeLevel, texelDirection, texelSolidAngle, latLongUv,
@@ -75,8 +75,14 @@ for (const file of json.files.filter((f) => f.name.endsWith('.ktx2'))) {
   const key = file.name.replace('.ktx2', '');
   const desc = json[key];
   const t = `${tag}/${file.name}`;
-  const c = read(new Uint8Array(readFileSync(join(dir, file.name))));
+  const fileBytes = new Uint8Array(readFileSync(join(dir, file.name)));
+  const c = read(fileBytes);
   const n0 = desc.levels[0].face_size;
+  // ktx-parse's writer lays a file out as the spec's recommendations say (alignment, padding,
+  // key order); shrm's files come back byte for byte (docs/ktx2.md).
+  const again = write(read(fileBytes), { keepWriter: true });
+  check(again.length === fileBytes.length && again.every((b, i) => b === fileBytes[i]),
+    `${t}: ktx-parse rewrites it byte for byte (${fileBytes.length} bytes${again.length === fileBytes.length ? '' : `, rewritten ${again.length}`})`);
   check(c.vkFormat === fmt.vk && c.typeSize === fmt.typeSize,
     `${t}: vkFormat ${c.vkFormat} typeSize ${c.typeSize} (${json.format}: ${fmt.vk}, ${fmt.typeSize})`);
   check(c.pixelWidth === n0 && c.pixelHeight === n0 && c.pixelDepth === 0,
@@ -122,6 +128,8 @@ for (const file of json.files.filter((f) => f.name.endsWith('.ktx2'))) {
   }
   check(text('shrm:preset') === json.preset, `${t}: shrm:preset = ibl.json preset "${json.preset}"`);
   check((text('shrm:cube') ?? '').includes('+X,-X,+Y,-Y,+Z,-Z'), `${t}: shrm:cube names the GL face order`);
+  check(text('shrm:alpha') === 'roughness^2' && desc.levels.every((l) => Math.abs(l.alpha - l.roughness ** 2) <= 1e-12),
+    `${t}: shrm:alpha "${text('shrm:alpha')}", ibl.json alpha = roughness^2 on every level`);
   const rough = (text('shrm:roughness') ?? '').split(',').map(Number);
   const jr = desc.levels.map((l) => l.roughness);
   // The key holds 6 significant digits (absl::StrCat), ibl.json full precision.

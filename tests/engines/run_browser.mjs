@@ -2,9 +2,11 @@
 // playwright-core) consumes `shrm ibl` sets served from a loopback HTTP server started here.
 //
 // Usage: node run_browser.mjs OUT_DIR PATCH_SET [LOOKUP_SET ...] [--broken BROKEN_SET ...]
+//                             [--probe LOOKUP_SET ...]
 //   PATCH_SET:  a set made from engines_test.sh's patches.exr (ktx_cube.mjs PATCHES: red at +X,
 //               green at +Y, blue at -Z), with --sheen: every check below.
 //   LOOKUP_SET: further sets (other formats, other maps): lookups only.
+//   --probe:    LOOKUP_SETs (real maps) that also get the LightProbe check (without orientation).
 //   BROKEN_SET: break_set.mjs copies of PATCH_SET (mirrored, upside down): the orientation check
 //               must reject them (negative controls; their lookups still match, as they should).
 //   OUT_DIR:    screenshots (PNG) and the browser's console log.
@@ -33,10 +35,15 @@ import {
 } from './ktx_cube.mjs';
 
 const HERE = dirname(fileURLToPath(import.meta.url));
-const argv = process.argv.slice(2);
-const cut = argv.includes('--broken') ? argv.indexOf('--broken') : argv.length;
-const [outDir, patchSet, ...lookupSets] = argv.slice(0, cut).map((p) => resolve(p));
-const brokenSets = argv.slice(cut + 1).map((p) => resolve(p));
+const groups = { '': [], '--broken': [], '--probe': [] };
+let group = '';
+for (const a of process.argv.slice(2)) {
+  if (a in groups) group = a;
+  else groups[group].push(resolve(a));
+}
+const [outDir, patchSet, ...lookupSets] = groups[''];
+const brokenSets = groups['--broken'];
+const probeSets = groups['--probe'].filter((p) => lookupSets.includes(p));
 if (!outDir || !patchSet) {
   console.error('usage: node run_browser.mjs OUT_DIR PATCH_SET [LOOKUP_SET ...]');
   process.exit(2);
@@ -165,6 +172,18 @@ async function runChecks() {
   };
   const describe = (r, g) => `red peak ${r.peak.toFixed(3)} (min ${r.lo.toFixed(3)}), centroid at screen (${r.screen.map((v) => v.toFixed(2))}) = ${r.toRed.toFixed(1)} deg from the red patch's centre (${r.toX.toFixed(1)} from +X); green peak ${g.peak.toFixed(3)}, centroid at screen (${g.screen.map((v) => v.toFixed(2))}) = ${g.toY.toFixed(1)} deg from +Y`;
   const shot = async (name) => page.locator('#c').screenshot({ path: join(outDir, name) });
+  // Not black, no NaN or infinity anywhere in the float image, background black.
+  const sane = (img, name) => {
+    let nonFinite = 0, lit = 0, sphere = 0, bgLit = 0;
+    for (let j = 0; j < S; ++j) for (let i = 0; i < S; ++i) {
+      const v = img.slice(4 * (j * S + i), 4 * (j * S + i) + 3);
+      nonFinite += v.filter((x) => !Number.isFinite(x)).length;
+      if (normalAt(i, j)) { sphere++; if (Math.max(...v) > 0) lit++; }
+      else if (normalAt(i, j, 1.05) === null && Math.max(...v) !== 0) bgLit++;
+    }
+    check(nonFinite === 0 && lit === sphere && bgLit === 0,
+      `${name}: ${S}x${S} float image read back: ${nonFinite} NaN/inf values, ${lit} of ${sphere} sphere pixels > 0, ${bgLit} lit background pixels`);
+  };
   const fmt = (v) => v.toFixed(3);
 
   // The globe shows the patches where they are: red centroid near the red patch's centre, green
@@ -176,6 +195,7 @@ async function runChecks() {
   for (const level of [0, rough]) {
     const img = await page.evaluate(([l]) => window.shrmEngines.normalSphere('/set/0/specular.ktx2', l, 256, 0.5), [level]);
     await shot(`specular_level${level}.png`);
+    sane(img, `globe level ${level}`);
     const r = where(img, 0), g = where(img, 1);
     check(globeOk(r, g, level), `orientation specular level ${level} (roughness ${+json.specular.levels[level].roughness.toFixed(4)}), camera at (1,1,1): ${describe(r, g)} (want < ${level ? 30 : 15} deg, peaks > 3 x min)`);
     // Every sphere pixel equals the file's texel at the pixel's normal (nearest filtering; the
@@ -204,6 +224,7 @@ async function runChecks() {
   for (const asRT of [false, true]) {
     const img = await page.evaluate(([rt]) => window.shrmEngines.standardSphere('/set/0/specular.ktx2', 256, 1.5, rt), [asRT]);
     await shot(`three_standard_${asRT ? 'rendertarget' : 'cubetexture'}.png`);
+    sane(img, `three MeshStandardMaterial (${asRT ? 'render-target cube' : 'CubeTexture'})`);
     const r = where(img, 0), g = where(img, 1);
     const side = r.toX < 90 ? '+X side (correct)' : '-X side (mirrored)';
     console.log(`INFO: three MeshStandardMaterial envMap, cube ${asRT ? 'flagged isRenderTargetTexture' : 'as a plain CubeTexture'}: red on the ${side}: ${describe(r, g)}`);
@@ -212,36 +233,46 @@ async function runChecks() {
   }
 
   phase('three IBL');
-  // 5. LightProbe from radiance_sh9.
-  const coef = Array.from({ length: 9 }, () => [0, 0, 0]);
-  for (let ch = 0; ch < 3; ++ch) projectToThreeSh9(json.radiance_sh9.map((c) => c[ch])).forEach((v, k) => { coef[k][ch] = v; });
-  const img = await page.evaluate(([c]) => window.shrmEngines.probeSphere(c, 256, 1.5), [coef]);
-  await shot('three_lightprobe.png');
-  // three's shGetIrradianceAt (lights_pars_begin.glsl) / pi: what the Lambert sphere must show.
-  const threeIrradiance = (n, ch) => {
-    const [x, y, z] = n, c = coef.map((v) => v[ch]);
-    return (c[0] * 0.886227 + 2 * 0.511664 * (c[1] * y + c[2] * z + c[3] * x) +
-      2 * 0.429043 * (c[4] * x * y + c[5] * y * z + c[7] * x * z) + c[6] * (0.743125 * z * z - 0.247708) +
-      c[8] * 0.429043 * (x * x - y * y)) / Math.PI;
-  };
-  let worst = 0, worstIrr = 0, n = 0;
-  const scale = Math.max(...[0, 1, 2].map((ch) => threeIrradiance([1, 0, 0], ch)), 1e-6);
-  const l0 = irr.levels[0];
-  for (let j = 0; j < S; j += 2) for (let i = 0; i < S; i += 2) {
-    const nn = normalAt(i, j, 0.95);
-    if (!nn) continue;
-    n++;
-    const v = px(img, i, j);
-    const w = sampleNearest(l0, nn);
-    for (let ch = 0; ch < 3; ++ch) {
-      worst = Math.max(worst, Math.abs(v[ch] - threeIrradiance(nn, ch)) / scale);
-      worstIrr = Math.max(worstIrr, Math.abs(v[ch] - w[ch]) / scale);
+  // 5. LightProbe from radiance_sh9 (the patches set, and the --probe sets).
+  const probe = async (si, irrTol) => {
+    const set = sets[si];
+    const name = basename(set);
+    const pj = JSON.parse(readFileSync(join(set, 'ibl.json'), 'utf8'));
+    const irrCube = loadCube(join(set, 'irradiance.ktx2'));
+    const coef = Array.from({ length: 9 }, () => [0, 0, 0]);
+    for (let ch = 0; ch < 3; ++ch) projectToThreeSh9(pj.radiance_sh9.map((c) => c[ch])).forEach((v, k) => { coef[k][ch] = v; });
+    const img = await page.evaluate(([c]) => window.shrmEngines.probeSphere(c, 256, 1.5), [coef]);
+    await shot(`three_lightprobe_${name}.png`);
+    sane(img, `three LightProbe ${name}`);
+    // three's shGetIrradianceAt (lights_pars_begin.glsl) / pi: what the Lambert sphere must show.
+    const threeIrradiance = (n, ch) => {
+      const [x, y, z] = n, c = coef.map((v) => v[ch]);
+      return (c[0] * 0.886227 + 2 * 0.511664 * (c[1] * y + c[2] * z + c[3] * x) +
+        2 * 0.429043 * (c[4] * x * y + c[5] * y * z + c[7] * x * z) + c[6] * (0.743125 * z * z - 0.247708) +
+        c[8] * 0.429043 * (x * x - y * y)) / Math.PI;
+    };
+    let worst = 0, worstIrr = 0, n = 0, scale = 0;
+    for (let j = 0; j < S; ++j) for (let i = 0; i < S; ++i) if (normalAt(i, j)) scale = Math.max(scale, ...px(img, i, j));
+    const l0 = irrCube.levels[0];
+    for (let j = 0; j < S; j += 2) for (let i = 0; i < S; i += 2) {
+      const nn = normalAt(i, j, 0.95);
+      if (!nn) continue;
+      n++;
+      const v = px(img, i, j);
+      const w = sampleNearest(l0, nn);
+      for (let ch = 0; ch < 3; ++ch) {
+        worst = Math.max(worst, Math.abs(v[ch] - threeIrradiance(nn, ch)) / scale);
+        worstIrr = Math.max(worstIrr, Math.abs(v[ch] - w[ch]) / scale);
+      }
     }
-  }
+    check(worst < 2e-3, `LightProbe ${name}: ${n} pixels = three's SH irradiance / pi at the pixel normal, evaluated in node (worst ${worst.toExponential(2)} of the peak ${fmt(scale)})`);
+    check(worstIrr < irrTol, `LightProbe ${name} vs irradiance.ktx2 (an order-2 SH against the full irradiance): worst ${worstIrr.toFixed(3)} of the peak (tolerance ${irrTol})`);
+    return img;
+  };
+  const img = await probe(0, 0.25);
   const r = where(img, 0), g = where(img, 1);
   check(r.toX < 45 && g.toY < 45, `LightProbe (radiance_sh9 -> three SphericalHarmonics3): ${describe(r, g)} (want < 45 deg)`);
-  check(worst < 2e-3, `LightProbe: ${n} pixels = three's SH irradiance / pi at the pixel normal, evaluated in node (worst ${worst.toExponential(2)} of the +X value ${fmt(scale)})`);
-  check(worstIrr < 0.25, `LightProbe vs irradiance.ktx2 (an order-2 SH against the full irradiance of a map with sharp patches): worst ${worstIrr.toFixed(3)} of the +X value (tolerance 0.25)`);
+  for (const set of probeSets) await probe(sets.indexOf(set), 0.1);
   phase('LightProbe');
   // 6. negative controls: the broken copies must fail the globe check at level 0.
   for (let b = 0; b < brokenSets.length; ++b) {
@@ -253,7 +284,7 @@ async function runChecks() {
   }
   phase('negative controls');
   console.log(`INFO: elapsed (cumulative): ${phases.join(', ')}`);
-  console.log(`INFO: screenshots in ${outDir}: ${['specular_level0', `specular_level${rough}`, 'three_standard_cubetexture', 'three_standard_rendertarget', 'three_lightprobe'].map((s) => `${s}.png`).join(' ')}`);
+  console.log(`INFO: screenshots in ${outDir}: ${['specular_level0', `specular_level${rough}`, 'three_standard_cubetexture', 'three_standard_rendertarget', ...[patchSet, ...probeSets].map((p) => `three_lightprobe_${basename(p)}`)].map((s) => `${s}.png`).join(' ')}`);
 }
 
 // --- main (last: the helpers above are initialized by now) ---------------------------------
