@@ -24,6 +24,8 @@ PACKAGES=(
   libtinyobjloader-dev
   # deployment test (tests/deploy_test.sh): nginx in front of shrmd replicas, a gRPC probe
   nginx python3-grpcio
+  # engine test (tests/engines_test.sh): three.js in headless Chromium (WebGL2 on SwiftShader)
+  chromium
   # installation and packaging (docs/install.md, tests/install_test.sh): man pages from --help,
   # the Debian packages' dependencies (dpkg-shlibdeps), their checks, bash completion
   help2man dpkg-dev lintian bash-completion
