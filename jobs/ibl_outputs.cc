@@ -104,9 +104,9 @@ absl::Status EncodeDfg(const IblJob& job, const IblRun& run, std::vector<IblFile
   SHRM_ASSIGN_OR_RETURN(std::string exr, EncodeImage(rgb, ImageEncoding::kExrFloat));
   SHRM_ASSIGN_OR_RETURN(std::string png, EncodeImage(rgb, ImageEncoding::kPng8));
   const std::string what = absl::StrCat("DFG table (", consumer, "), ", lut.size, " x ", lut.size);
-  files->push_back({"dfg.ktx2", std::move(ktx), what});
-  files->push_back({"dfg.exr", std::move(exr), what + ", float"});
-  files->push_back({"dfg.png", std::move(png), what + ", 8-bit"});
+  files->push_back({"dfg.ktx2", std::move(ktx), what, "table"});
+  files->push_back({"dfg.exr", std::move(exr), what + ", float", "table"});
+  files->push_back({"dfg.png", std::move(png), what + ", 8-bit", "table"});
   return absl::OkStatus();
 }
 
@@ -151,29 +151,32 @@ absl::StatusOr<std::vector<IblFile>> EncodeIblOutputs(const IblJob& job, const I
   SHRM_ASSIGN_OR_RETURN(std::string specular, EncodeCube(job, run, run.specular));
   files.push_back(
       {"specular.ktx2", std::move(specular),
-       absl::StrCat("GGX radiance cube, ", run.specular.chain.levels.size(), " levels, ", fmt)});
+       absl::StrCat("GGX radiance cube, ", run.specular.chain.levels.size(), " levels, ", fmt),
+       "cube"});
   if (job.sheen) {
     SHRM_ASSIGN_OR_RETURN(std::string sheen, EncodeCube(job, run, run.sheen));
     files.push_back({"sheen.ktx2", std::move(sheen),
                      absl::StrCat("Charlie sheen radiance cube, ", run.sheen.chain.levels.size(),
-                                  " levels, ", fmt)});
+                                  " levels, ", fmt),
+                     "cube"});
   }
   SHRM_ASSIGN_OR_RETURN(std::string irradiance, EncodeCube(job, run, run.irradiance));
-  files.push_back(
-      {"irradiance.ktx2", std::move(irradiance), absl::StrCat("irradiance / pi cube, ", fmt)});
+  files.push_back({"irradiance.ktx2", std::move(irradiance),
+                   absl::StrCat("irradiance / pi cube, ", fmt), "cube"});
   if (run.dfg) SHRM_RETURN_IF_ERROR(EncodeDfg(job, run, &files));
   SHRM_ASSIGN_OR_RETURN(nlohmann::json sh9, Sh9Json(run));
   nlohmann::json sh9_file = {{"radiance_sh9", run.report["radiance_sh9"]},
                              {"sh_window", run.report["sh_window"]},
                              {"conventions", sh9}};
   files.push_back({"sh9.json", sh9_file.dump(2) + "\n",
-                   "irradiance SH9 for Filament, glTF, three.js and Unity"});
+                   "irradiance SH9 for Filament, glTF, three.js and Unity", "json"});
   nlohmann::json sidecar = run.report;
   nlohmann::json list = nlohmann::json::array();
-  for (const IblFile& f : files) list.push_back({{"name", f.name}, {"what", f.what}});
+  for (const IblFile& f : files)
+    list.push_back({{"name", f.name}, {"what", f.what}, {"type", f.type}});
   sidecar["files"] = list;
   sidecar["cube_convention"] = kCubeConvention;
-  files.push_back({"ibl.json", sidecar.dump(2) + "\n", "the set's description and report"});
+  files.push_back({"ibl.json", sidecar.dump(2) + "\n", "the set's description and report", "json"});
   return files;
 }
 

@@ -17,6 +17,9 @@ struct IblFile {
   std::string name;   // file name inside the output folder
   std::string bytes;  // contents
   std::string what;   // one line for the summary
+  // "cube" (a KTX2 cube map, one level per roughness), "table" (the 2D DFG table: KTX2, EXR,
+  // PNG), "json".
+  std::string type;
 };
 
 // The job's files, the sidecar "ibl.json" last (it lists the others).

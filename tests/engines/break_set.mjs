@@ -19,7 +19,7 @@ if (!['mirror-x', 'flip-rows'].includes(how)) {
 mkdirSync(out, { recursive: true });
 const json = JSON.parse(readFileSync(join(src, 'ibl.json'), 'utf8'));
 copyFileSync(join(src, 'ibl.json'), join(out, 'ibl.json'));
-for (const f of json.files.filter((x) => x.name.endsWith('.ktx2'))) {
+for (const f of json.files.filter((x) => x.type === 'cube')) {
   const c = read(new Uint8Array(readFileSync(join(src, f.name))));
   const bytes = formatByVk(c.vkFormat).bytes;
   c.levels.forEach((level, k) => {

@@ -12,13 +12,13 @@
 // With any of the three, radiance_sh9 is checked against the SH projection of the map's pixels
 // and irradiance.ktx2 against the cosine-weighted integral of the map's pixels.
 // Prints PASS/FAIL lines; exits 1 on any FAIL.
-import { readFileSync } from 'node:fs';
+import { existsSync, readFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { read, write } from 'ktx-parse';
 import * as THREE from 'three';
 import {
   FORMATS, FACE_NAMES, decodeCubeLevel, texelDirection, texelSolidAngle, latLongUv,
-  projectSh9, projectToThreeSh9, latLongDirection, PATCHES, patchesPixel,
+  projectSh9, projectToThreeSh9, latLongDirection, PATCHES, patchesPixel, halfToFloat,
 } from './ktx_cube.mjs';
 
 const args = process.argv.slice(2);
@@ -71,7 +71,7 @@ function expectedSamples(name) {
 }
 
 const cubes = {};
-for (const file of json.files.filter((f) => f.name.endsWith('.ktx2'))) {
+for (const file of json.files.filter((f) => f.type === 'cube')) {
   const key = file.name.replace('.ktx2', '');
   const desc = json[key];
   const t = `${tag}/${file.name}`;
@@ -156,6 +156,37 @@ for (const file of json.files.filter((f) => f.name.endsWith('.ktx2'))) {
     }
     check(worst <= tol, `${t}: constant map: every texel of all ${levels.length} levels = (${constant}) within ${tol.toExponential(2)} relative (worst ${worst.toExponential(2)})`);
   }
+}
+
+// The DFG table (a 2D KTX2 of half floats) when the set has one on disk: the header, the DFD,
+// byte-for-byte rewrite, and values within the split-sum's bounds (every channel finite and
+// >= 0; the Filament / Babylon form (B, A + B, C) has B <= A + B <= 1, the (A, B) forms
+// A + B <= 1: a BRDF integral with F <= 1 reflects at most what arrives).
+const dfgFile = json.files.find((f) => f.name === 'dfg.ktx2');
+if (dfgFile && json.dfg && existsSync(join(dir, 'dfg.ktx2'))) {
+  const t = `${tag}/dfg.ktx2`;
+  const bytes = new Uint8Array(readFileSync(join(dir, 'dfg.ktx2')));
+  const c = read(bytes);
+  const again = write(read(bytes), { keepWriter: true });
+  check(again.length === bytes.length && again.every((b, i) => b === bytes[i]), `${t}: ktx-parse rewrites it byte for byte`);
+  const ch = json.dfg.channels, n = json.dfg.size;
+  const vk = ch <= 2 ? 83 : ch === 3 ? 90 : 97, kch = ch <= 2 ? 2 : ch;
+  check(c.vkFormat === vk && c.typeSize === 2 && c.pixelWidth === n && c.pixelHeight === n && c.faceCount === 1
+    && c.layerCount === 0 && c.levelCount === 1 && c.levels[0].levelData.byteLength === n * n * kch * 2,
+    `${t}: vkFormat ${c.vkFormat} (${vk}), ${c.pixelWidth}x${c.pixelHeight}, faces ${c.faceCount}, levels ${c.levelCount}, ${c.levels[0].levelData.byteLength} bytes`);
+  const d = c.dataFormatDescriptor[0];
+  check(d.colorModel === 1 && d.transferFunction === 1 && d.samples.length === kch && d.bytesPlane[0] === kch * 2,
+    `${t}: DFD RGBSDA, linear, ${d.samples.length} half-float samples`);
+  const v = new DataView(c.levels[0].levelData.buffer, c.levels[0].levelData.byteOffset);
+  let bad = 0, over = 0;
+  for (let i = 0; i < n * n; ++i) {
+    const x = [...Array(kch).keys()].map((k) => halfToFloat(v.getUint16(2 * (i * kch + k), true)));
+    if (x.some((y) => !Number.isFinite(y) || y < 0)) bad++;
+    const energy = json.dfg.consumer.startsWith('filament') && !json.dfg.consumer.includes('single') || json.dfg.consumer === 'babylon'
+      ? (x[0] <= x[1] + 1e-3 && x[1] <= 1 + 1e-3) : (x[0] + x[1] <= 1 + 1e-3);
+    if (!energy) over++;
+  }
+  check(bad === 0 && over === 0, `${t}: ${json.dfg.consumer} table: every value finite and >= 0 (${bad} bad), within the energy bound (${over} over)`);
 }
 
 // The +X / +Y / -Z patches of engines_test.sh's patches.exr (ktx_cube.mjs PATCHES).

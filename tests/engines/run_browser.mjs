@@ -99,7 +99,7 @@ async function runChecks() {
   // 1. lookups of every texel, every file of every set (not the broken copies).
   for (let si = 0; si < 1 + lookupSets.length; ++si) {
     const json = JSON.parse(readFileSync(join(sets[si], 'ibl.json'), 'utf8'));
-    for (const f of json.files.filter((x) => x.name.endsWith('.ktx2'))) {
+    for (const f of json.files.filter((x) => x.type === 'cube')) {
       const cube = loadCube(join(sets[si], f.name));
       const queries = [];
       const want = [];
