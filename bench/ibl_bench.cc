@@ -39,34 +39,6 @@ SpecularOptions Options() {
   return opt;
 }
 
-// Hammersley-sampled GGX estimate at one texel direction (as tests/split_sum_test.cc).
-std::array<double, 3> ImportanceSampled(const EnvMap& map, double alpha, const Vec3& n,
-                                        int samples) {
-  const Vec3 up = std::abs(n.y) < 0.999 ? Vec3{0, 1, 0} : Vec3{1, 0, 0};
-  const Vec3 t = up.Cross(n).Normalized(), b = n.Cross(t);
-  double sum[3] = {0, 0, 0}, w = 0;
-  for (int i = 0; i < samples; ++i) {
-    uint32_t bits = static_cast<uint32_t>(i);
-    bits = (bits << 16u) | (bits >> 16u);
-    bits = ((bits & 0x55555555u) << 1u) | ((bits & 0xAAAAAAAAu) >> 1u);
-    bits = ((bits & 0x33333333u) << 2u) | ((bits & 0xCCCCCCCCu) >> 2u);
-    bits = ((bits & 0x0F0F0F0Fu) << 4u) | ((bits & 0xF0F0F0F0u) >> 4u);
-    bits = ((bits & 0x00FF00FFu) << 8u) | ((bits & 0xFF00FF00u) >> 8u);
-    const double u1 = static_cast<double>(i) / samples, u2 = bits * 2.3283064365386963e-10;
-    const double a2 = alpha * alpha;
-    const double ch = std::sqrt((1 - u2) / (1 + (a2 - 1) * u2)), sh = std::sqrt(1 - ch * ch);
-    const double phi = 2 * kPi * u1;
-    const Vec3 h = t * (sh * std::cos(phi)) + b * (sh * std::sin(phi)) + n * ch;
-    const Vec3 l = h * (2 * n.Dot(h)) - n;
-    const double nl = n.Dot(l);
-    if (nl <= 0) continue;
-    const std::array<float, 3> v = map.Radiance(l);
-    for (int c = 0; c < 3; ++c) sum[c] += v[c] * nl;
-    w += nl;
-  }
-  return {sum[0] / w, sum[1] / w, sum[2] / w};
-}
-
 // Largest per-level RMS and largest error of `chain` against the pixel sum.
 std::pair<double, double> Accuracy(const SpecularChain& chain) {
   double rms = 0, largest = 0;
@@ -132,7 +104,7 @@ void BM_ImportanceSampled1024(benchmark::State& state) {
           for (int y = 0; y < s; ++y)
             for (int x = 0; x < s; ++x) {
               const auto v =
-                  ImportanceSampled(map, level.alpha, CubeTexelDirection(f, x, y, s), 1024);
+                  ImportanceSampledGgx(map, level.alpha, CubeTexelDirection(f, x, y, s), 1024);
               for (int c = 0; c < 3; ++c) level.cube.data[level.cube.Index(f, x, y, c)] = v[c];
             }
       }

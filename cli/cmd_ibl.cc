@@ -104,6 +104,11 @@ absl::Status RunIbl(const IblArgs& a) {
   SHRM_ASSIGN_OR_RETURN(jobs::IblRun run, jobs::RunIblJob(job, threads));
   progress.End();
   WarnReplacedNonFinite(run.replaced_non_finite);
+  if (run.specular.chain.levels.size() == 1) {
+    std::fprintf(stderr,
+                 "shrm: warning: the chain has only its base level (roughness 0): use a larger "
+                 "--size or --levels for rough levels\n");
+  }
   const auto t0 = std::chrono::steady_clock::now();
   SHRM_ASSIGN_OR_RETURN(std::vector<jobs::IblFile> files, jobs::EncodeIblOutputs(job, run));
   if (create) SHRM_RETURN_IF_ERROR(CreateFolder(a.output));
@@ -147,7 +152,7 @@ void RegisterIbl(CLI::App& app, absl::Status* status) {
       "ibl",
       "the split-sum IBL set: GGX (and sheen) radiance mips, irradiance cube and SH, DFG LUT");
   AddEnvOptions(sub, &args->env, /*required=*/true);
-  sub->add_option("-o,--output", args->output, "output folder (created if missing)")->required();
+  sub->add_option("-o,--output", args->output, "output folder (created if missing; its parent must exist)")->required();
   sub->add_option("--preset", args->preset,
                   "roughness per mip: filament (cmgen), gltf (glTF-IBL-Sampler) or explicit")
       ->capture_default_str()

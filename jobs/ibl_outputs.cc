@@ -1,6 +1,7 @@
 #include "jobs/ibl_outputs.h"
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "core/base/status_macros.h"
 #include "core/export/ktx2.h"
@@ -35,7 +36,7 @@ absl::StatusOr<std::string> EncodeCube(const IblJob& job, const IblRun& run, con
       if (channels == 4) level.pixels[t * channels + 3] = 1.0f;
     }
     image.levels.push_back(std::move(level));
-    roughness.push_back(absl::StrCat(l.roughness));
+    roughness.push_back(absl::StrFormat("%.17g", l.roughness));  // round-trips the double
     degree.push_back(absl::StrCat(l.degree));
     if (k < cube.measured.size() && cube.measured[k].count > 0) {
       measured.push_back(absl::StrCat(cube.measured[k].rms, "/", cube.measured[k].max));
@@ -50,9 +51,11 @@ absl::StatusOr<std::string> EncodeCube(const IblJob& job, const IblRun& run, con
                          ibl::SpecularLobeName(cube.chain.lobe), ", one roughness per level");
   kv["shrm:units"] = absl::StrCat("linear radiance, working space ", job.env.working_colour_space);
   kv["shrm:cube"] = kCubeConvention;
-  kv["shrm:preset"] = ibl::RoughnessPresetName(job.preset);
-  kv["shrm:roughness"] = absl::StrJoin(roughness, ",");
-  kv["shrm:alpha"] = "roughness^2";
+  if (cube.name != "irradiance") {
+    kv["shrm:preset"] = ibl::RoughnessPresetName(job.preset);
+    kv["shrm:roughness"] = absl::StrJoin(roughness, ",");
+    kv["shrm:alpha"] = "roughness^2";
+  }
   kv["shrm:degree"] = absl::StrJoin(degree, ",");
   if (!measured.empty()) kv["shrm:measured_error"] = absl::StrJoin(measured, ",");
   kv["shrm:source"] = run.source.names;

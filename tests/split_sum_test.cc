@@ -157,36 +157,6 @@ RelativeError Compare(const std::vector<double>& got, const std::vector<double>&
   return e;
 }
 
-// The importance-sampled estimate of cmgen / glTF-IBL-Sampler (without their mip-filtered
-// lookups, which trade noise for bias): h from the GGX density D (n.h) by a Hammersley set,
-// l = reflect(-n, h), sum L(l) (n.l) / sum (n.l), L the map's bilinear radiance.
-std::array<double, 3> ImportanceSampled(const EnvMap& map, double alpha, const Vec3& n,
-                                        int samples) {
-  const Vec3 up = std::abs(n.y) < 0.999 ? Vec3{0, 1, 0} : Vec3{1, 0, 0};
-  const Vec3 t = up.Cross(n).Normalized(), b = n.Cross(t);
-  double sum[3] = {0, 0, 0}, w = 0;
-  for (int i = 0; i < samples; ++i) {
-    uint32_t bits = static_cast<uint32_t>(i);
-    bits = (bits << 16u) | (bits >> 16u);
-    bits = ((bits & 0x55555555u) << 1u) | ((bits & 0xAAAAAAAAu) >> 1u);
-    bits = ((bits & 0x33333333u) << 2u) | ((bits & 0xCCCCCCCCu) >> 2u);
-    bits = ((bits & 0x0F0F0F0Fu) << 4u) | ((bits & 0xF0F0F0F0u) >> 4u);
-    bits = ((bits & 0x00FF00FFu) << 8u) | ((bits & 0xFF00FF00u) >> 8u);
-    const double u1 = static_cast<double>(i) / samples, u2 = bits * 2.3283064365386963e-10;
-    const double a2 = alpha * alpha;
-    const double ch = std::sqrt((1 - u2) / (1 + (a2 - 1) * u2)), sh = std::sqrt(1 - ch * ch);
-    const double phi = 2 * kPi * u1;
-    const Vec3 h = t * (sh * std::cos(phi)) + b * (sh * std::sin(phi)) + n * ch;
-    const Vec3 l = h * (2 * n.Dot(h)) - n;
-    const double nl = n.Dot(l);
-    if (nl <= 0) continue;
-    const std::array<float, 3> v = map.Radiance(l);
-    for (int c = 0; c < 3; ++c) sum[c] += v[c] * nl;
-    w += nl;
-  }
-  return {sum[0] / w, sum[1] / w, sum[2] / w};
-}
-
 // Bilinear lookup of a lat-long image, written from docs/conventions.md (pixel (i, j) at
 // p = 2 pi ((i + 0.5) / W - 0.5), theta = pi (j + 0.5) / H, d = (sin t sin p, cos t,
 // -sin t cos p)); wraps in azimuth, clamps at the poles.
@@ -244,7 +214,7 @@ TEST(SplitSumTest, EveryLevelMatchesThePixelSumOnTheBundledMaps) {
         }
         got.push_back(Luma(v));
         ref.push_back(Luma(SplitSumReference(*map, SpecularLobe::kGgx, level.alpha, r)));
-        sampled.push_back(Luma(ImportanceSampled(*map, level.alpha, r, kImportanceSamples)));
+        sampled.push_back(Luma(ImportanceSampledGgx(*map, level.alpha, r, kImportanceSamples)));
       }
       if (level.alpha == 0) continue;
       const RelativeError e = Compare(got, ref), is = Compare(sampled, ref);

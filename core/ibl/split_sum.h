@@ -109,6 +109,13 @@ std::vector<double> SplitSumZonal(SpecularLobe lobe, double alpha, int lmax);
 std::array<double, 3> SplitSumReference(const EnvMap& map, SpecularLobe lobe, double alpha,
                                         const Vec3& r);
 
+// The estimate cmgen and glTF-IBL-Sampler compute, for comparison (tests, benchmarks): GGX half
+// vectors from the density D (n.h) by a `samples`-point Hammersley set, l = reflect(-n, h),
+// sum L(l) (n.l) / sum (n.l) with L the map's bilinear radiance (without their mip-filtered
+// lookups, which trade this noise for bias).
+std::array<double, 3> ImportanceSampledGgx(const EnvMap& map, double alpha, const Vec3& n,
+                                           int samples);
+
 struct SpecularOptions {
   SpecularLobe lobe = SpecularLobe::kGgx;
   MipChain chain;
