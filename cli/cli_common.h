@@ -76,6 +76,26 @@ class Progress {
   std::chrono::steady_clock::time_point start_;
 };
 
+// Stage lines of a remote run: each stage ends when the next one starts.
+class StageLines {
+ public:
+  explicit StageLines(Progress* progress) : progress_(progress) {}
+  void Begin(const std::string& stage) {
+    End();
+    progress_->Begin(stage);
+    open_ = true;
+  }
+  double End() {
+    if (!open_) return 0;
+    open_ = false;
+    return progress_->End();
+  }
+
+ private:
+  Progress* progress_;
+  bool open_ = false;
+};
+
 // Checks before any work that an output can be created: its folder exists, is a folder, and a
 // file can be created in it (probed with a temporary that is removed). Errors name the option and
 // the path. Empty paths (optional outputs not asked for) pass.

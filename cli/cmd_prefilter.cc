@@ -102,26 +102,6 @@ void PrintSummary(const jobs::PrefilterJob& job, const PrefilterRun& run,
   std::printf("\n");
 }
 
-// Stage lines of a remote run: each stage ends when the next one starts.
-class StageLines {
- public:
-  explicit StageLines(Progress* progress) : progress_(progress) {}
-  void Begin(const std::string& stage) {
-    End();
-    progress_->Begin(stage);
-    open_ = true;
-  }
-  double End() {
-    if (!open_) return 0;
-    open_ = false;
-    return progress_->End();
-  }
-
- private:
-  Progress* progress_;
-  bool open_ = false;
-};
-
 // --server: the same job on shrmd; the SHRM file it returns is byte-identical to the embedded
 // run's (tests/service_test.cc).
 absl::Status RunPrefilterRemote(const jobs::PrefilterJob& job, const PrefilterRun& run,
