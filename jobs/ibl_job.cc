@@ -320,9 +320,26 @@ absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
   return run;
 }
 
+nlohmann::json IblOptionsJson(const IblJob& job) {
+  nlohmann::json o = {{"preset", ibl::RoughnessPresetName(job.preset)},
+                      {"roughness", job.roughness},
+                      {"size", job.face_size},
+                      {"levels", job.levels},
+                      {"sheen", job.sheen},
+                      {"format", IblFormatName(job.format)},
+                      {"irradiance_size", job.irradiance_size},
+                      {"dfg_size", job.dfg_size},
+                      {"tolerance", job.tolerance},
+                      {"verify", job.verify},
+                      {"sh_window", IblShWindowName(job.sh_window)}};
+  o["rotate"] = job.env.rotate_ypr_deg ? nlohmann::json(*job.env.rotate_ypr_deg) : nlohmann::json();
+  return o;
+}
+
 nlohmann::json IblReportJson(const IblJob& job, const IblRun& run) {
   nlohmann::json r;
   r["shrm_version"] = kVersion;
+  r["options"] = IblOptionsJson(job);
   r["source"] = run.source.names;
   r["source_sha256"] = run.source.sha256;
   r["layout"] = EnvLayoutName(run.layout);

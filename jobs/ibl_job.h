@@ -134,9 +134,14 @@ absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
                                       const SourceIdentity& source, double decode_ms, int threads,
                                       const PrefilterProgress& progress = nullptr);
 
-// The report: source, layout, shrm_version, preset, format, tolerance and, per cube and level,
-// face_size, roughness, alpha, degree, truncation_estimate and measured {count, rms, max}; "met"
-// is false when a measured level misses its target. Front ends add the files they wrote.
+// The job's options as the report records them ("options": every option of IblJobOptions()
+// besides the environment's files, layout and colour spaces, by its name there): what
+// `shrm batch` compares to skip an up-to-date set.
+nlohmann::json IblOptionsJson(const IblJob& job);
+
+// The report: source, layout, shrm_version, options, preset, format, tolerance and, per cube and
+// level, face_size, roughness, alpha, degree, truncation_estimate and measured {count, rms, max};
+// "met" is false when a measured level misses its target. Front ends add the files they wrote.
 nlohmann::json IblReportJson(const IblJob& job, const IblRun& run);
 
 // FailedPrecondition naming the first level whose measured error misses the targets (the files
