@@ -58,6 +58,12 @@ client::RetryCallback RetryReporter(const std::string& server, bool quiet);
 // Parses "x,y,z" into a unit vector; errors name `what` (e.g. "--normal").
 absl::StatusOr<Vec3> ParseDirection(const std::string& text, const char* what);
 
+// Parses a subcommand's command line (without the program name, starting with `name`) into the
+// arguments `add_options` registers (and a required -o), without running anything
+// (tests/job_front_ends_test.cc); InvalidArgument with CLI11's message.
+absl::Status ParseJobCommandLine(std::vector<std::string> args, const std::string& name,
+                                 const std::function<void(CLI::App*)>& add_options);
+
 // Worker threads: `requested` if > 0, else the hardware concurrency.
 int ResolveThreads(int requested);
 

@@ -492,33 +492,32 @@ absl::Status RunBatch(const BatchArgs& args) {
       if (reason.empty()) {
         status = "skipped";
         message = "up to date";
-      } else if (job.ibl) {
-        IblCommandRun run;
-        run.output = job.output;
-        run.threads = threads;
-        run.server = args.server;
-        run.quiet = true;
-        IblJobOutcome outcome;
-        const absl::Status s = RunIblJob(job.ibl_job, run, &outcome);
-        retries = outcome.retries;
-        status = s.ok() ? "ok" : "failed";
-        message = !s.ok()           ? std::string(s.message())
-                  : reason == "new" ? ""
-                                    : absl::StrCat("recomputed: ", reason);
       } else {
-        PrefilterRun run;
-        run.output = job.output;
-        run.report = job.report;
-        run.preview = job.preview;
-        run.threads = threads;
-        run.server = args.server;
-        run.quiet = true;
-        PrefilterJobOutcome outcome;
-        const absl::Status s = RunPrefilterJob(job.job, run, &outcome);
-        retries = outcome.retries;
+        absl::Status s;
+        if (job.ibl) {
+          IblCommandRun run;
+          run.output = job.output;
+          run.threads = threads;
+          run.server = args.server;
+          run.quiet = true;
+          IblJobOutcome outcome;
+          s = RunIblJob(job.ibl_job, run, &outcome);
+          retries = outcome.retries;
+        } else {
+          PrefilterRun run;
+          run.output = job.output;
+          run.report = job.report;
+          run.preview = job.preview;
+          run.threads = threads;
+          run.server = args.server;
+          run.quiet = true;
+          PrefilterJobOutcome outcome;
+          s = RunPrefilterJob(job.job, run, &outcome);
+          retries = outcome.retries;
+          orders = absl::StrCat(outcome.f_b, ",", outcome.p_b);
+        }
         if (s.ok()) {
           status = "ok";
-          orders = absl::StrCat(outcome.f_b, ",", outcome.p_b);
           message = reason == "new" ? "" : absl::StrCat("recomputed: ", reason);
         } else {
           status = "failed";

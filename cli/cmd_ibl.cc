@@ -208,18 +208,9 @@ absl::StatusOr<jobs::IblJob> IblJobFromArgs(const IblArgs& a) {
 }
 
 absl::StatusOr<jobs::IblJob> ParseIblCommandLine(std::vector<std::string> args) {
-  CLI::App app;
   IblArgs a;
-  IblCommandRun run;
-  CLI::App* sub = app.add_subcommand("ibl");
-  AddIblJobOptions(sub, &a);
-  sub->add_option("-o,--output", run.output)->required();
-  std::reverse(args.begin(), args.end());  // CLI11 parses a reversed vector
-  try {
-    app.parse(args);
-  } catch (const CLI::ParseError& e) {
-    return absl::InvalidArgumentError(e.what());
-  }
+  SHRM_RETURN_IF_ERROR(ParseJobCommandLine(std::move(args), "ibl",
+                                           [&](CLI::App* sub) { AddIblJobOptions(sub, &a); }));
   return IblJobFromArgs(a);
 }
 

@@ -278,18 +278,9 @@ absl::StatusOr<jobs::PrefilterJob> PrefilterJobFromArgs(const PrefilterArgs& a) 
 }
 
 absl::StatusOr<jobs::PrefilterJob> ParsePrefilterCommandLine(std::vector<std::string> args) {
-  CLI::App app;
   PrefilterArgs a;
-  PrefilterRun run;
-  CLI::App* sub = app.add_subcommand("prefilter");
-  AddPrefilterJobOptions(sub, &a);
-  sub->add_option("-o,--output", run.output)->required();
-  std::reverse(args.begin(), args.end());  // CLI11 parses a reversed vector
-  try {
-    app.parse(args);
-  } catch (const CLI::ParseError& e) {
-    return absl::InvalidArgumentError(e.what());
-  }
+  SHRM_RETURN_IF_ERROR(ParseJobCommandLine(
+      std::move(args), "prefilter", [&](CLI::App* sub) { AddPrefilterJobOptions(sub, &a); }));
   return PrefilterJobFromArgs(a);
 }
 

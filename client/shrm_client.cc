@@ -105,6 +105,23 @@ class FileAssembler {
   std::string expected_sha_;
 };
 
+// Reads a streaming call's events into `on_event` (which returns an error to stop): sets
+// *answered at the first event, cancels the call once *cancel is set or on an error.
+template <typename Event, typename OnEvent>
+absl::Status ReadEvents(grpc::ClientReader<Event>* reader, grpc::ClientContext* context,
+                        const std::atomic<bool>* cancel, bool* answered, const OnEvent& on_event) {
+  Event ev;
+  while (reader->Read(&ev)) {
+    *answered = true;
+    if (cancel != nullptr && cancel->load()) context->TryCancel();
+    if (absl::Status s = on_event(ev); !s.ok()) {
+      context->TryCancel();
+      return s;
+    }
+  }
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 bool IsTransient(const absl::Status& status) {
@@ -288,15 +305,17 @@ absl::StatusOr<std::string> ShrmClient::UploadIfMissing(const std::string& path)
   return *sha;
 }
 
-template <typename Outcome>
-absl::StatusOr<Outcome> ShrmClient::SendUntilAnswered(
-    const std::function<absl::StatusOr<Outcome>(bool* answered)>& once,
-    const std::atomic<bool>* cancel) {
+template <typename Request, typename Outcome>
+absl::StatusOr<Outcome> ShrmClient::SendUntilAnswered(OnceCall<Request, Outcome> once,
+                                                      const Request& request,
+                                                      const ProgressCallback& progress,
+                                                      absl::Duration deadline,
+                                                      const std::atomic<bool>* cancel) {
   absl::StatusOr<Outcome> r;
   for (int i = 0; i < options_.max_attempts; ++i) {
     if (i > 0) absl::SleepFor(RetryBackoff(options_, i));
     bool answered = false;
-    r = once(&answered);
+    r = (this->*once)(request, progress, deadline, cancel, &answered);
     // Sent again only when it failed in the transport before any answer of a server (a fresh
     // connection dropped on a loaded machine); everything else is the caller's to decide.
     if (r.ok() || answered || wire::FromShrmServer(r.status()) || !IsTransient(r.status()) ||
@@ -311,18 +330,14 @@ absl::StatusOr<PrefilterOutcome> ShrmClient::Prefilter(const v1::PrefilterReques
                                                        const ProgressCallback& progress,
                                                        absl::Duration deadline,
                                                        const std::atomic<bool>* cancel) {
-  return SendUntilAnswered<PrefilterOutcome>(
-      [&](bool* answered) { return PrefilterOnce(request, progress, deadline, cancel, answered); },
-      cancel);
+  return SendUntilAnswered(&ShrmClient::PrefilterOnce, request, progress, deadline, cancel);
 }
 
 absl::StatusOr<IblCallOutcome> ShrmClient::Ibl(const v1::IblRequest& request,
                                                const ProgressCallback& progress,
                                                absl::Duration deadline,
                                                const std::atomic<bool>* cancel) {
-  return SendUntilAnswered<IblCallOutcome>(
-      [&](bool* answered) { return IblOnce(request, progress, deadline, cancel, answered); },
-      cancel);
+  return SendUntilAnswered(&ShrmClient::IblOnce, request, progress, deadline, cancel);
 }
 
 absl::StatusOr<PrefilterOutcome> ShrmClient::PrefilterOnce(const v1::PrefilterRequest& request,
@@ -336,30 +351,26 @@ absl::StatusOr<PrefilterOutcome> ShrmClient::PrefilterOnce(const v1::PrefilterRe
   std::unique_ptr<grpc::ClientReader<v1::PrefilterEvent>> reader =
       stub_->Prefilter(&context, request);
   PrefilterOutcome out;
-  v1::PrefilterEvent ev;
   bool have_report = false;
   FileAssembler file("SHRM file");
-  while (reader->Read(&ev)) {
-    *answered = true;
-    if (cancel != nullptr && cancel->load()) context.TryCancel();
-    switch (ev.event_case()) {
-      case v1::PrefilterEvent::kProgress:
-        if (progress) progress(ev.progress());
-        break;
-      case v1::PrefilterEvent::kReport:
-        out.report = ev.report();
-        have_report = true;
-        break;
-      case v1::PrefilterEvent::kShrmFile:
-        if (absl::Status s = file.Add(ev.shrm_file()); !s.ok()) {
-          context.TryCancel();
-          return s;
+  const absl::Status read =
+      ReadEvents(reader.get(), &context, cancel, answered, [&](const v1::PrefilterEvent& ev) {
+        switch (ev.event_case()) {
+          case v1::PrefilterEvent::kProgress:
+            if (progress) progress(ev.progress());
+            break;
+          case v1::PrefilterEvent::kReport:
+            out.report = ev.report();
+            have_report = true;
+            break;
+          case v1::PrefilterEvent::kShrmFile:
+            return file.Add(ev.shrm_file());
+          default:
+            break;
         }
-        break;
-      default:
-        break;
-    }
-  }
+        return absl::OkStatus();
+      });
+  if (!read.ok()) return read;
   const absl::Status status = Received(reader->Finish());
   if (!status.ok()) return status;
   const bool want_file =
@@ -383,7 +394,6 @@ absl::StatusOr<IblCallOutcome> ShrmClient::IblOnce(const v1::IblRequest& request
   Authorize(&context);
   std::unique_ptr<grpc::ClientReader<v1::IblEvent>> reader = stub_->Ibl(&context, request);
   IblCallOutcome out;
-  v1::IblEvent ev;
   bool have_report = false;
   std::optional<FileAssembler> file;  // the file arriving now
   std::string name;
@@ -395,34 +405,29 @@ absl::StatusOr<IblCallOutcome> ShrmClient::IblOnce(const v1::IblRequest& request
     file.reset();
     return absl::OkStatus();
   };
-  while (reader->Read(&ev)) {
-    *answered = true;
-    if (cancel != nullptr && cancel->load()) context.TryCancel();
-    absl::Status s;
-    switch (ev.event_case()) {
-      case v1::IblEvent::kProgress:
-        if (progress) progress(ev.progress());
-        break;
-      case v1::IblEvent::kReport:
-        out.report = ev.report();
-        have_report = true;
-        break;
-      case v1::IblEvent::kFile:
-        if (!file || ev.file().name() != name) {
-          s = finish_file();
-          name = ev.file().name();
-          file.emplace(name);
+  const absl::Status read =
+      ReadEvents(reader.get(), &context, cancel, answered, [&](const v1::IblEvent& ev) {
+        switch (ev.event_case()) {
+          case v1::IblEvent::kProgress:
+            if (progress) progress(ev.progress());
+            break;
+          case v1::IblEvent::kReport:
+            out.report = ev.report();
+            have_report = true;
+            break;
+          case v1::IblEvent::kFile:
+            if (!file || ev.file().name() != name) {
+              SHRM_RETURN_IF_ERROR(finish_file());
+              name = ev.file().name();
+              file.emplace(name);
+            }
+            return file->Add(ev.file().chunk());
+          default:
+            break;
         }
-        if (s.ok()) s = file->Add(ev.file().chunk());
-        break;
-      default:
-        break;
-    }
-    if (!s.ok()) {
-      context.TryCancel();
-      return s;
-    }
-  }
+        return absl::OkStatus();
+      });
+  if (!read.ok()) return read;
   const absl::Status status = Received(reader->Finish());
   if (!status.ok()) return status;
   if (!have_report) return absl::DataLossError("the server sent no report");

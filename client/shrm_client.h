@@ -148,12 +148,18 @@ class ShrmClient {
   }
   // Adds the bearer token (when there is one) to a call's metadata.
   void Authorize(grpc::ClientContext* context) const;
-  // Runs `once` (one streaming call; *answered: the server sent an event) again only while it
-  // fails in the transport before any answer of a server.
-  template <typename Outcome>
-  absl::StatusOr<Outcome> SendUntilAnswered(
-      const std::function<absl::StatusOr<Outcome>(bool* answered)>& once,
-      const std::atomic<bool>* cancel);
+  // One streaming call; *answered: the server sent an event.
+  template <typename Request, typename Outcome>
+  using OnceCall = absl::StatusOr<Outcome> (ShrmClient::*)(const Request&, const ProgressCallback&,
+                                                           absl::Duration,
+                                                           const std::atomic<bool>* cancel,
+                                                           bool* answered);
+  // Runs `once` again only while it fails in the transport before any answer of a server.
+  template <typename Request, typename Outcome>
+  absl::StatusOr<Outcome> SendUntilAnswered(OnceCall<Request, Outcome> once, const Request& request,
+                                            const ProgressCallback& progress,
+                                            absl::Duration deadline,
+                                            const std::atomic<bool>* cancel);
   // One Prefilter call; *answered: the server sent an event.
   absl::StatusOr<PrefilterOutcome> PrefilterOnce(const shrm::v1::PrefilterRequest& request,
                                                  const ProgressCallback& progress,
