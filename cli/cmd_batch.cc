@@ -494,23 +494,24 @@ absl::Status RunBatch(const BatchArgs& args) {
         message = "up to date";
       } else {
         absl::Status s;
+        // What both kinds of run take from the batch.
+        auto batch_run = [&](auto* run) {
+          run->output = job.output;
+          run->threads = threads;
+          run->server = args.server;
+          run->quiet = true;
+        };
         if (job.ibl) {
           IblCommandRun run;
-          run.output = job.output;
-          run.threads = threads;
-          run.server = args.server;
-          run.quiet = true;
+          batch_run(&run);
           IblJobOutcome outcome;
           s = RunIblJob(job.ibl_job, run, &outcome);
           retries = outcome.retries;
         } else {
           PrefilterRun run;
-          run.output = job.output;
+          batch_run(&run);
           run.report = job.report;
           run.preview = job.preview;
-          run.threads = threads;
-          run.server = args.server;
-          run.quiet = true;
           PrefilterJobOutcome outcome;
           s = RunPrefilterJob(job.job, run, &outcome);
           retries = outcome.retries;

@@ -122,6 +122,20 @@ absl::Status ReadEvents(grpc::ClientReader<Event>* reader, grpc::ClientContext* 
   return absl::OkStatus();
 }
 
+// The progress and report events of a job stream (true when `ev` was one of them).
+template <typename Event, typename Report>
+bool ProgressOrReport(const Event& ev, const ProgressCallback& progress, Report* report,
+                      bool* have_report) {
+  if (ev.has_progress()) {
+    if (progress) progress(ev.progress());
+    return true;
+  }
+  if (!ev.has_report()) return false;
+  *report = ev.report();
+  *have_report = true;
+  return true;
+}
+
 }  // namespace
 
 bool IsTransient(const absl::Status& status) {
@@ -355,20 +369,10 @@ absl::StatusOr<PrefilterOutcome> ShrmClient::PrefilterOnce(const v1::PrefilterRe
   FileAssembler file("SHRM file");
   const absl::Status read =
       ReadEvents(reader.get(), &context, cancel, answered, [&](const v1::PrefilterEvent& ev) {
-        switch (ev.event_case()) {
-          case v1::PrefilterEvent::kProgress:
-            if (progress) progress(ev.progress());
-            break;
-          case v1::PrefilterEvent::kReport:
-            out.report = ev.report();
-            have_report = true;
-            break;
-          case v1::PrefilterEvent::kShrmFile:
-            return file.Add(ev.shrm_file());
-          default:
-            break;
+        if (ProgressOrReport(ev, progress, &out.report, &have_report) || !ev.has_shrm_file()) {
+          return absl::OkStatus();
         }
-        return absl::OkStatus();
+        return file.Add(ev.shrm_file());
       });
   if (!read.ok()) return read;
   const absl::Status status = Received(reader->Finish());
@@ -407,25 +411,15 @@ absl::StatusOr<IblCallOutcome> ShrmClient::IblOnce(const v1::IblRequest& request
   };
   const absl::Status read =
       ReadEvents(reader.get(), &context, cancel, answered, [&](const v1::IblEvent& ev) {
-        switch (ev.event_case()) {
-          case v1::IblEvent::kProgress:
-            if (progress) progress(ev.progress());
-            break;
-          case v1::IblEvent::kReport:
-            out.report = ev.report();
-            have_report = true;
-            break;
-          case v1::IblEvent::kFile:
-            if (!file || ev.file().name() != name) {
-              SHRM_RETURN_IF_ERROR(finish_file());
-              name = ev.file().name();
-              file.emplace(name);
-            }
-            return file->Add(ev.file().chunk());
-          default:
-            break;
+        if (ProgressOrReport(ev, progress, &out.report, &have_report) || !ev.has_file()) {
+          return absl::OkStatus();
         }
-        return absl::OkStatus();
+        if (!file || ev.file().name() != name) {
+          SHRM_RETURN_IF_ERROR(finish_file());
+          name = ev.file().name();
+          file.emplace(name);
+        }
+        return file->Add(ev.file().chunk());
       });
   if (!read.ok()) return read;
   const absl::Status status = Received(reader->Finish());
