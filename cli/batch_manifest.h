@@ -1,5 +1,6 @@
 // The manifest of `shrm batch` (docs/cli.md "batch"): maps x BRDFs, job options, output naming.
-// Each job is a prefilter job of the job layer (jobs/prefilter_job.h) with its output paths.
+// Each job is a prefilter job of the job layer (jobs/prefilter_job.h) with its output paths, or,
+// in a manifest of "kind": "ibl", an IBL job (jobs/ibl_job.h) per map with its output folder.
 #ifndef SHRM_CLI_BATCH_MANIFEST_H_
 #define SHRM_CLI_BATCH_MANIFEST_H_
 
@@ -8,13 +9,16 @@
 #include <string>
 #include <vector>
 
+#include "jobs/ibl_job.h"
 #include "jobs/prefilter_job.h"
 
 namespace shrm::cli {
 
 // "options" of the manifest: the job options every job shares, and which outputs to write.
 struct BatchOptions {
+  bool ibl = false;        // "kind": "ibl"
   jobs::PrefilterJob job;  // env.files and brdf are per job
+  jobs::IblJob ibl_job;    // kind ibl: env.files is per job
   bool report = false;
   bool preview = false;
 };
@@ -25,7 +29,9 @@ struct BatchJob {
   std::string map_entry;  // as written in the manifest
   std::string brdf;       // as written
   std::string canonical_brdf;
+  bool ibl = false;  // an IBL job (ibl_job, output: a folder) instead of a prefilter job (job)
   jobs::PrefilterJob job;
+  jobs::IblJob ibl_job;
   std::string output, report, preview;
   // Outcome.
   std::string status = "pending";  // ok, skipped, failed

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -129,6 +130,22 @@ client::RetryCallback RetryReporter(const std::string& server, bool quiet) {
 
 absl::StatusOr<Vec3> ParseDirection(const std::string& text, const char* what) {
   return jobs::ParseDirectionText(text, what);
+}
+
+absl::Status ParseJobCommandLine(std::vector<std::string> args, const std::string& name,
+                                 const std::function<void(CLI::App*)>& add_options) {
+  CLI::App app;
+  std::string output;
+  CLI::App* sub = app.add_subcommand(name);
+  add_options(sub);
+  sub->add_option("-o,--output", output)->required();
+  std::reverse(args.begin(), args.end());  // CLI11 parses a reversed vector
+  try {
+    app.parse(args);
+  } catch (const CLI::ParseError& e) {
+    return absl::InvalidArgumentError(e.what());
+  }
+  return absl::OkStatus();
 }
 
 int ResolveThreads(int requested) {

@@ -58,6 +58,12 @@ client::RetryCallback RetryReporter(const std::string& server, bool quiet);
 // Parses "x,y,z" into a unit vector; errors name `what` (e.g. "--normal").
 absl::StatusOr<Vec3> ParseDirection(const std::string& text, const char* what);
 
+// Parses a subcommand's command line (without the program name, starting with `name`) into the
+// arguments `add_options` registers (and a required -o), without running anything
+// (tests/job_front_ends_test.cc); InvalidArgument with CLI11's message.
+absl::Status ParseJobCommandLine(std::vector<std::string> args, const std::string& name,
+                                 const std::function<void(CLI::App*)>& add_options);
+
 // Worker threads: `requested` if > 0, else the hardware concurrency.
 int ResolveThreads(int requested);
 
@@ -74,6 +80,26 @@ class Progress {
   bool enabled_;
   std::string stage_;
   std::chrono::steady_clock::time_point start_;
+};
+
+// Stage lines of a remote run: each stage ends when the next one starts.
+class StageLines {
+ public:
+  explicit StageLines(Progress* progress) : progress_(progress) {}
+  void Begin(const std::string& stage) {
+    End();
+    progress_->Begin(stage);
+    open_ = true;
+  }
+  double End() {
+    if (!open_) return 0;
+    open_ = false;
+    return progress_->End();
+  }
+
+ private:
+  Progress* progress_;
+  bool open_ = false;
 };
 
 // Checks before any work that an output can be created: its folder exists, is a folder, and a

@@ -10,10 +10,12 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
@@ -28,9 +30,11 @@
 #include "cli/batch_manifest.h"
 #include "cli/cli_common.h"
 #include "cli/commands.h"
+#include "cli/ibl_job.h"
 #include "cli/prefilter_job.h"
 #include "core/brdf/brdf.h"
 #include "core/shrm/shrm_file.h"
+#include "jobs/ibl_job.h"
 #include "jobs/option_text.h"
 
 namespace shrm::cli {
@@ -89,6 +93,126 @@ std::string Mismatch(const BatchJob& job, const std::string& source_sha256, std:
   return jobs::WhyFileDiffers(job.job, job.canonical_brdf, source_sha256, *file);
 }
 
+// Why an existing IBL set must be recomputed ("" when its ibl.json records the job: the map's
+// SHA-256 and the same options, and every file it lists exists).
+std::string IblMismatch(const BatchJob& job, const std::string& source_sha256) {
+  std::error_code ec;
+  const std::string sidecar = job.output + "/ibl.json";
+  if (!fs::exists(sidecar, ec)) return "new";
+  std::ifstream in(sidecar, std::ios::binary);
+  const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return "existing ibl.json unreadable";
+  if (j.value("source_sha256", "") != source_sha256) return "the map changed";
+  if (!j.contains("options") || j["options"] != jobs::IblOptionsJson(job.ibl_job)) {
+    return "other options";
+  }
+  if (!j.contains("files") || !j["files"].is_array()) return "existing ibl.json lists no files";
+  for (const nlohmann::json& f : j["files"]) {
+    if (!f.is_object() || !fs::exists(job.output + "/" + f.value("name", ""), ec)) {
+      return "a file is missing";
+    }
+  }
+  return "";
+}
+
+// "rotate": [yaw, pitch, roll] degrees (false when malformed).
+bool ParseRotate(const nlohmann::json& v, std::optional<std::array<double, 3>>* out) {
+  bool good = v.is_array() && v.size() == 3;
+  if (good) {
+    for (const auto& x : v) good = good && x.is_number() && std::isfinite(x.get<double>());
+  }
+  if (good)
+    *out = std::array<double, 3>{v[0].get<double>(), v[1].get<double>(), v[2].get<double>()};
+  return good;
+}
+
+constexpr char kRotateError[] = "must be [yaw, pitch, roll] in degrees (three finite numbers)";
+
+// "options" of an IBL manifest, by the names of jobs::IblJobOptions(); types here, ranges by the
+// job's validation (with the option named).
+void ParseIblOptions(const nlohmann::json& o, jobs::IblJob* job,
+                     const std::function<void(const std::string&, const std::string&)>& err) {
+  bool preset_given = false, typed = true;
+  for (const auto& [key, v] : o.items()) {
+    const std::string path = "$.options." + key;
+    auto fail = [&](const std::string& what) {
+      err(path, what);
+      typed = false;
+    };
+    auto integer = [&](int* out) {
+      if (!v.is_number_integer() || v.get<long long>() < 0 || v.get<long long>() > (1 << 20))
+        fail("must be a non-negative integer");
+      else
+        *out = v.get<int>();
+    };
+    auto text = [&](const auto& parse, auto* out) {
+      auto parsed = v.is_string() ? parse(v.get<std::string>())
+                                  : decltype(parse(""))(absl::InvalidArgumentError("not a string"));
+      if (!parsed.ok())
+        fail(absl::StrCat("must be a string: ", parsed.status().message()));
+      else
+        *out = *parsed;
+    };
+    if (key == "preset") {
+      text([](const std::string& t) { return ibl::ParseRoughnessPreset(t); }, &job->preset);
+      preset_given = true;
+    } else if (key == "roughness") {
+      bool good = v.is_array() && !v.empty();
+      for (const auto& x : v) good = good && x.is_number();
+      if (!good)
+        fail("must be a non-empty array of numbers (perceptual roughness per level)");
+      else
+        job->roughness = v.get<std::vector<double>>();
+    } else if (key == "size") {
+      integer(&job->face_size);
+    } else if (key == "levels") {
+      integer(&job->levels);
+    } else if (key == "irradiance_size") {
+      integer(&job->irradiance_size);
+    } else if (key == "dfg_size") {
+      integer(&job->dfg_size);
+    } else if (key == "verify") {
+      integer(&job->verify);
+    } else if (key == "sheen") {
+      if (!v.is_boolean())
+        fail("must be true or false");
+      else
+        job->sheen = v.get<bool>();
+    } else if (key == "format") {
+      text([](const std::string& t) { return jobs::ParseIblFormat(t); }, &job->format);
+    } else if (key == "sh_window") {
+      text([](const std::string& t) { return jobs::ParseIblShWindow(t); }, &job->sh_window);
+    } else if (key == "dfg") {
+      if (!v.is_string())
+        fail("must be a string");
+      else
+        job->dfg = v.get<std::string>();
+    } else if (key == "tolerance") {
+      if (!v.is_number())
+        fail("must be a number in (0, 1)");
+      else
+        job->tolerance = v.get<double>();
+    } else if (key == "rotate") {
+      if (!ParseRotate(v, &job->env.rotate_ypr_deg)) fail(kRotateError);
+    } else {
+      fail(
+          "unknown option (expected preset, roughness, size, levels, sheen, format, "
+          "irradiance_size, dfg_size, tolerance, verify, sh_window, dfg, rotate)");
+    }
+  }
+  if (!job->roughness.empty() && !preset_given) job->preset = ibl::RoughnessPreset::kExplicit;
+  if (!typed) return;
+  jobs::IblJob probe = *job;
+  probe.env.files = {"map"};
+  const absl::Status s = jobs::ValidateIblJobNamingOptions(
+      probe, [](std::string_view option) { return "$.options." + std::string(option); });
+  if (!s.ok()) {
+    const std::string msg(s.message());
+    const size_t colon = msg.find(": ");
+    err(msg.substr(0, colon), msg.substr(colon + 2));
+  }
+}
+
 }  // namespace
 
 void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* opt,
@@ -100,9 +224,19 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
     err("$", "the manifest must be a JSON object");
     return;
   }
+  // "kind": "prefilter" (the default: maps x BRDFs) or "ibl" (one IBL set per map).
+  if (m.contains("kind") && m["kind"] != "prefilter" && m["kind"] != "ibl") {
+    err("$.kind", "must be \"prefilter\" or \"ibl\"");
+  }
+  const bool ibl = m.contains("kind") && m["kind"] == "ibl";
+  opt->ibl = ibl;
   for (const auto& [key, value] : m.items()) {
-    if (key != "maps" && key != "brdfs" && key != "options" && key != "output")
-      err("$." + key, "unknown key (expected maps, brdfs, options, output)");
+    if (ibl && key == "brdfs") {
+      err("$.brdfs", "an ibl manifest has no BRDFs (the IBL set is for any PBR material)");
+    } else if (key != "maps" && key != "brdfs" && key != "options" && key != "output" &&
+               key != "kind") {
+      err("$." + key, "unknown key (expected kind, maps, brdfs, options, output)");
+    }
   }
   std::vector<std::string> maps, brdfs, canonical;
   auto string_list = [&](const char* key, std::vector<std::string>* out) {
@@ -120,7 +254,11 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
     }
   };
   string_list("maps", &maps);
-  string_list("brdfs", &brdfs);
+  if (ibl) {
+    brdfs = {""};  // one job per map
+  } else {
+    string_list("brdfs", &brdfs);
+  }
   std::vector<bool> map_ok(maps.size(), false), brdf_ok(brdfs.size(), false);
   for (size_t i = 0; i < maps.size(); ++i) {
     if (maps[i].empty()) continue;
@@ -147,6 +285,8 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
     const nlohmann::json& o = m.at("options");
     if (!o.is_object()) {
       err("$.options", "must be an object");
+    } else if (ibl) {
+      ParseIblOptions(o, &opt->ibl_job, err);
     } else {
       for (const auto& [key, v] : o.items()) {
         const std::string path = "$.options." + key;
@@ -203,15 +343,7 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
                                : opt->preview) = v.get<bool>();
           }
         } else if (key == "rotate") {
-          bool good = v.is_array() && v.size() == 3;
-          if (good) {
-            for (const auto& x : v) good = good && x.is_number() && std::isfinite(x.get<double>());
-          }
-          if (!good)
-            err(path, "must be [yaw, pitch, roll] in degrees (three finite numbers)");
-          else
-            opt->job.env.rotate_ypr_deg =
-                std::array<double, 3>{v[0].get<double>(), v[1].get<double>(), v[2].get<double>()};
+          if (!ParseRotate(v, &opt->job.env.rotate_ypr_deg)) err(path, kRotateError);
         } else {
           err(path,
               "unknown option (expected epsilon, tolerance, window, verify, kind, size, orders, "
@@ -233,6 +365,9 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
         absl::StrReplaceAll(pattern, {{"{map}", ""}, {"{brdf}", ""}, {"{index}", ""}});
     if (rest.find('{') != std::string::npos || rest.find('}') != std::string::npos) {
       err("$.output", "unknown placeholder (only {map}, {brdf}, {index})");
+      pattern.clear();
+    } else if (ibl && pattern.find("{brdf}") != std::string::npos) {
+      err("$.output", "an ibl manifest has no {brdf} (the pattern names a folder per map)");
       pattern.clear();
     } else if (pattern.find("{index}") == std::string::npos) {
       if (maps.size() > 1 && pattern.find("{map}") == std::string::npos) {
@@ -257,6 +392,9 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
       job.job = opt->job;
       job.job.env.files = {job.map};
       job.job.brdf = brdfs[j];
+      job.ibl = ibl;
+      job.ibl_job = opt->ibl_job;
+      job.ibl_job.env.files = {job.map};
       std::string stem = fs::path(maps[i]).filename().string();
       stem = stem.substr(0, stem.find('.'));
       const std::string name = absl::StrReplaceAll(pattern, {{"{map}", stem},
@@ -344,32 +482,48 @@ absl::Status RunBatch(const BatchArgs& args) {
           if (it != hashes.end()) hash = it->second;
         }
         if (hash.empty()) {
-          absl::StatusOr<jobs::SourceIdentity> h = jobs::LocalSourceIdentity(job.job.env);
+          absl::StatusOr<jobs::SourceIdentity> h =
+              jobs::LocalSourceIdentity(job.ibl ? job.ibl_job.env : job.job.env);
           if (h.ok()) {
             hash = h->sha256;
             std::lock_guard<std::mutex> lock(mu);
             hashes[job.map] = hash;
           }
         }
-        reason = hash.empty() ? "new" : Mismatch(job, hash, &orders);
+        reason = hash.empty() ? "new"
+                 : job.ibl    ? IblMismatch(job, hash)
+                              : Mismatch(job, hash, &orders);
       }
       if (reason.empty()) {
         status = "skipped";
         message = "up to date";
       } else {
-        PrefilterRun run;
-        run.output = job.output;
-        run.report = job.report;
-        run.preview = job.preview;
-        run.threads = threads;
-        run.server = args.server;
-        run.quiet = true;
-        PrefilterJobOutcome outcome;
-        const absl::Status s = RunPrefilterJob(job.job, run, &outcome);
-        retries = outcome.retries;
+        absl::Status s;
+        // What both kinds of run take from the batch.
+        auto batch_run = [&](auto* run) {
+          run->output = job.output;
+          run->threads = threads;
+          run->server = args.server;
+          run->quiet = true;
+        };
+        if (job.ibl) {
+          IblCommandRun run;
+          batch_run(&run);
+          IblJobOutcome outcome;
+          s = RunIblJob(job.ibl_job, run, &outcome);
+          retries = outcome.retries;
+        } else {
+          PrefilterRun run;
+          batch_run(&run);
+          run.report = job.report;
+          run.preview = job.preview;
+          PrefilterJobOutcome outcome;
+          s = RunPrefilterJob(job.job, run, &outcome);
+          retries = outcome.retries;
+          orders = absl::StrCat(outcome.f_b, ",", outcome.p_b);
+        }
         if (s.ok()) {
           status = "ok";
-          orders = absl::StrCat(outcome.f_b, ",", outcome.p_b);
           message = reason == "new" ? "" : absl::StrCat("recomputed: ", reason);
         } else {
           status = "failed";
@@ -412,6 +566,7 @@ absl::Status RunBatch(const BatchArgs& args) {
     out["jobs"] = nlohmann::json::array();
     for (const BatchJob& j : jobs) {
       out["jobs"].push_back({{"index", j.index},
+                             {"kind", j.ibl ? "ibl" : "prefilter"},
                              {"map", j.map},
                              {"brdf", j.brdf},
                              {"output", j.output},

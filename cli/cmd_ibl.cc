@@ -1,8 +1,10 @@
 // `shrm ibl`: the split-sum image-based-lighting set of a map (jobs/ibl_job.h, docs/ibl.md),
-// written into one output folder.
+// written into one output folder, computed here or on shrmd (--server) with the same bytes.
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <memory>
@@ -13,36 +15,172 @@
 #include "absl/strings/str_split.h"
 #include "cli/cli_common.h"
 #include "cli/commands.h"
+#include "cli/ibl_job.h"
+#include "client/remote_jobs.h"
 #include "core/base/status_macros.h"
 #include "core/io/atomic_file.h"
 #include "jobs/ibl_job.h"
 #include "jobs/ibl_outputs.h"
+#include "jobs/job_options.h"
 #include "jobs/report.h"
 
 namespace shrm::cli {
 namespace {
 
-struct IblArgs {
-  EnvArgs env;
-  std::string output;
-  std::string preset = "filament";
-  std::string roughness;  // "r0,r1,..." for the explicit preset
-  int size = jobs::kDefaultIblFaceSize;
-  int levels = 0;
-  bool sheen = false;
-  std::string format = "rgba16f";
-  int irradiance_size = jobs::kDefaultIrradianceSize;
-  int dfg_size = jobs::kDefaultDfgSize;
-  double tolerance = jobs::kDefaultIblTolerance;
-  int verify = jobs::kDefaultIblVerify;
-  std::string sh_window = "auto";
-  std::string dfg = "auto";
-  int threads = 0;
-  bool json = false;
-  bool verbose = false;
+std::string Help(std::string_view option) {
+  return std::string(jobs::FindIblJobOption(option)->help);
+}
+
+double MsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// Before any work: the output folder is a writable folder, or can be created (its parent is a
+// writable folder). Returns whether it must be created.
+absl::StatusOr<bool> CheckFolder(const std::string& dir) {
+  struct stat st;
+  if (stat(dir.c_str(), &st) == 0) {
+    if (!S_ISDIR(st.st_mode)) {
+      return absl::InvalidArgumentError(absl::StrCat("--output: ", dir, " is not a folder"));
+    }
+    SHRM_RETURN_IF_ERROR(CheckOutputPath(dir + "/ibl.json", "--output"));
+    return false;
+  }
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(dir, "--output"));
+  return true;
+}
+
+// Creates the folder after the computation succeeded (so a failed run leaves nothing).
+absl::Status CreateFolder(const std::string& dir) {
+  if (mkdir(dir.c_str(), 0777) != 0 && errno != EEXIST) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--output: cannot create folder ", dir, ": ", std::strerror(errno)));
+  }
+  return absl::OkStatus();
+}
+
+// What a run produced, wherever it ran: the files and the job's report.
+struct IblResult {
+  std::vector<jobs::IblFile> files;
+  nlohmann::json report;  // jobs::IblReportJson
+  std::vector<StageTiming> timings;
+  int retries = 0;
 };
 
-absl::StatusOr<jobs::IblJob> JobFromArgs(const IblArgs& a) {
+absl::StatusOr<IblResult> RunEmbedded(const jobs::IblJob& job, const IblCommandRun& run) {
+  Progress progress(run.verbose, run.quiet || run.json);
+  StageLines lines(&progress);
+  auto on_stage = [&](std::string_view stage) {
+    lines.Begin(std::string(stage));
+    return absl::OkStatus();
+  };
+  absl::StatusOr<jobs::IblRun> r = jobs::RunIblJob(job, ResolveThreads(run.threads), on_stage);
+  lines.End();
+  if (!r.ok()) return r.status();
+  if (!run.quiet) WarnReplacedNonFinite(r->replaced_non_finite);
+  IblResult out;
+  const auto t0 = std::chrono::steady_clock::now();
+  SHRM_ASSIGN_OR_RETURN(out.files, jobs::EncodeIblOutputs(job, *r));
+  out.timings = std::move(r->timings);
+  out.timings.push_back({"encode", MsSince(t0)});
+  out.report = std::move(r->report);
+  return out;
+}
+
+// --server: the same job on shrmd; the files it returns (each checked against its SHA-256 by the
+// client library) are byte-identical to the embedded run's.
+absl::StatusOr<IblResult> RunRemote(const jobs::IblJob& job, const IblCommandRun& run) {
+  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> client, ConnectServer(run.server));
+  Progress progress(run.verbose, run.quiet || run.json);
+  StageLines lines(&progress);
+  double upload_ms = 0;
+  client::RemoteJobOptions options;
+  options.on_upload_start = [&] { lines.Begin("upload"); };
+  options.on_upload_end = [&] { upload_ms += lines.End(); };
+  options.progress = [&](const shrm::v1::PrefilterProgress& p) {
+    lines.Begin("remote " + p.stage());
+  };
+  options.on_retry = RetryReporter(run.server, run.quiet);
+  absl::StatusOr<client::RemoteIblResult> remote =
+      client::RunRemoteIbl(client.get(), run.server, job, options);
+  lines.End();
+  if (!remote.ok()) return remote.status();
+  const shrm::v1::IblReport& rep = remote->outcome.report;
+  IblResult out;
+  out.retries = remote->retries;
+  out.report = nlohmann::json::parse(rep.report_json(), nullptr, false);
+  if (out.report.is_discarded() || !out.report.is_object()) {
+    return absl::DataLossError("the server's report is not a JSON object");
+  }
+  for (size_t i = 0; i < remote->outcome.files.size(); ++i) {
+    client::ReceivedFile& f = remote->outcome.files[i];
+    out.files.push_back({f.name, std::move(f.bytes), rep.files(static_cast<int>(i)).what()});
+  }
+  out.timings.push_back({"upload", upload_ms});
+  for (const shrm::v1::StageTiming& t : rep.timings()) {
+    out.timings.push_back({absl::StrCat("server_", t.stage()), t.ms()});
+  }
+  return out;
+}
+
+void PrintSummary(const IblCommandRun& run, const IblResult& r) {
+  const nlohmann::json& levels = r.report["specular"]["levels"];
+  const int face = levels.empty() ? 0 : levels[0]["face_size"].get<int>();
+  std::printf("%s: %s preset, %zu levels from %d x %d\n",
+              r.report["source"].get<std::string>().c_str(),
+              r.report["preset"].get<std::string>().c_str(), levels.size(), face, face);
+  for (const nlohmann::json& l : levels) {
+    std::printf("  level %d: %4d x %-4d roughness %.3f degree %4d", l["level"].get<int>(),
+                l["face_size"].get<int>(), l["face_size"].get<int>(), l["roughness"].get<double>(),
+                l["degree"].get<int>());
+    if (l.contains("measured")) {
+      std::printf("  measured rms %.2e max %.2e", l["measured"]["rms"].get<double>(),
+                  l["measured"]["max"].get<double>());
+    }
+    std::printf("\n");
+  }
+  for (const jobs::IblFile& f : r.files) {
+    std::printf("wrote %s/%s (%s, %zu bytes)\n", run.output.c_str(), f.name.c_str(), f.what.c_str(),
+                f.bytes.size());
+  }
+  if (!run.server.empty()) std::printf("  server %s, %d retries\n", run.server.c_str(), r.retries);
+}
+
+}  // namespace
+
+void AddIblJobOptions(CLI::App* sub, IblArgs* args) {
+  AddEnvOptions(sub, &args->env, /*required=*/true);
+  sub->add_option("--preset", args->preset, Help("preset"))
+      ->capture_default_str()
+      ->check(CLI::IsMember({"filament", "gltf", "explicit"}));
+  sub->add_option("--roughness", args->roughness, Help("roughness"));
+  sub->add_option("--size", args->size, Help("size"))
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--levels", args->levels, Help("levels"))
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  sub->add_flag("--sheen", args->sheen, Help("sheen"));
+  sub->add_option("--format", args->format, Help("format"))
+      ->capture_default_str()
+      ->check(CLI::IsMember({"rgba16f", "rgba32f", "r11g11b10f", "rgb9e5"}));
+  sub->add_option("--irradiance-size", args->irradiance_size, Help("irradiance_size"))
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--dfg-size", args->dfg_size, Help("dfg_size"))
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--tolerance", args->tolerance, Help("tolerance"))->capture_default_str();
+  sub->add_option("--verify", args->verify, Help("verify"))
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  sub->add_option("--sh-window", args->sh_window, Help("sh_window"))
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "none", "cmgen"}));
+  sub->add_option("--dfg", args->dfg, Help("dfg"))->capture_default_str();
+}
+
+absl::StatusOr<jobs::IblJob> IblJobFromArgs(const IblArgs& a) {
   jobs::IblJob job;
   SHRM_ASSIGN_OR_RETURN(job.env, EnvSpecFromArgs(a.env));
   SHRM_ASSIGN_OR_RETURN(job.preset, ibl::ParseRoughnessPreset(a.preset));
@@ -71,132 +209,61 @@ absl::StatusOr<jobs::IblJob> JobFromArgs(const IblArgs& a) {
   return job;
 }
 
-// Before any work: the output folder is a writable folder, or can be created (its parent is a
-// writable folder). Returns whether it must be created.
-absl::StatusOr<bool> CheckFolder(const std::string& dir) {
-  struct stat st;
-  if (stat(dir.c_str(), &st) == 0) {
-    if (!S_ISDIR(st.st_mode)) {
-      return absl::InvalidArgumentError(absl::StrCat("--output: ", dir, " is not a folder"));
-    }
-    SHRM_RETURN_IF_ERROR(CheckOutputPath(dir + "/ibl.json", "--output"));
-    return false;
-  }
-  SHRM_RETURN_IF_ERROR(CheckOutputPath(dir, "--output"));
-  return true;
+absl::StatusOr<jobs::IblJob> ParseIblCommandLine(std::vector<std::string> args) {
+  IblArgs a;
+  SHRM_RETURN_IF_ERROR(ParseJobCommandLine(std::move(args), "ibl",
+                                           [&](CLI::App* sub) { AddIblJobOptions(sub, &a); }));
+  return IblJobFromArgs(a);
 }
 
-// Creates the folder after the computation succeeded (so a failed run leaves nothing).
-absl::Status CreateFolder(const std::string& dir) {
-  if (mkdir(dir.c_str(), 0777) != 0 && errno != EEXIST) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--output: cannot create folder ", dir, ": ", std::strerror(errno)));
-  }
-  return absl::OkStatus();
-}
-
-absl::Status RunIbl(const IblArgs& a) {
-  SHRM_ASSIGN_OR_RETURN(const jobs::IblJob job, JobFromArgs(a));
-  SHRM_ASSIGN_OR_RETURN(const bool create, CheckFolder(a.output));
-  const int threads = ResolveThreads(a.threads);
-  Progress progress(a.verbose, a.json);
-  progress.Begin("ibl");
-  SHRM_ASSIGN_OR_RETURN(jobs::IblRun run, jobs::RunIblJob(job, threads));
-  progress.End();
-  WarnReplacedNonFinite(run.replaced_non_finite);
-  if (run.specular.chain.levels.size() == 1) {
-    std::fprintf(stderr,
-                 "shrm: warning: the chain has only its base level (roughness 0): use a larger "
-                 "--size or --levels for rough levels\n");
-  }
+absl::Status RunIblJob(const jobs::IblJob& job, const IblCommandRun& run, IblJobOutcome* outcome) {
+  SHRM_RETURN_IF_ERROR(jobs::ValidateIblJob(job));
+  if (run.threads < 0) return absl::InvalidArgumentError("--threads must be >= 0");
+  SHRM_ASSIGN_OR_RETURN(const bool create, CheckFolder(run.output));
+  absl::StatusOr<IblResult> r = run.server.empty() ? RunEmbedded(job, run) : RunRemote(job, run);
+  if (outcome != nullptr && r.ok()) outcome->retries = r->retries;
+  if (!r.ok()) return r.status();
   const auto t0 = std::chrono::steady_clock::now();
-  SHRM_ASSIGN_OR_RETURN(std::vector<jobs::IblFile> files, jobs::EncodeIblOutputs(job, run));
-  if (create) SHRM_RETURN_IF_ERROR(CreateFolder(a.output));
+  if (create) SHRM_RETURN_IF_ERROR(CreateFolder(run.output));
   OutputTransaction tx;
-  for (const jobs::IblFile& f : files) {
-    SHRM_RETURN_IF_ERROR(WriteFileAtomically(tx.Temp(a.output + "/" + f.name), f.bytes));
+  for (const jobs::IblFile& f : r->files) {
+    SHRM_RETURN_IF_ERROR(WriteFileAtomically(tx.Temp(run.output + "/" + f.name), f.bytes));
   }
   SHRM_RETURN_IF_ERROR(tx.Commit());
-  run.timings.push_back(
-      {"write",
-       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count()});
-  nlohmann::json report = run.report;
-  report["timings"] = jobs::TimingsJson(run.timings);
-  if (a.json) {
+  r->timings.push_back({"write", MsSince(t0)});
+  nlohmann::json report = r->report;
+  report["timings"] = jobs::TimingsJson(r->timings);
+  if (!run.server.empty()) {
+    report["server"] = run.server;
+    report["retries"] = r->retries;
+  }
+  if (outcome != nullptr) outcome->levels = static_cast<int>(report["specular"]["levels"].size());
+  if (run.quiet) return jobs::IblOutcome(job, report);
+  if (run.json) {
     std::printf("%s\n", report.dump(2).c_str());
   } else {
-    std::printf("%s: %s preset, %d levels from %d x %d\n", run.source.names.c_str(),
-                ibl::RoughnessPresetName(job.preset),
-                static_cast<int>(run.specular.chain.levels.size()), job.face_size, job.face_size);
-    for (size_t k = 0; k < run.specular.chain.levels.size(); ++k) {
-      const ibl::SpecularLevel& l = run.specular.chain.levels[k];
-      std::printf("  level %zu: %4d x %-4d roughness %.3f degree %4d", k, l.face_size, l.face_size,
-                  l.roughness, l.degree);
-      if (k < run.specular.measured.size() && run.specular.measured[k].count > 0)
-        std::printf("  measured rms %.2e max %.2e", run.specular.measured[k].rms,
-                    run.specular.measured[k].max);
-      std::printf("\n");
-    }
-    for (const jobs::IblFile& f : files)
-      std::printf("wrote %s/%s (%s, %zu bytes)\n", a.output.c_str(), f.name.c_str(), f.what.c_str(),
-                  f.bytes.size());
+    PrintSummary(run, *r);
   }
   return jobs::IblOutcome(job, report);
 }
 
-}  // namespace
-
 void RegisterIbl(CLI::App& app, absl::Status* status) {
   auto args = std::make_shared<IblArgs>();
+  auto run = std::make_shared<IblCommandRun>();
   CLI::App* sub = app.add_subcommand(
       "ibl",
       "the split-sum IBL set: GGX (and sheen) radiance mips, irradiance cube and SH, DFG LUT");
-  AddEnvOptions(sub, &args->env, /*required=*/true);
-  sub->add_option("-o,--output", args->output, "output folder (created if missing; its parent must exist)")->required();
-  sub->add_option("--preset", args->preset,
-                  "roughness per mip: filament (cmgen), gltf (glTF-IBL-Sampler) or explicit")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"filament", "gltf", "explicit"}));
-  sub->add_option("--roughness", args->roughness,
-                  "explicit perceptual roughness per level, r0,r1,... (implies --preset explicit)");
-  sub->add_option("--size", args->size, "base face size (a power of two)")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
-  sub->add_option("--levels", args->levels, "mip levels (0: the preset's default)")
-      ->capture_default_str()
+  AddIblJobOptions(sub, args.get());
+  sub->add_option("-o,--output", run->output, "output folder (created if missing)")->required();
+  sub->add_option("--threads", run->threads, "worker threads (0: all cores)")
       ->check(CLI::NonNegativeNumber);
-  sub->add_flag("--sheen", args->sheen, "also the Charlie sheen chain");
-  sub->add_option("--format", args->format, "radiance storage")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"rgba16f", "rgba32f", "r11g11b10f", "rgb9e5"}));
-  sub->add_option("--irradiance-size", args->irradiance_size, "irradiance cube face size")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
-  sub->add_option("--dfg-size", args->dfg_size, "DFG lookup table size")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
-  sub->add_option("--tolerance", args->tolerance,
-                  "relative RMS per direction allowed on every level (largest: 5x)")
-      ->capture_default_str();
-  sub->add_option("--verify", args->verify,
-                  "directions per level checked against the brute-force sum (0: none)")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
-  sub->add_option("--sh-window", args->sh_window,
-                  "SH9 ringing control: auto (weakest window keeping the irradiance >= 0), none, "
-                  "cmgen (cmgen's --sh-window=auto)")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"auto", "none", "cmgen"}));
-  sub->add_option("--dfg", args->dfg,
-                  "DFG table for: auto (the preset's engine), none, filament, "
-                  "filament-cmgen-exact, filament-single-scatter, gltf-lut-ggx, gltf-lut-charlie, "
-                  "gltf-lut-sheen-e, babylon, karis")
-      ->capture_default_str();
-  sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
-      ->check(CLI::NonNegativeNumber);
-  sub->add_flag("--json", args->json, "print the report as JSON on stdout");
-  sub->add_flag("--verbose", args->verbose, "stage timings on stderr");
-  sub->callback([args, status] { *status = RunIbl(*args); });
+  sub->add_flag("--json", run->json, "print the report as JSON on stdout");
+  sub->add_flag("--verbose", run->verbose, "stage timings on stderr");
+  AddServerOption(sub, &run->server);
+  sub->callback([args, run, status] {
+    absl::StatusOr<jobs::IblJob> job = IblJobFromArgs(*args);
+    *status = job.ok() ? RunIblJob(*job, *run) : job.status();
+  });
 }
 
 }  // namespace shrm::cli

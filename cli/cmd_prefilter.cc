@@ -102,26 +102,6 @@ void PrintSummary(const jobs::PrefilterJob& job, const PrefilterRun& run,
   std::printf("\n");
 }
 
-// Stage lines of a remote run: each stage ends when the next one starts.
-class StageLines {
- public:
-  explicit StageLines(Progress* progress) : progress_(progress) {}
-  void Begin(const std::string& stage) {
-    End();
-    progress_->Begin(stage);
-    open_ = true;
-  }
-  double End() {
-    if (!open_) return 0;
-    open_ = false;
-    return progress_->End();
-  }
-
- private:
-  Progress* progress_;
-  bool open_ = false;
-};
-
 // --server: the same job on shrmd; the SHRM file it returns is byte-identical to the embedded
 // run's (tests/service_test.cc).
 absl::Status RunPrefilterRemote(const jobs::PrefilterJob& job, const PrefilterRun& run,
@@ -298,18 +278,9 @@ absl::StatusOr<jobs::PrefilterJob> PrefilterJobFromArgs(const PrefilterArgs& a) 
 }
 
 absl::StatusOr<jobs::PrefilterJob> ParsePrefilterCommandLine(std::vector<std::string> args) {
-  CLI::App app;
   PrefilterArgs a;
-  PrefilterRun run;
-  CLI::App* sub = app.add_subcommand("prefilter");
-  AddPrefilterJobOptions(sub, &a);
-  sub->add_option("-o,--output", run.output)->required();
-  std::reverse(args.begin(), args.end());  // CLI11 parses a reversed vector
-  try {
-    app.parse(args);
-  } catch (const CLI::ParseError& e) {
-    return absl::InvalidArgumentError(e.what());
-  }
+  SHRM_RETURN_IF_ERROR(ParseJobCommandLine(
+      std::move(args), "prefilter", [&](CLI::App* sub) { AddPrefilterJobOptions(sub, &a); }));
   return PrefilterJobFromArgs(a);
 }
 

@@ -84,4 +84,26 @@ absl::StatusOr<RemotePrefilterResult> RunRemotePrefilter(ShrmClient* client,
   return out;
 }
 
+absl::StatusOr<RemoteIblResult> RunRemoteIbl(ShrmClient* client, const std::string& target,
+                                             const jobs::IblJob& job,
+                                             const RemoteJobOptions& options) {
+  SHRM_RETURN_IF_ERROR(jobs::ValidateIblJob(job));
+  RemoteIblResult out;
+  const absl::Status s = RunRemoteJob(
+      client, job.env, target,
+      [&]() -> absl::Status {
+        if (options.on_upload_start) options.on_upload_start();
+        shrm::v1::Environment env;
+        const absl::Status uploaded = UploadEnvironment(job.env, client, &env);
+        if (options.on_upload_end) options.on_upload_end();
+        SHRM_RETURN_IF_ERROR(uploaded);
+        SHRM_ASSIGN_OR_RETURN(out.outcome,
+                              client->Ibl(wire::EncodeIblRequest(job, env), options.progress));
+        return absl::OkStatus();
+      },
+      options.on_retry, &out.retries);
+  if (!s.ok()) return s;
+  return out;
+}
+
 }  // namespace shrm::client

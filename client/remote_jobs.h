@@ -11,6 +11,7 @@
 #include "absl/status/statusor.h"
 #include "client/shrm_client.h"
 #include "jobs/environment.h"
+#include "jobs/ibl_job.h"
 #include "jobs/prefilter_job.h"
 #include "shrm/v1/shrm.pb.h"
 
@@ -36,13 +37,16 @@ absl::Status RunRemoteJob(ShrmClient* client, const jobs::EnvironmentSpec& env,
                           const std::string& target, const std::function<absl::Status()>& attempt,
                           const RetryCallback& on_retry = nullptr, int* retries = nullptr);
 
-// A prefilter job on the server: the SHRM file it returns is byte-identical to the embedded
-// run's (tests/service_test.cc).
-struct RemotePrefilterOptions {
+// What a front end sees of a remote job besides its result.
+struct RemoteJobOptions {
   ProgressCallback progress;  // each server stage
   RetryCallback on_retry;
   std::function<void()> on_upload_start, on_upload_end;
 };
+
+// A prefilter job on the server: the SHRM file it returns is byte-identical to the embedded
+// run's (tests/service_test.cc).
+using RemotePrefilterOptions = RemoteJobOptions;
 struct RemotePrefilterResult {
   PrefilterOutcome outcome;  // the report and the file
   int retries = 0;
@@ -52,6 +56,16 @@ absl::StatusOr<RemotePrefilterResult> RunRemotePrefilter(ShrmClient* client,
                                                          const jobs::PrefilterJob& job,
                                                          const RemotePrefilterOptions& options,
                                                          int* retries = nullptr);
+
+// An IBL job on the server: the files it returns are byte-identical to the embedded run's
+// (jobs::EncodeIblOutputs on both sides; tests/ibl_service_test.cc).
+struct RemoteIblResult {
+  IblCallOutcome outcome;  // the report and the files
+  int retries = 0;
+};
+absl::StatusOr<RemoteIblResult> RunRemoteIbl(ShrmClient* client, const std::string& target,
+                                             const jobs::IblJob& job,
+                                             const RemoteJobOptions& options);
 
 }  // namespace shrm::client
 

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -59,6 +60,80 @@ absl::StatusOr<std::string> ReadToken(const std::string& path) {
     if (!t.empty() && t.front() != '#') return std::string(t);
   }
   return absl::InvalidArgumentError(absl::StrCat("token file: no token in ", path));
+}
+
+// A file received in chunks (FileChunk): appended in order, hashed as it arrives, checked
+// against the SHA-256 of its last chunk. `what` names it in errors ("SHRM file").
+class FileAssembler {
+ public:
+  explicit FileAssembler(std::string what) : what_(std::move(what)) {}
+  // DataLoss when the chunk does not continue the file.
+  absl::Status Add(const v1::FileChunk& chunk) {
+    if (chunk.offset() != bytes_.size() || have_last_) {
+      return absl::DataLossError(absl::StrCat(what_, " chunks out of order"));
+    }
+    if (chunk.offset() == 0 && chunk.total_size() > 0) {
+      // A hint from the server: capped, so a bad value cannot exhaust memory up front.
+      bytes_.reserve(std::min<uint64_t>(chunk.total_size(), kMaxReserveBytes));
+    }
+    bytes_ += chunk.data();
+    sha_.Update(chunk.data());
+    if (chunk.last()) {
+      have_last_ = true;
+      expected_sha_ = chunk.sha256();
+    }
+    return absl::OkStatus();
+  }
+  // The file's SHA-256; DataLoss unless it arrived whole with the hash its last chunk names.
+  absl::StatusOr<std::string> Finish() {
+    if (!have_last_)
+      return absl::DataLossError(absl::StrCat("the ", what_, " transfer was incomplete"));
+    std::string got = sha_.Hex();
+    if (got != expected_sha_) {
+      return absl::DataLossError(
+          absl::StrCat(what_, " SHA-256 mismatch: got ", got, ", server said ", expected_sha_));
+    }
+    return got;
+  }
+  std::string& bytes() { return bytes_; }
+
+ private:
+  std::string what_;
+  std::string bytes_;
+  Sha256Stream sha_;
+  bool have_last_ = false;
+  std::string expected_sha_;
+};
+
+// Reads a streaming call's events into `on_event` (which returns an error to stop): sets
+// *answered at the first event, cancels the call once *cancel is set or on an error.
+template <typename Event, typename OnEvent>
+absl::Status ReadEvents(grpc::ClientReader<Event>* reader, grpc::ClientContext* context,
+                        const std::atomic<bool>* cancel, bool* answered, const OnEvent& on_event) {
+  Event ev;
+  while (reader->Read(&ev)) {
+    *answered = true;
+    if (cancel != nullptr && cancel->load()) context->TryCancel();
+    if (absl::Status s = on_event(ev); !s.ok()) {
+      context->TryCancel();
+      return s;
+    }
+  }
+  return absl::OkStatus();
+}
+
+// The progress and report events of a job stream (true when `ev` was one of them).
+template <typename Event, typename Report>
+bool ProgressOrReport(const Event& ev, const ProgressCallback& progress, Report* report,
+                      bool* have_report) {
+  if (ev.has_progress()) {
+    if (progress) progress(ev.progress());
+    return true;
+  }
+  if (!ev.has_report()) return false;
+  *report = ev.report();
+  *have_report = true;
+  return true;
 }
 
 }  // namespace
@@ -244,15 +319,17 @@ absl::StatusOr<std::string> ShrmClient::UploadIfMissing(const std::string& path)
   return *sha;
 }
 
-absl::StatusOr<PrefilterOutcome> ShrmClient::Prefilter(const v1::PrefilterRequest& request,
-                                                       const ProgressCallback& progress,
-                                                       absl::Duration deadline,
-                                                       const std::atomic<bool>* cancel) {
-  absl::StatusOr<PrefilterOutcome> r;
+template <typename Request, typename Outcome>
+absl::StatusOr<Outcome> ShrmClient::SendUntilAnswered(OnceCall<Request, Outcome> once,
+                                                      const Request& request,
+                                                      const ProgressCallback& progress,
+                                                      absl::Duration deadline,
+                                                      const std::atomic<bool>* cancel) {
+  absl::StatusOr<Outcome> r;
   for (int i = 0; i < options_.max_attempts; ++i) {
     if (i > 0) absl::SleepFor(RetryBackoff(options_, i));
     bool answered = false;
-    r = PrefilterOnce(request, progress, deadline, cancel, &answered);
+    r = (this->*once)(request, progress, deadline, cancel, &answered);
     // Sent again only when it failed in the transport before any answer of a server (a fresh
     // connection dropped on a loaded machine); everything else is the caller's to decide.
     if (r.ok() || answered || wire::FromShrmServer(r.status()) || !IsTransient(r.status()) ||
@@ -261,6 +338,20 @@ absl::StatusOr<PrefilterOutcome> ShrmClient::Prefilter(const v1::PrefilterReques
     }
   }
   return r;
+}
+
+absl::StatusOr<PrefilterOutcome> ShrmClient::Prefilter(const v1::PrefilterRequest& request,
+                                                       const ProgressCallback& progress,
+                                                       absl::Duration deadline,
+                                                       const std::atomic<bool>* cancel) {
+  return SendUntilAnswered(&ShrmClient::PrefilterOnce, request, progress, deadline, cancel);
+}
+
+absl::StatusOr<IblCallOutcome> ShrmClient::Ibl(const v1::IblRequest& request,
+                                               const ProgressCallback& progress,
+                                               absl::Duration deadline,
+                                               const std::atomic<bool>* cancel) {
+  return SendUntilAnswered(&ShrmClient::IblOnce, request, progress, deadline, cancel);
 }
 
 absl::StatusOr<PrefilterOutcome> ShrmClient::PrefilterOnce(const v1::PrefilterRequest& request,
@@ -274,41 +365,16 @@ absl::StatusOr<PrefilterOutcome> ShrmClient::PrefilterOnce(const v1::PrefilterRe
   std::unique_ptr<grpc::ClientReader<v1::PrefilterEvent>> reader =
       stub_->Prefilter(&context, request);
   PrefilterOutcome out;
-  v1::PrefilterEvent ev;
-  bool have_last = false, have_report = false;
-  std::string expected_sha;
-  Sha256Stream received_sha;  // hashed as the chunks arrive
-  while (reader->Read(&ev)) {
-    *answered = true;
-    if (cancel != nullptr && cancel->load()) context.TryCancel();
-    switch (ev.event_case()) {
-      case v1::PrefilterEvent::kProgress:
-        if (progress) progress(ev.progress());
-        break;
-      case v1::PrefilterEvent::kReport:
-        out.report = ev.report();
-        have_report = true;
-        break;
-      case v1::PrefilterEvent::kShrmFile:
-        if (ev.shrm_file().offset() != out.shrm_file.size()) {
-          context.TryCancel();
-          return absl::DataLossError("SHRM file chunks out of order");
+  bool have_report = false;
+  FileAssembler file("SHRM file");
+  const absl::Status read =
+      ReadEvents(reader.get(), &context, cancel, answered, [&](const v1::PrefilterEvent& ev) {
+        if (ProgressOrReport(ev, progress, &out.report, &have_report) || !ev.has_shrm_file()) {
+          return absl::OkStatus();
         }
-        if (ev.shrm_file().offset() == 0 && ev.shrm_file().total_size() > 0) {
-          // A hint from the server: capped, so a bad value cannot exhaust memory up front.
-          out.shrm_file.reserve(std::min<uint64_t>(ev.shrm_file().total_size(), kMaxReserveBytes));
-        }
-        out.shrm_file += ev.shrm_file().data();
-        received_sha.Update(ev.shrm_file().data());
-        if (ev.shrm_file().last()) {
-          have_last = true;
-          expected_sha = ev.shrm_file().sha256();
-        }
-        break;
-      default:
-        break;
-    }
-  }
+        return file.Add(ev.shrm_file());
+      });
+  if (!read.ok()) return read;
   const absl::Status status = Received(reader->Finish());
   if (!status.ok()) return status;
   const bool want_file =
@@ -316,12 +382,59 @@ absl::StatusOr<PrefilterOutcome> ShrmClient::PrefilterOnce(const v1::PrefilterRe
                                                v1::OUTPUT_SHRM_FILE) != request.outputs().end();
   if (!have_report) return absl::DataLossError("the server sent no report");
   if (want_file) {
-    if (!have_last) return absl::DataLossError("the SHRM file transfer was incomplete");
-    out.shrm_sha256 = received_sha.Hex();
-    if (out.shrm_sha256 != expected_sha) {
-      return absl::DataLossError(absl::StrCat("SHRM file SHA-256 mismatch: got ", out.shrm_sha256,
-                                              ", server said ", expected_sha));
-    }
+    SHRM_ASSIGN_OR_RETURN(out.shrm_sha256, file.Finish());
+    out.shrm_file = std::move(file.bytes());
+  }
+  return out;
+}
+
+absl::StatusOr<IblCallOutcome> ShrmClient::IblOnce(const v1::IblRequest& request,
+                                                   const ProgressCallback& progress,
+                                                   absl::Duration deadline,
+                                                   const std::atomic<bool>* cancel,
+                                                   bool* answered) {
+  grpc::ClientContext context;
+  SetDeadline(&context, deadline);
+  Authorize(&context);
+  std::unique_ptr<grpc::ClientReader<v1::IblEvent>> reader = stub_->Ibl(&context, request);
+  IblCallOutcome out;
+  bool have_report = false;
+  std::optional<FileAssembler> file;  // the file arriving now
+  std::string name;
+  // Ends the file arriving now (verified) and adds it to the outcome.
+  auto finish_file = [&]() -> absl::Status {
+    if (!file) return absl::OkStatus();
+    SHRM_ASSIGN_OR_RETURN(std::string sha, file->Finish());
+    out.files.push_back({name, std::move(file->bytes()), std::move(sha)});
+    file.reset();
+    return absl::OkStatus();
+  };
+  const absl::Status read =
+      ReadEvents(reader.get(), &context, cancel, answered, [&](const v1::IblEvent& ev) {
+        if (ProgressOrReport(ev, progress, &out.report, &have_report) || !ev.has_file()) {
+          return absl::OkStatus();
+        }
+        if (!file || ev.file().name() != name) {
+          SHRM_RETURN_IF_ERROR(finish_file());
+          name = ev.file().name();
+          file.emplace(name);
+        }
+        return file->Add(ev.file().chunk());
+      });
+  if (!read.ok()) return read;
+  const absl::Status status = Received(reader->Finish());
+  if (!status.ok()) return status;
+  if (!have_report) return absl::DataLossError("the server sent no report");
+  SHRM_RETURN_IF_ERROR(finish_file());
+  bool listed = out.files.size() == static_cast<size_t>(out.report.files_size());
+  for (size_t i = 0; listed && i < out.files.size(); ++i) {
+    listed = out.files[i].name == out.report.files(i).name() &&
+             out.files[i].bytes.size() == out.report.files(i).size();
+  }
+  if (!listed) {
+    return absl::DataLossError(absl::StrCat("the server sent ", out.files.size(),
+                                            " files, not the ", out.report.files_size(),
+                                            " its report lists"));
   }
   return out;
 }

@@ -16,6 +16,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -54,6 +55,17 @@ struct PrefilterOutcome {
   std::string shrm_sha256;
 };
 
+// One output file of an Ibl call.
+struct ReceivedFile {
+  std::string name;    // file name inside the output folder
+  std::string bytes;   // SHA-256 verified
+  std::string sha256;  // of `bytes`
+};
+struct IblCallOutcome {
+  shrm::v1::IblReport report;       // report.report_json: the job's report (jobs::IblReportJson)
+  std::vector<ReceivedFile> files;  // in the order of report.files
+};
+
 // Called for every progress event (the stage starting and the fraction of stages done).
 using ProgressCallback = std::function<void(const shrm::v1::PrefilterProgress&)>;
 
@@ -88,6 +100,12 @@ class ShrmClient {
                                              const ProgressCallback& progress = nullptr,
                                              absl::Duration deadline = absl::InfiniteDuration(),
                                              const std::atomic<bool>* cancel = nullptr);
+  // The IBL job (`shrm ibl`): sent again as Prefilter is; every file is checked against the
+  // SHA-256 of its last chunk, and the files must be those the report lists (DataLoss).
+  absl::StatusOr<IblCallOutcome> Ibl(const shrm::v1::IblRequest& request,
+                                     const ProgressCallback& progress = nullptr,
+                                     absl::Duration deadline = absl::InfiniteDuration(),
+                                     const std::atomic<bool>* cancel = nullptr);
   absl::StatusOr<shrm::v1::AnalyzeResponse> Analyze(
       const shrm::v1::AnalyzeRequest& request, absl::Duration deadline = absl::InfiniteDuration());
   absl::StatusOr<shrm::v1::ListBrdfModelsResponse> ListBrdfModels();
@@ -130,11 +148,26 @@ class ShrmClient {
   }
   // Adds the bearer token (when there is one) to a call's metadata.
   void Authorize(grpc::ClientContext* context) const;
+  // One streaming call; *answered: the server sent an event.
+  template <typename Request, typename Outcome>
+  using OnceCall = absl::StatusOr<Outcome> (ShrmClient::*)(const Request&, const ProgressCallback&,
+                                                           absl::Duration,
+                                                           const std::atomic<bool>* cancel,
+                                                           bool* answered);
+  // Runs `once` again only while it fails in the transport before any answer of a server.
+  template <typename Request, typename Outcome>
+  absl::StatusOr<Outcome> SendUntilAnswered(OnceCall<Request, Outcome> once, const Request& request,
+                                            const ProgressCallback& progress,
+                                            absl::Duration deadline,
+                                            const std::atomic<bool>* cancel);
   // One Prefilter call; *answered: the server sent an event.
   absl::StatusOr<PrefilterOutcome> PrefilterOnce(const shrm::v1::PrefilterRequest& request,
                                                  const ProgressCallback& progress,
                                                  absl::Duration deadline,
                                                  const std::atomic<bool>* cancel, bool* answered);
+  absl::StatusOr<IblCallOutcome> IblOnce(const shrm::v1::IblRequest& request,
+                                         const ProgressCallback& progress, absl::Duration deadline,
+                                         const std::atomic<bool>* cancel, bool* answered);
   // A call's final status as absl::Status (wire::FromGrpcStatus); notes its retry delay.
   absl::Status Received(const grpc::Status& status);
   grpc::Status UploadOnce(grpc::ClientContext* context, std::string_view bytes,

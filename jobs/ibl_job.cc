@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <string_view>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "core/base/cubemap.h"
@@ -235,21 +237,56 @@ absl::Status ValidateIblJob(const IblJob& job) {
   return IblJobChain(job).status();
 }
 
+absl::Status ValidateIblJobNamingOptions(
+    const IblJob& job, const std::function<std::string(std::string_view option)>& name) {
+  const absl::Status whole = ValidateIblJob(job);
+  if (whole.ok()) return whole;
+  using Copy = void (*)(const IblJob& from, IblJob* to);
+  constexpr std::pair<std::string_view, Copy> kOptions[] = {
+      {"env", [](const IblJob& f, IblJob* t) { t->env = f.env; }},
+      {"size", [](const IblJob& f, IblJob* t) { t->face_size = f.face_size; }},
+      {"roughness",
+       [](const IblJob& f, IblJob* t) {
+         t->preset = f.preset;
+         t->roughness = f.roughness;
+       }},
+      {"levels", [](const IblJob& f, IblJob* t) { t->levels = f.levels; }},
+      {"tolerance", [](const IblJob& f, IblJob* t) { t->tolerance = f.tolerance; }},
+      {"verify", [](const IblJob& f, IblJob* t) { t->verify = f.verify; }},
+      {"irradiance_size",
+       [](const IblJob& f, IblJob* t) { t->irradiance_size = f.irradiance_size; }},
+      {"dfg_size", [](const IblJob& f, IblJob* t) { t->dfg_size = f.dfg_size; }},
+      {"dfg", [](const IblJob& f, IblJob* t) { t->dfg = f.dfg; }}};
+  IblJob probe;
+  for (const auto& [option, copy] : kOptions) {
+    copy(job, &probe);
+    const absl::Status s = ValidateIblJob(probe);
+    if (s.ok()) continue;
+    // The environment's messages name its fields already (environment, rotate).
+    if (option == "env") return s;
+    return absl::InvalidArgumentError(absl::StrCat(name(option), ": ", s.message()));
+  }
+  return whole;
+}
+
 absl::StatusOr<ibl::MipChain> IblJobChain(const IblJob& job) {
   return ibl::MakeMipChain(job.preset, job.face_size, job.levels, job.roughness);
 }
 
-absl::StatusOr<IblRun> RunIblJob(const IblJob& job, int threads) {
+absl::StatusOr<IblRun> RunIblJob(const IblJob& job, int threads,
+                                 const PrefilterProgress& progress) {
   SHRM_RETURN_IF_ERROR(ValidateIblJob(job));
   const auto t0 = std::chrono::steady_clock::now();
   SHRM_ASSIGN_OR_RETURN(EnvMap map, EnvMap::Load(EnvMapOptionsFor(job.env)));
   SHRM_ASSIGN_OR_RETURN(const SourceIdentity source, LocalSourceIdentity(job.env));
-  return RunIblJobOnMap(job, map, source, MsSince(t0), threads);
+  return RunIblJobOnMap(job, map, source, MsSince(t0), threads, progress);
 }
 
 absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
-                                      const SourceIdentity& source, double decode_ms, int threads) {
+                                      const SourceIdentity& source, double decode_ms, int threads,
+                                      const PrefilterProgress& progress) {
   SHRM_RETURN_IF_ERROR(ValidateIblJob(job));
+  auto stage = [&](std::string_view name) { return progress ? progress(name) : absl::OkStatus(); };
   IblRun run;
   run.source = source;
   run.layout = map.layout();
@@ -263,20 +300,24 @@ absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
   opt.tolerance = job.tolerance / kIblSphereToDirectionFactor;
   opt.rotation = rotation;
   opt.threads = threads;
+  SHRM_RETURN_IF_ERROR(stage("lighting"));
   SHRM_ASSIGN_OR_RETURN(const ibl::SpecularLight light,
                         ibl::ComputeSpecularLight(map, rotation, 0, threads));
   run.timings.push_back({"lighting", MsSince(t0)});
+  SHRM_RETURN_IF_ERROR(stage("specular"));
   t0 = std::chrono::steady_clock::now();
   run.specular.name = "specular";
   SHRM_ASSIGN_OR_RETURN(run.specular.chain, ibl::PrefilterSpecular(map, opt, &light));
   run.timings.push_back({"specular", MsSince(t0)});
   if (job.sheen) {
+    SHRM_RETURN_IF_ERROR(stage("sheen"));
     t0 = std::chrono::steady_clock::now();
     opt.lobe = ibl::SpecularLobe::kCharlie;
     run.sheen.name = "sheen";
     SHRM_ASSIGN_OR_RETURN(run.sheen.chain, ibl::PrefilterSpecular(map, opt, &light));
     run.timings.push_back({"sheen", MsSince(t0)});
   }
+  SHRM_RETURN_IF_ERROR(stage("irradiance"));
   t0 = std::chrono::steady_clock::now();
   ibl::SpecularOptions diffuse = opt;
   diffuse.lobe = ibl::SpecularLobe::kLambert;
@@ -302,6 +343,7 @@ absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
   }
   for (IblCube* cube : {&run.specular, &run.sheen, &run.irradiance}) StoreAs(job.format, *cube);
   if (job.verify > 0) {
+    SHRM_RETURN_IF_ERROR(stage("verify"));
     t0 = std::chrono::steady_clock::now();
     SHRM_RETURN_IF_ERROR(Measure(map, rotation, ibl::SpecularLobe::kGgx, job.verify,
                                  kSpecularVerifySeed, threads, run.specular));
@@ -318,9 +360,27 @@ absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
   return run;
 }
 
+nlohmann::json IblOptionsJson(const IblJob& job) {
+  nlohmann::json o = {{"preset", ibl::RoughnessPresetName(job.preset)},
+                      {"roughness", job.roughness},
+                      {"size", job.face_size},
+                      {"levels", job.levels},
+                      {"sheen", job.sheen},
+                      {"format", IblFormatName(job.format)},
+                      {"irradiance_size", job.irradiance_size},
+                      {"dfg_size", job.dfg_size},
+                      {"tolerance", job.tolerance},
+                      {"verify", job.verify},
+                      {"sh_window", IblShWindowName(job.sh_window)},
+                      {"dfg", job.dfg}};
+  o["rotate"] = job.env.rotate_ypr_deg ? nlohmann::json(*job.env.rotate_ypr_deg) : nlohmann::json();
+  return o;
+}
+
 nlohmann::json IblReportJson(const IblJob& job, const IblRun& run) {
   nlohmann::json r;
   r["shrm_version"] = kVersion;
+  r["options"] = IblOptionsJson(job);
   r["source"] = run.source.names;
   r["source_sha256"] = run.source.sha256;
   r["layout"] = EnvLayoutName(run.layout);

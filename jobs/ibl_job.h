@@ -8,9 +8,11 @@
 #ifndef SHRM_JOBS_IBL_JOB_H_
 #define SHRM_JOBS_IBL_JOB_H_
 
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -89,6 +91,14 @@ struct IblJob {
 // Every option within its range, the chain buildable (MakeMipChain's errors).
 [[nodiscard]] absl::Status ValidateIblJob(const IblJob& job);
 
+// ValidateIblJob with the first invalid option named: the options (by their names in
+// jobs/job_options.h: env, size, roughness with the preset, levels, tolerance, verify,
+// irradiance_size, dfg_size) are added one by one to a default job, and the first that makes it
+// invalid is reported as "<name(option)>: <the job's message>". Front ends name their fields
+// with `name` (the wire's face_size, the manifest's $.options.size).
+[[nodiscard]] absl::Status ValidateIblJobNamingOptions(
+    const IblJob& job, const std::function<std::string(std::string_view option)>& name);
+
 // The mip chain of the job.
 absl::StatusOr<ibl::MipChain> IblJobChain(const IblJob& job);
 
@@ -123,17 +133,26 @@ struct IblRun {
 
 // The embedded run: decode and hash the map, the chains, the irradiance; negatives clamped to 0
 // and every value rounded as job.format stores it (ktx2::RoundTrip), then each level measured at
-// job.verify seeded texel centres against the brute-force pixel sum.
-absl::StatusOr<IblRun> RunIblJob(const IblJob& job, int threads);
+// job.verify seeded texel centres against the brute-force pixel sum. `progress` (optional) is
+// called at the start of each stage: lighting, specular, [sheen], irradiance, [verify]; an error
+// it returns stops the job (the service's cancellation).
+absl::StatusOr<IblRun> RunIblJob(const IblJob& job, int threads,
+                                 const PrefilterProgress& progress = nullptr);
 
 // The same on a map already decoded (the service decodes blobs): `source` is what the outputs
 // record, `decode_ms` the time it took to get the map.
 absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
-                                      const SourceIdentity& source, double decode_ms, int threads);
+                                      const SourceIdentity& source, double decode_ms, int threads,
+                                      const PrefilterProgress& progress = nullptr);
 
-// The report: source, layout, shrm_version, preset, format, tolerance and, per cube and level,
-// face_size, roughness, alpha, degree, truncation_estimate and measured {count, rms, max}; "met"
-// is false when a measured level misses its target. Front ends add the files they wrote.
+// The job's options as the report records them ("options": every option of IblJobOptions()
+// besides the environment's files, layout and colour spaces, by its name there): what
+// `shrm batch` compares to skip an up-to-date set.
+nlohmann::json IblOptionsJson(const IblJob& job);
+
+// The report: source, layout, shrm_version, options, preset, format, tolerance and, per cube and
+// level, face_size, roughness, alpha, degree, truncation_estimate and measured {count, rms, max};
+// "met" is false when a measured level misses its target. Front ends add the files they wrote.
 nlohmann::json IblReportJson(const IblJob& job, const IblRun& run);
 
 // FailedPrecondition naming the first level whose measured error misses the targets (the files

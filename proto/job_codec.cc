@@ -1,6 +1,7 @@
 #include "proto/job_codec.h"
 
 #include <cmath>
+#include <string_view>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -22,20 +23,48 @@ constexpr std::pair<EnvLayout, v1::Layout> kLayouts[] = {
     {EnvLayout::kVerticalStrip, v1::LAYOUT_VSTRIP},
     {EnvLayout::kAngular, v1::LAYOUT_ANGULAR}};
 
+// The IBL enums: explicit values first (what the encoder sends), then _UNSPECIFIED (the default).
+constexpr std::pair<ibl::RoughnessPreset, v1::IblPreset> kIblPresets[] = {
+    {ibl::RoughnessPreset::kFilament, v1::IBL_PRESET_FILAMENT},
+    {ibl::RoughnessPreset::kGltf, v1::IBL_PRESET_GLTF},
+    {ibl::RoughnessPreset::kExplicit, v1::IBL_PRESET_EXPLICIT},
+    {ibl::RoughnessPreset::kFilament, v1::IBL_PRESET_UNSPECIFIED}};
+constexpr std::pair<jobs::IblFormat, v1::IblFormat> kIblFormats[] = {
+    {jobs::IblFormat::kRgba16f, v1::IBL_FORMAT_RGBA16F},
+    {jobs::IblFormat::kRgba32f, v1::IBL_FORMAT_RGBA32F},
+    {jobs::IblFormat::kB10g11r11, v1::IBL_FORMAT_R11G11B10F},
+    {jobs::IblFormat::kE5b9g9r9, v1::IBL_FORMAT_RGB9E5},
+    {jobs::IblFormat::kRgba16f, v1::IBL_FORMAT_UNSPECIFIED}};
+constexpr std::pair<jobs::IblShWindow, v1::IblShWindow> kIblShWindows[] = {
+    {jobs::IblShWindow::kAuto, v1::IBL_SH_WINDOW_AUTO},
+    {jobs::IblShWindow::kNone, v1::IBL_SH_WINDOW_NONE},
+    {jobs::IblShWindow::kCmgen, v1::IBL_SH_WINDOW_CMGEN},
+    {jobs::IblShWindow::kAuto, v1::IBL_SH_WINDOW_UNSPECIFIED}};
+
+// The core value of a proto enum value (InvalidArgument naming `field` for unknown values).
+template <typename Core, typename Proto, size_t N>
+absl::StatusOr<Core> FromProto(const std::pair<Core, Proto> (&table)[N], int value,
+                               const char* field) {
+  for (const auto& [core, proto] : table)
+    if (proto == value) return core;
+  return absl::InvalidArgumentError(absl::StrCat(field, ": unknown value ", value));
+}
+
+// The first proto value of a core value (`table` lists every core value).
+template <typename Core, typename Proto, size_t N>
+Proto ToProto(const std::pair<Core, Proto> (&table)[N], Core value) {
+  for (const auto& [core, proto] : table)
+    if (core == value) return proto;
+  return table[0].second;
+}
+
 }  // namespace
 
 absl::StatusOr<EnvLayout> LayoutFromProto(v1::Layout layout) {
-  for (const auto& [core, proto] : kLayouts)
-    if (proto == layout) return core;
-  return absl::InvalidArgumentError(
-      absl::StrCat("environment.layout: unknown value ", static_cast<int>(layout)));
+  return FromProto(kLayouts, layout, "environment.layout");
 }
 
-v1::Layout LayoutToProto(EnvLayout layout) {
-  for (const auto& [core, proto] : kLayouts)
-    if (core == layout) return proto;
-  return v1::LAYOUT_UNSPECIFIED;
-}
+v1::Layout LayoutToProto(EnvLayout layout) { return ToProto(kLayouts, layout); }
 
 absl::Status CheckRemoteEnvironment(const jobs::EnvironmentSpec& env) {
   if (!env.ocio_config.empty()) {
@@ -184,6 +213,51 @@ absl::StatusOr<WirePrefilter> DecodePrefilterRequest(const v1::PrefilterRequest&
   w.job.env = std::move(env.spec);
   w.sha256 = std::move(env.sha256);
   SHRM_RETURN_IF_ERROR(jobs::ValidatePrefilterJob(w.job));
+  return w;
+}
+
+v1::IblRequest EncodeIblRequest(const jobs::IblJob& job, const v1::Environment& env) {
+  v1::IblRequest req;
+  *req.mutable_environment() = env;
+  req.set_preset(ToProto(kIblPresets, job.preset));
+  for (double r : job.roughness) req.add_roughness(r);
+  req.set_face_size(job.face_size);
+  req.set_levels(job.levels);
+  req.set_sheen(job.sheen);
+  req.set_format(ToProto(kIblFormats, job.format));
+  req.set_irradiance_size(job.irradiance_size);
+  req.set_dfg_size(job.dfg_size);
+  req.set_tolerance(job.tolerance);
+  req.set_verify(job.verify);
+  req.set_sh_window(ToProto(kIblShWindows, job.sh_window));
+  req.set_dfg(job.dfg);
+  return req;
+}
+
+absl::StatusOr<WireIbl> DecodeIblRequest(const v1::IblRequest& request) {
+  WireIbl w;
+  SHRM_ASSIGN_OR_RETURN(WireEnvironment env, DecodeEnvironment(request.environment()));
+  w.job.env = std::move(env.spec);
+  w.sha256 = std::move(env.sha256);
+  SHRM_ASSIGN_OR_RETURN(w.job.preset, FromProto(kIblPresets, request.preset(), "preset"));
+  SHRM_ASSIGN_OR_RETURN(w.job.format, FromProto(kIblFormats, request.format(), "format"));
+  SHRM_ASSIGN_OR_RETURN(w.job.sh_window,
+                        FromProto(kIblShWindows, request.sh_window(), "sh_window"));
+  w.job.roughness.assign(request.roughness().begin(), request.roughness().end());
+  if (request.face_size() != 0) w.job.face_size = request.face_size();
+  w.job.levels = request.levels();
+  w.job.sheen = request.sheen();
+  if (request.irradiance_size() != 0) w.job.irradiance_size = request.irradiance_size();
+  if (request.dfg_size() != 0) w.job.dfg_size = request.dfg_size();
+  if (request.tolerance() != 0) w.job.tolerance = request.tolerance();
+  if (request.has_verify()) w.job.verify = request.verify();
+  if (!request.dfg().empty()) w.job.dfg = request.dfg();
+  // Errors name the request's fields (jobs/job_options.h names the options).
+  SHRM_RETURN_IF_ERROR(jobs::ValidateIblJobNamingOptions(w.job, [](std::string_view option) {
+    return option == "env"    ? std::string("environment")
+           : option == "size" ? std::string("face_size")
+                              : std::string(option);
+  }));
   return w;
 }
 

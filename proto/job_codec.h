@@ -11,6 +11,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "jobs/ibl_job.h"
 #include "jobs/prefilter_job.h"
 #include "shrm/v1/shrm.pb.h"
 
@@ -56,6 +57,16 @@ struct WirePrefilter {
 };
 // Decodes and validates (jobs::ValidatePrefilterJob); errors name the request field.
 absl::StatusOr<WirePrefilter> DecodePrefilterRequest(const shrm::v1::PrefilterRequest& request);
+
+// The IBL job (jobs/ibl_job.h): every option, explicitly (the request's zero defaults are for
+// hand-written clients).
+shrm::v1::IblRequest EncodeIblRequest(const jobs::IblJob& job, const shrm::v1::Environment& env);
+struct WireIbl {
+  jobs::IblJob job;  // job.env: WireEnvironment::spec
+  std::vector<std::string> sha256;
+};
+// Decodes and validates (jobs::ValidateIblJob); InvalidArgument naming the request field.
+absl::StatusOr<WireIbl> DecodeIblRequest(const shrm::v1::IblRequest& request);
 
 }  // namespace shrm::wire
 

@@ -16,6 +16,8 @@
 #include "core/shrm/shrm_file.h"
 #include "core/shrm/shrm_reference.h"
 #include "jobs/analyze_job.h"
+#include "jobs/ibl_job.h"
+#include "jobs/ibl_outputs.h"
 #include "jobs/point_jobs.h"
 #include "jobs/prefilter_job.h"
 #include "jobs/report.h"
@@ -108,6 +110,53 @@ absl::StatusOr<Vec3> RequestDirection(bool present, const v1::Direction& d, cons
   return jobs::UnitDirection(Vec3{d.x(), d.y(), d.z()}, name);
 }
 
+// Streams `file` in chunks of at most kFileChunkBytes, the last with the file's SHA-256;
+// `chunk_of` gives the FileChunk of a new event (and fills the event's other fields).
+template <typename Event, typename ChunkOf>
+absl::Status StreamFile(std::string_view file, grpc::ServerWriter<Event>* writer, RequestLog* log,
+                        const ChunkOf& chunk_of) {
+  Sha256Stream sha;  // hashed chunk by chunk, while the client receives the previous one
+  size_t offset = 0;
+  do {
+    const size_t n = std::min(kFileChunkBytes, file.size() - offset);
+    Event ev;
+    v1::FileChunk* chunk = chunk_of(&ev);
+    chunk->set_offset(offset);
+    chunk->set_total_size(file.size());
+    chunk->set_data(file.data() + offset, n);
+    sha.Update(file.substr(offset, n));
+    offset += n;
+    if (offset == file.size()) {
+      chunk->set_last(true);
+      chunk->set_sha256(sha.Hex());
+    }
+    log->AddBytesOut(n);
+    if (!writer->Write(ev)) {
+      return absl::UnavailableError("client went away during the file transfer");
+    }
+  } while (offset < file.size());
+  return absl::OkStatus();
+}
+
+// Writes one progress event.
+template <typename Event>
+void WriteProgress(grpc::ServerWriter<Event>* writer, std::string_view stage, double fraction) {
+  Event ev;
+  ev.mutable_progress()->set_stage(std::string(stage));
+  ev.mutable_progress()->set_fraction(fraction);
+  writer->Write(ev);
+}
+
+// Writes an event that must arrive (the report); the context's status when the client is gone.
+template <typename Event>
+absl::Status WriteOrFail(grpc::ServerContext* context, grpc::ServerWriter<Event>* writer,
+                         const Event& ev, RequestLog* log) {
+  log->AddBytesOut(ev.ByteSizeLong());
+  if (writer->Write(ev)) return absl::OkStatus();
+  absl::Status s = CheckContext(context);
+  return s.ok() ? absl::UnavailableError("client went away") : s;
+}
+
 }  // namespace
 
 // A Prefilter call between its stages: the decoded job and its resolved inputs, then the result.
@@ -119,6 +168,16 @@ struct ShrmServiceImpl::PrefilterCall {
   jobs::PrefilterProvenance provenance;
   std::string file;  // the SHRM file (when asked for)
   double write_ms = 0;
+};
+
+// An Ibl call between its stages: the decoded job and its pinned map, then the files.
+struct ShrmServiceImpl::IblCall {
+  wire::WireIbl request;
+  std::optional<PinnedEnv> env;
+  std::string source_sha256;
+  nlohmann::json report;
+  std::vector<StageTiming> timings;
+  std::vector<jobs::IblFile> files;
 };
 
 // A held job slot; releases it on destruction.
@@ -171,6 +230,11 @@ absl::StatusOr<std::unique_ptr<ShrmServiceImpl::JobSlot>> ShrmServiceImpl::Admit
   }
   return std::make_unique<JobSlot>(&running_jobs_);
 }
+void ShrmServiceImpl::TestStageHooks(std::string_view stage) const {
+  if (options_.test_stage_delay > absl::ZeroDuration()) absl::SleepFor(options_.test_stage_delay);
+  if (options_.test_stage_hook) options_.test_stage_hook(stage);
+}
+
 grpc::Status ShrmServiceImpl::HasBlob(grpc::ServerContext* context,
                                       const v1::HasBlobRequest* request,
                                       v1::HasBlobResponse* response) {
@@ -267,12 +331,8 @@ absl::Status ShrmServiceImpl::RunPrefilterCall(grpc::ServerContext* context,
   int stage_index = 0;
   StageHook hook = [&](std::string_view stage) -> absl::Status {
     SHRM_RETURN_IF_ERROR(CheckStage(context, stage));
-    if (options_.test_stage_delay > absl::ZeroDuration()) absl::SleepFor(options_.test_stage_delay);
-    if (options_.test_stage_hook) options_.test_stage_hook(stage);
-    v1::PrefilterEvent ev;
-    ev.mutable_progress()->set_stage(std::string(stage));
-    ev.mutable_progress()->set_fraction(std::min(stage_index++, 5) / kStages);
-    writer->Write(ev);
+    TestStageHooks(stage);
+    WriteProgress(writer, stage, std::min(stage_index++, 5) / kStages);
     return CheckStage(context, stage);
   };
   SHRM_ASSIGN_OR_RETURN(call->result, CachedPrefilter(in, &caches_, hook));
@@ -326,34 +386,10 @@ absl::Status ShrmServiceImpl::SendPrefilterResult(grpc::ServerContext* context,
                        {"brdf", call.result.brdf_hit ? "hit" : "miss"}};
     rep->set_report_json(report.dump(2));
   }
-  log->AddBytesOut(ev.ByteSizeLong());
-  if (!writer->Write(ev)) {
-    absl::Status s = CheckContext(context);
-    return s.ok() ? absl::UnavailableError("client went away") : s;
-  }
+  SHRM_RETURN_IF_ERROR(WriteOrFail(context, writer, ev, log));
   if (!call.request.want_file) return absl::OkStatus();
-  const std::string& file = call.file;
-  Sha256Stream sha;  // hashed chunk by chunk, while the client receives the previous one
-  size_t offset = 0;
-  do {
-    const size_t n = std::min(kFileChunkBytes, file.size() - offset);
-    v1::PrefilterEvent chunk_ev;
-    v1::FileChunk* chunk = chunk_ev.mutable_shrm_file();
-    chunk->set_offset(offset);
-    chunk->set_total_size(file.size());
-    chunk->set_data(file.data() + offset, n);
-    sha.Update(std::string_view(file.data() + offset, n));
-    offset += n;
-    if (offset == file.size()) {
-      chunk->set_last(true);
-      chunk->set_sha256(sha.Hex());
-    }
-    log->AddBytesOut(n);
-    if (!writer->Write(chunk_ev)) {
-      return absl::UnavailableError("client went away during the file transfer");
-    }
-  } while (offset < file.size());
-  return absl::OkStatus();
+  return StreamFile(call.file, writer, log,
+                    [](v1::PrefilterEvent* e) { return e->mutable_shrm_file(); });
 }
 
 grpc::Status ShrmServiceImpl::Analyze(grpc::ServerContext* context,
@@ -477,6 +513,92 @@ grpc::Status ShrmServiceImpl::Irradiance(grpc::ServerContext* context,
   if (!e9.ok()) return fail(e9.status());
   for (double c : *e9) response->add_coefficients(c);
   return log.Finish(grpc::Status::OK);
+}
+
+grpc::Status ShrmServiceImpl::Ibl(grpc::ServerContext* context, const v1::IblRequest* request,
+                                  grpc::ServerWriter<v1::IblEvent>* writer) {
+  RequestLog log(context, "Ibl");
+  IblCall call;
+  auto fail = [&](const absl::Status& s) {
+    return log.Finish(wire::ToGrpcStatus(HideSpoolPaths(s, call.env ? &*call.env : nullptr)));
+  };
+  absl::StatusOr<std::unique_ptr<JobSlot>> slot = Admit();
+  if (!slot.ok()) return fail(slot.status());
+  if (absl::Status s = ParseIblCall(*request, &call); !s.ok()) return fail(s);
+  if (absl::Status s = RunIblCall(context, writer, &call, &log); !s.ok()) return fail(s);
+  if (absl::Status s = SendIblResult(context, writer, call, &log); !s.ok()) return fail(s);
+  return log.Finish(grpc::Status::OK);
+}
+
+absl::Status ShrmServiceImpl::ParseIblCall(const v1::IblRequest& request, IblCall* call) {
+  SHRM_ASSIGN_OR_RETURN(call->request, wire::DecodeIblRequest(request));
+  wire::WireEnvironment env{call->request.job.env, call->request.sha256};
+  SHRM_ASSIGN_OR_RETURN(call->env, PinEnvironment(env, blobs_.get()));
+  return absl::OkStatus();
+}
+
+absl::Status ShrmServiceImpl::RunIblCall(grpc::ServerContext* context,
+                                         grpc::ServerWriter<v1::IblEvent>* writer, IblCall* call,
+                                         RequestLog* log) {
+  const jobs::IblJob& job = call->request.job;
+  // decode, lighting, specular, [sheen], irradiance, [verify], encode.
+  const double stages = 5 + job.sheen + (job.verify > 0);
+  int stage_index = 0;
+  auto hook = [&](std::string_view stage) -> absl::Status {
+    SHRM_RETURN_IF_ERROR(CheckStage(context, stage));
+    TestStageHooks(stage);
+    WriteProgress(writer, stage, stage_index++ / stages);
+    return CheckStage(context, stage);
+  };
+  SHRM_RETURN_IF_ERROR(hook("decode"));
+  const auto decode_start = std::chrono::steady_clock::now();
+  SHRM_ASSIGN_OR_RETURN(const EnvMap map, EnvMap::Load(call->env->options));
+  // The client's names and the blobs' hashes: the outputs record the embedded run's shrm:source.
+  SHRM_ASSIGN_OR_RETURN(jobs::IblRun run,
+                        jobs::RunIblJobOnMap(job, map, call->env->source, MsSince(decode_start),
+                                             options_.job_threads, hook));
+  SHRM_RETURN_IF_ERROR(hook("encode"));
+  const auto encode_start = std::chrono::steady_clock::now();
+  absl::StatusOr<std::vector<jobs::IblFile>> files = jobs::EncodeIblOutputs(job, run);
+  if (!files.ok()) {
+    return absl::InternalError(
+        absl::StrCat("encoding the IBL files failed: ", files.status().message()));
+  }
+  call->files = *std::move(files);
+  run.timings.push_back({"encode", MsSince(encode_start)});
+  for (const StageTiming& t : run.timings) log->AddStage(t.stage, t.ms);
+  call->source_sha256 = run.source.sha256;
+  call->report = std::move(run.report);
+  call->timings = std::move(run.timings);
+  return absl::OkStatus();
+}
+
+absl::Status ShrmServiceImpl::SendIblResult(grpc::ServerContext* context,
+                                            grpc::ServerWriter<v1::IblEvent>* writer,
+                                            const IblCall& call, RequestLog* log) {
+  v1::IblEvent ev;
+  v1::IblReport* rep = ev.mutable_report();
+  rep->set_report_json(call.report.dump(2));
+  rep->set_source_sha256(call.source_sha256);
+  for (const StageTiming& t : call.timings) {
+    v1::StageTiming* st = rep->add_timings();
+    st->set_stage(t.stage);
+    st->set_ms(t.ms);
+  }
+  for (const jobs::IblFile& f : call.files) {
+    v1::IblFileInfo* info = rep->add_files();
+    info->set_name(f.name);
+    info->set_what(f.what);
+    info->set_size(f.bytes.size());
+  }
+  SHRM_RETURN_IF_ERROR(WriteOrFail(context, writer, ev, log));
+  for (const jobs::IblFile& f : call.files) {
+    SHRM_RETURN_IF_ERROR(StreamFile(f.bytes, writer, log, [&](v1::IblEvent* e) {
+      e->mutable_file()->set_name(f.name);
+      return e->mutable_file()->mutable_chunk();
+    }));
+  }
+  return absl::OkStatus();
 }
 
 }  // namespace shrm::server

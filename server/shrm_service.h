@@ -25,13 +25,13 @@ struct ServiceOptions {
   std::string spool_dir;                 // blob store directory (created if needed)
   uint64_t spool_bytes = 8ull << 30;     // LRU bound of the blob store
   uint64_t max_blob_bytes = 1ull << 30;  // largest accepted upload
-  int max_jobs = 1;                      // concurrent Prefilter/Analyze calls
+  int max_jobs = 1;                      // concurrent jobs (Prefilter, Analyze, ..., Ibl calls)
   int job_threads = 1;                   // worker threads of one job
   size_t cache_bytes = 512ull << 20;     // L_lm + rho_lpq caches together
   // Testing only: sleep this long at the start of every pipeline stage (makes jobs slow).
   absl::Duration test_stage_delay = absl::ZeroDuration();
-  // Testing only: called at the start of every Prefilter stage, after the delay (tests hold a
-  // job in its slot with it: tests/stage_gate.h).
+  // Testing only: called at the start of every Prefilter and Ibl stage, after the delay (tests
+  // hold a job in its slot with it: tests/stage_gate.h).
   std::function<void(std::string_view stage)> test_stage_hook;
 };
 
@@ -58,10 +58,13 @@ class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
                          shrm::v1::ReferenceResponse* response) override;
   grpc::Status Irradiance(grpc::ServerContext* context, const shrm::v1::IrradianceRequest* request,
                           shrm::v1::IrradianceResponse* response) override;
+  grpc::Status Ibl(grpc::ServerContext* context, const shrm::v1::IblRequest* request,
+                   grpc::ServerWriter<shrm::v1::IblEvent>* writer) override;
 
  private:
   class JobSlot;
   struct PrefilterCall;
+  struct IblCall;
   ShrmServiceImpl(const ServiceOptions& options, std::unique_ptr<BlobStore> blobs);
   // OK and a held slot, or RESOURCE_EXHAUSTED (reason SERVER_BUSY, with a retry delay) /
   // UNAVAILABLE (reason DRAINING).
@@ -76,6 +79,18 @@ class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
   absl::Status SendPrefilterResult(grpc::ServerContext* context,
                                    grpc::ServerWriter<shrm::v1::PrefilterEvent>* writer,
                                    const PrefilterCall& call, RequestLog* log);
+
+  // The Ibl call in the same three steps: decoded and pinned; the map decoded, the job run
+  // (progress events, cancellation between stages) and its files encoded; streamed back.
+  absl::Status ParseIblCall(const shrm::v1::IblRequest& request, IblCall* call);
+  absl::Status RunIblCall(grpc::ServerContext* context,
+                          grpc::ServerWriter<shrm::v1::IblEvent>* writer, IblCall* call,
+                          RequestLog* log);
+  absl::Status SendIblResult(grpc::ServerContext* context,
+                             grpc::ServerWriter<shrm::v1::IblEvent>* writer, const IblCall& call,
+                             RequestLog* log);
+  // The testing hooks (ServiceOptions::test_stage_delay, test_stage_hook) at `stage`.
+  void TestStageHooks(std::string_view stage) const;
 
   const ServiceOptions options_;
   std::unique_ptr<BlobStore> blobs_;

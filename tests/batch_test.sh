@@ -3,7 +3,8 @@
 # must write four outputs byte-identical to single `shrm prefilter` runs; a rerun skips all four
 # (resume); a changed or corrupt output, or a changed manifest option, is recomputed (and only
 # that); a manifest with bad content is rejected up front with JSON paths and nothing runs; a job
-# failing at run time (truncated EXR) makes the exit code 1 while the other jobs complete.
+# failing at run time (truncated EXR) makes the exit code 1 while the other jobs complete; an ibl
+# manifest writes the single `shrm ibl` sets, resumes, and has its options checked up front.
 #
 # Usage: batch_test.sh SHRM_BINARY REPO_ROOT   (registered with CTest as batch_test)
 set -u
@@ -172,6 +173,38 @@ if [ -x "$SHRMD" ]; then
   kill $SHRMD_PID 2>/dev/null
   wait $SHRMD_PID 2>/dev/null
 fi
+
+# --- IBL manifests: one set per map, the single run's bytes, resume, options checked up front ---
+echo "== ibl manifest"
+cat >ibl.json <<'JSON'
+{"kind": "ibl", "maps": ["maps/courtyard.exr", "maps/city.exr"],
+ "options": {"size": 16, "verify": 2, "irradiance_size": 8, "dfg_size": 16, "sheen": true},
+ "output": "ibl/{map}"}
+JSON
+"$SHRM" batch ibl.json --jobs 2 --json >ibl1.json 2>ibl1.err || fail "ibl batch exit $?: $(cat ibl1.err)"
+[ "$(count ok ibl1.json)" -eq 2 ] || fail "ibl batch: expected 2 ok: $(cat ibl1.json)"
+"$SHRM" ibl --env maps/city.exr --size 16 --verify 2 --irradiance-size 8 --dfg-size 16 --sheen \
+  -o ibl_single >/dev/null 2>&1 || fail "single shrm ibl failed"
+for f in specular.ktx2 sheen.ktx2 irradiance.ktx2 sh9.json ibl.json; do
+  cmp -s "ibl_single/$f" "ibl/city/$f" || fail "ibl batch: ibl/city/$f differs from shrm ibl's"
+done
+"$SHRM" batch ibl.json --json >ibl2.json 2>/dev/null || fail "ibl rerun exit $?"
+[ "$(count skipped ibl2.json)" -eq 2 ] || fail "ibl rerun: expected 2 skipped: $(cat ibl2.json)"
+rm ibl/courtyard/sh9.json
+"$SHRM" batch ibl.json --json >ibl3.json 2>/dev/null || fail "ibl resume exit $?"
+[ "$(count ok ibl3.json)" -eq 1 ] && [ "$(count skipped ibl3.json)" -eq 1 ] ||
+  fail "ibl: only the set missing a file must be recomputed: $(cat ibl3.json)"
+grep -q '"message": "recomputed: a file is missing"' ibl3.json || fail "ibl: reason missing: $(cat ibl3.json)"
+sed 's/"size": 16/"size": 24/; s/"sheen": true/"sheen": 1, "brdf": "x"/' ibl.json >ibl_bad.json
+"$SHRM" batch ibl_bad.json >ibl_bad.out 2>ibl_bad.err
+rc=$?
+[ $rc -eq 1 ] || fail "bad ibl manifest: exit $rc"
+for p in '\$.options.sheen: must be true or false' '\$.options.brdf: unknown option'; do
+  grep -q "$p" ibl_bad.err || fail "bad ibl manifest: no '$p' in: $(cat ibl_bad.err)"
+done
+sed 's/"size": 16/"size": 24/' ibl.json >ibl_bad2.json
+"$SHRM" batch ibl_bad2.json >/dev/null 2>ibl_bad2.err && fail "ibl size 24 accepted"
+grep -q '\$.options.size: face size 24' ibl_bad2.err || fail "ibl size 24: $(cat ibl_bad2.err)"
 
 if [ $FAILURES -ne 0 ]; then
   echo "$FAILURES failure(s)"

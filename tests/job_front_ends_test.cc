@@ -1,13 +1,14 @@
 // Every front end carries every job option the job layer declares for it (jobs/job_options.h),
-// and exposes none it does not declare: the `shrm prefilter` flags, the batch manifest's
-// "options" and the wire's PrefilterRequest. Each option's example value must reach the job
-// unchanged through each front end that carries it.
+// and exposes none it does not declare: the `shrm prefilter` and `shrm ibl` flags, the batch
+// manifest's "options" (of both kinds) and the wire's PrefilterRequest and IblRequest. Each
+// option's example value must reach the job unchanged through each front end that carries it.
 #include <gtest/gtest.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <memory>
 #include <set>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -17,7 +18,9 @@
 #include "absl/strings/str_split.h"
 #include "cli/batch_manifest.h"
 #include "cli/commands.h"
+#include "cli/ibl_job.h"
 #include "cli/prefilter_job.h"
+#include "jobs/ibl_job.h"
 #include "jobs/job_options.h"
 #include "jobs/prefilter_job.h"
 #include "proto/job_codec.h"
@@ -25,6 +28,8 @@
 namespace shrm {
 namespace {
 
+using jobs::IblJob;
+using jobs::IblJobOption;
 using jobs::JobOption;
 using jobs::PrefilterJob;
 
@@ -55,46 +60,84 @@ PrefilterJob WithExample(const JobOption& o) {
   return job;
 }
 
-std::string CliFlag(const JobOption& o) {
+IblJob IblBaseJob() {
+  IblJob job;
+  job.env.files = {kMap};
+  return job;
+}
+
+IblJob WithExample(const IblJobOption& o) {
+  IblJob job = IblBaseJob();
+  o.apply_example(&job);
+  return job;
+}
+
+template <typename Option>
+std::string CliFlag(const Option& o) {
   return absl::StrCat("--", absl::StrReplaceAll(std::string(o.name), {{"_", "-"}}));
 }
 
-TEST(JobOptionsTable, NamesAreUniqueAndExamplesChangeTheJob) {
+// Unique names, help texts, examples that change the job, and a reason for every front end that
+// does not carry an option.
+template <typename Option, typename Job>
+void CheckTable(std::span<const Option> table, const Job& base) {
   std::set<std::string> names;
-  for (const JobOption& o : jobs::PrefilterJobOptions()) {
+  for (const Option& o : table) {
     EXPECT_TRUE(names.insert(std::string(o.name)).second) << o.name;
     EXPECT_FALSE(o.help.empty()) << o.name;
-    EXPECT_FALSE(WithExample(o) == BaseJob()) << o.name << ": the example sets nothing";
+    EXPECT_FALSE(WithExample(o) == base) << o.name << ": the example sets nothing";
     const bool everywhere = o.front_ends == (jobs::kCommandLine | jobs::kManifest | jobs::kWire);
     EXPECT_EQ(o.why_not_everywhere.empty(), everywhere) << o.name;
     EXPECT_EQ(o.manifest_example.empty(), !(o.front_ends & jobs::kManifest)) << o.name;
   }
 }
 
-TEST(JobFrontEnds, CommandLineCarriesEveryDeclaredOption) {
-  for (const JobOption& o : jobs::PrefilterJobOptions()) {
-    if (!(o.front_ends & jobs::kCommandLine)) continue;
-    const std::vector<std::string> example = absl::StrSplit(std::string(o.cli_example), ' ');
-    ASSERT_EQ(example[0], CliFlag(o)) << "the example must use the option's flag";
-    // The base command line, without the flag the example gives.
-    std::vector<std::string> args = {"prefilter", "-o", "x.shrm.exr"};
-    if (o.name != "env") args.insert(args.end(), {"--env", kMap});
-    if (o.name != "brdf") args.insert(args.end(), {"--brdf", kBrdf});
-    args.insert(args.end(), example.begin(), example.end());
-    absl::StatusOr<PrefilterJob> job = cli::ParsePrefilterCommandLine(args);
-    ASSERT_TRUE(job.ok()) << o.name << ": " << job.status();
-    PrefilterJob want = WithExample(o);
-    EXPECT_TRUE(*job == want) << o.name << ": " << o.cli_example << " did not reach the job";
+TEST(JobOptionsTable, NamesAreUniqueAndExamplesChangeTheJob) {
+  CheckTable(jobs::PrefilterJobOptions(), BaseJob());
+  CheckTable(jobs::IblJobOptions(), IblBaseJob());
+  // The IBL examples are valid jobs (the command line and the wire validate them).
+  for (const IblJobOption& o : jobs::IblJobOptions()) {
+    EXPECT_TRUE(jobs::ValidateIblJob(WithExample(o)).ok()) << o.name;
   }
 }
 
-TEST(JobFrontEnds, CommandLineExposesNoUndeclaredJobOption) {
+// Each declared flag's example, added to `base_args` (and --env unless it is the example),
+// reaches the job through `parse`.
+template <typename Option, typename Parse>
+void CheckCommandLine(std::span<const Option> table, std::vector<std::string> base_args,
+                      const Parse& parse) {
+  for (const Option& o : table) {
+    if (!(o.front_ends & jobs::kCommandLine)) continue;
+    const std::vector<std::string> example = absl::StrSplit(std::string(o.cli_example), ' ');
+    ASSERT_EQ(example[0], CliFlag(o)) << "the example must use the option's flag";
+    std::vector<std::string> args = base_args;
+    if (o.name != "env") args.insert(args.end(), {"--env", kMap});
+    if (o.name == "brdf") args.erase(args.begin() + 3, args.begin() + 5);  // the base's --brdf
+    args.insert(args.end(), example.begin(), example.end());
+    auto job = parse(args);
+    ASSERT_TRUE(job.ok()) << o.name << ": " << job.status();
+    EXPECT_TRUE(*job == WithExample(o))
+        << o.name << ": " << o.cli_example << " did not reach the job";
+  }
+}
+
+TEST(JobFrontEnds, CommandLineCarriesEveryDeclaredOption) {
+  CheckCommandLine(jobs::PrefilterJobOptions(), {"prefilter", "-o", "x.shrm.exr", "--brdf", kBrdf},
+                   cli::ParsePrefilterCommandLine);
+  CheckCommandLine(jobs::IblJobOptions(), {"ibl", "-o", "x_ibl"}, cli::ParseIblCommandLine);
+}
+
+// The flags of `subcommand` are declared job options or `run_flags`, and every declared one is
+// there.
+template <typename Option>
+void CheckNoUndeclaredFlags(std::span<const Option> table, const char* subcommand,
+                            void (*register_command)(CLI::App&, absl::Status*)) {
   CLI::App app;
   absl::Status status;
-  cli::RegisterPrefilter(app, &status);
-  CLI::App* sub = app.get_subcommand("prefilter");
+  register_command(app, &status);
+  CLI::App* sub = app.get_subcommand(subcommand);
   std::set<std::string> declared;
-  for (const JobOption& o : jobs::PrefilterJobOptions()) {
+  for (const Option& o : table) {
     if (o.front_ends & jobs::kCommandLine) declared.insert(CliFlag(o).substr(2));
   }
   std::set<std::string> exposed;
@@ -102,15 +145,25 @@ TEST(JobFrontEnds, CommandLineExposesNoUndeclaredJobOption) {
     for (const std::string& name : opt->get_lnames()) {
       exposed.insert(name);
       EXPECT_TRUE(declared.count(name) || kRunFlags.count(name))
-          << "--" << name << " is neither a declared job option nor a run option";
+          << subcommand << " --" << name << " is neither a declared job option nor a run option";
     }
   }
-  for (const std::string& name : declared) EXPECT_TRUE(exposed.count(name)) << "--" << name;
+  for (const std::string& name : declared) {
+    EXPECT_TRUE(exposed.count(name)) << subcommand << " --" << name;
+  }
 }
 
-TEST(JobFrontEnds, ManifestCarriesEveryDeclaredOptionAndRefusesTheOthers) {
-  for (const JobOption& o : jobs::PrefilterJobOptions()) {
-    nlohmann::json m = {{"maps", {kMap}}, {"brdfs", {kBrdf}}, {"output", "o.shrm.exr"}};
+TEST(JobFrontEnds, CommandLineExposesNoUndeclaredJobOption) {
+  CheckNoUndeclaredFlags(jobs::PrefilterJobOptions(), "prefilter", cli::RegisterPrefilter);
+  CheckNoUndeclaredFlags(jobs::IblJobOptions(), "ibl", cli::RegisterIbl);
+}
+
+// Each declared option's manifest example, in the "options" of `base`, reaches the job that
+// `job_of` reads from the parsed BatchJob; undeclared ones are refused.
+template <typename Option, typename JobOf>
+void CheckManifest(std::span<const Option> table, const nlohmann::json& base, const JobOf& job_of) {
+  for (const Option& o : table) {
+    nlohmann::json m = base;
     const bool carried = o.front_ends & jobs::kManifest;
     m["options"][std::string(o.name)] =
         carried ? nlohmann::json::parse(std::string(o.manifest_example)) : nlohmann::json("x");
@@ -125,16 +178,29 @@ TEST(JobFrontEnds, ManifestCarriesEveryDeclaredOptionAndRefusesTheOthers) {
     }
     ASSERT_TRUE(errors.empty()) << o.name << ": " << errors[0];
     ASSERT_EQ(jobs.size(), 1u);
-    EXPECT_TRUE(jobs[0].job == WithExample(o)) << o.name << ": did not reach the job";
+    EXPECT_TRUE(job_of(jobs[0]) == WithExample(o)) << o.name << ": did not reach the job";
   }
+}
+
+TEST(JobFrontEnds, ManifestCarriesEveryDeclaredOptionAndRefusesTheOthers) {
+  CheckManifest(jobs::PrefilterJobOptions(),
+                {{"maps", {kMap}}, {"brdfs", {kBrdf}}, {"output", "o.shrm.exr"}},
+                [](const cli::BatchJob& j) { return j.job; });
+  CheckManifest(jobs::IblJobOptions(), {{"kind", "ibl"}, {"maps", {kMap}}, {"output", "o_ibl"}},
+                [](const cli::BatchJob& j) {
+                  EXPECT_TRUE(j.ibl);
+                  return j.ibl_job;
+                });
   // And the manifest's own keys are only outputs.
   for (const std::string& key : kManifestOutputKeys) {
     EXPECT_EQ(jobs::FindPrefilterJobOption(key), nullptr) << key;
+    EXPECT_EQ(jobs::FindIblJobOption(key), nullptr) << key;
   }
 }
 
 // Fake blob hashes for the job's files.
-std::vector<std::string> Hashes(const PrefilterJob& job) {
+template <typename Job>
+std::vector<std::string> Hashes(const Job& job) {
   std::vector<std::string> h;
   for (size_t i = 0; i < job.env.files.size(); ++i) h.push_back(std::string(64, "0123456789"[i]));
   return h;
@@ -147,31 +213,52 @@ absl::StatusOr<shrm::v1::PrefilterRequest> Encode(const PrefilterJob& job) {
   return wire::EncodePrefilterRequest(job, env, wire::WireBrdf{job.brdf, "", ""});
 }
 
-TEST(JobFrontEnds, WireCarriesEveryDeclaredOptionAndRefusesTheOthers) {
-  for (const JobOption& o : jobs::PrefilterJobOptions()) {
-    const PrefilterJob job = WithExample(o);
-    absl::StatusOr<shrm::v1::PrefilterRequest> req = Encode(job);
+absl::StatusOr<shrm::v1::IblRequest> Encode(const IblJob& job) {
+  shrm::v1::Environment env;
+  absl::Status s = wire::EncodeEnvironment(job.env, Hashes(job), &env);
+  if (!s.ok()) return s;
+  return wire::EncodeIblRequest(job, env);
+}
+
+absl::StatusOr<wire::WirePrefilter> Decode(const shrm::v1::PrefilterRequest& req) {
+  return wire::DecodePrefilterRequest(req);
+}
+absl::StatusOr<wire::WireIbl> Decode(const shrm::v1::IblRequest& req) {
+  return wire::DecodeIblRequest(req);
+}
+
+template <typename Option>
+void CheckWire(std::span<const Option> table) {
+  for (const Option& o : table) {
+    const auto job = WithExample(o);
+    auto req = Encode(job);
     if (!(o.front_ends & jobs::kWire)) {
       EXPECT_EQ(req.status().code(), absl::StatusCode::kInvalidArgument) << o.name;
       continue;
     }
     ASSERT_TRUE(req.ok()) << o.name << ": " << req.status();
-    absl::StatusOr<wire::WirePrefilter> back = wire::DecodePrefilterRequest(*req);
+    auto back = Decode(*req);
     ASSERT_TRUE(back.ok()) << o.name << ": " << back.status();
     EXPECT_TRUE(back->job == job) << o.name << ": lost on the wire";
     EXPECT_EQ(back->sha256, Hashes(job));
   }
 }
 
+TEST(JobFrontEnds, WireCarriesEveryDeclaredOptionAndRefusesTheOthers) {
+  CheckWire(jobs::PrefilterJobOptions());
+  CheckWire(jobs::IblJobOptions());
+}
+
 // Every field of the request is written by some option (its encoding differs from the base
 // job's) or is one of the inputs' fields: a field no option reaches is a forgotten option.
-TEST(JobFrontEnds, WireHasNoFieldWithoutAnOption) {
-  const absl::StatusOr<shrm::v1::PrefilterRequest> base = Encode(BaseJob());
+template <typename Option, typename Job>
+void CheckWireFields(std::span<const Option> table, const Job& base_job) {
+  const auto base = Encode(base_job);
   ASSERT_TRUE(base.ok());
   std::set<std::string> reached;
-  for (const JobOption& o : jobs::PrefilterJobOptions()) {
+  for (const Option& o : table) {
     if (!(o.front_ends & jobs::kWire)) continue;
-    absl::StatusOr<shrm::v1::PrefilterRequest> req = Encode(WithExample(o));
+    auto req = Encode(WithExample(o));
     ASSERT_TRUE(req.ok());
     // Marks the fields in which `a` and `b` differ (each compared with the others cleared).
     auto compare = [&](const google::protobuf::Message& a, const google::protobuf::Message& b) {
@@ -192,13 +279,18 @@ TEST(JobFrontEnds, WireHasNoFieldWithoutAnOption) {
     compare(req->environment(), base->environment());
   }
   for (const google::protobuf::Descriptor* d :
-       {shrm::v1::PrefilterRequest::descriptor(), shrm::v1::Environment::descriptor()}) {
+       {base->GetDescriptor(), shrm::v1::Environment::descriptor()}) {
     for (int i = 0; i < d->field_count(); ++i) {
       const std::string name = d->field(i)->name();
       if (name == "environment" || kWireInputFields.count(name)) continue;
       EXPECT_TRUE(reached.count(name)) << d->name() << "." << name << " carries no job option";
     }
   }
+}
+
+TEST(JobFrontEnds, WireHasNoFieldWithoutAnOption) {
+  CheckWireFields(jobs::PrefilterJobOptions(), BaseJob());
+  CheckWireFields(jobs::IblJobOptions(), IblBaseJob());
 }
 
 }  // namespace
