@@ -4,7 +4,8 @@
 // (256 x 256 down to 16 x 16), its stages (the map's coefficients, the chain from them), the
 // irradiance cube, and the importance-sampled chain over the same texels. Counters: the largest
 // relative RMS and largest relative error of any level against the brute-force pixel sum at 32
-// seeded texel centres per level (|got - ref| / max(|ref|, 0.01 mean |ref|), luminance).
+// seeded texel centres per level (|got - ref| / max(|ref|, 0.01 mean |ref|), luminance). Also the
+// DFG table's time.
 // Flags: --map=NAME (default courtyard.exr), --size=S (default 256).
 #include <benchmark/benchmark.h>
 
@@ -15,6 +16,7 @@
 
 #include "core/base/cubemap.h"
 #include "core/envmap/envmap.h"
+#include "core/ibl/dfg.h"
 #include "core/ibl/split_sum.h"
 
 namespace shrm::ibl {
@@ -116,6 +118,23 @@ void BM_ImportanceSampled1024(benchmark::State& state) {
   state.counters["worst_level_max"] = largest;
 }
 BENCHMARK(BM_ImportanceSampled1024)->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();
+
+// The DFG table (core/ibl/dfg.h) by its deterministic quadrature, one thread: Filament's three
+// channels and Karis' two, at 128 and 256.
+void BM_DfgLut(benchmark::State& state) {
+  const DfgConsumer consumer = state.range(1) == 0 ? DfgConsumer::kFilament : DfgConsumer::kKaris;
+  for (auto _ : state) {
+    auto lut = ComputeDfgLut(static_cast<int>(state.range(0)), consumer, 1);
+    benchmark::DoNotOptimize(lut);
+  }
+  state.SetLabel(DfgConsumerName(consumer));
+}
+BENCHMARK(BM_DfgLut)
+    ->Args({128, 0})
+    ->Args({128, 1})
+    ->Args({256, 0})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(2);
 
 }  // namespace
 }  // namespace shrm::ibl

@@ -4,10 +4,8 @@
 // reference at normal incidence for sharp lobes; per-consumer layouts and orientation; bad inputs.
 #include "core/ibl/dfg.h"
 
-#include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <ctime>
 #include <random>
 #include <vector>
 
@@ -379,26 +377,6 @@ TEST(DfgTest, BadInputsAreInvalidArgument) {
   EXPECT_EQ(ComputeDfgLut(16, bad_offset).status().code(), absl::StatusCode::kInvalidArgument);
   const absl::Status s = ComputeDfgLut(0, DfgConsumer::kFilament).status();
   EXPECT_NE(s.message().find("[1, 4096]"), absl::string_view::npos) << s;
-}
-
-// ---- Timing (reported, not asserted: the machine is shared) ----
-
-TEST(DfgTest, ReportsTableTimes) {
-  for (int n : {128, 256}) {
-    for (DfgConsumer c : {DfgConsumer::kFilament, DfgConsumer::kKaris}) {
-      const std::clock_t c0 = std::clock();
-      const absl::StatusOr<DfgLut> lut = ComputeDfgLut(n, c, 1);
-      const std::clock_t c1 = std::clock();
-      ASSERT_TRUE(lut.ok());
-      const auto t0 = std::chrono::steady_clock::now();
-      const absl::StatusOr<DfgLut> lut2 = ComputeDfgLut(n, c, 2);
-      const auto t1 = std::chrono::steady_clock::now();
-      ASSERT_TRUE(lut2.ok());
-      std::printf("%dx%d %s: %.0f ms CPU on 1 thread, %.0f ms wall on 2 threads\n", n, n,
-                  DfgConsumerName(c), 1000.0 * (c1 - c0) / CLOCKS_PER_SEC,
-                  std::chrono::duration<double, std::milli>(t1 - t0).count());
-    }
-  }
 }
 
 }  // namespace
