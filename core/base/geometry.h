@@ -42,6 +42,13 @@ struct Mat3 {
         r.m[i][j] = m[i][0] * o.m[0][j] + m[i][1] * o.m[1][j] + m[i][2] * o.m[2][j];
     return r;
   }
+  // Exactly the identity (the "no rotation" of option structs, which skip the work then).
+  constexpr bool IsIdentity() const {
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        if (m[i][j] != (i == j ? 1.0 : 0.0)) return false;
+    return true;
+  }
   constexpr Mat3 Transposed() const {
     Mat3 r;
     for (int i = 0; i < 3; ++i)

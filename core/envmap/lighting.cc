@@ -14,19 +14,12 @@ namespace {
 
 constexpr int kChannels = 3;
 
-bool IsIdentity(const Mat3& r) {
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      if (r.m[i][j] != (i == j ? 1.0 : 0.0)) return false;
-  return true;
-}
-
 absl::Status CheckArgs(int lmax, const Mat3& rot, int num_threads) {
   if (lmax < 0) return absl::InvalidArgumentError(absl::StrCat("lmax must be >= 0, got ", lmax));
   if (num_threads < 1) {
     return absl::InvalidArgumentError(absl::StrCat("num_threads must be >= 1, got ", num_threads));
   }
-  if (!IsIdentity(rot)) {
+  if (!rot.IsIdentity()) {
     SHRM_RETURN_IF_ERROR(ValidateRotationMatrix(rot));
     if (lmax > kMaxRotationLmax) {
       return absl::InvalidArgumentError(
@@ -62,7 +55,7 @@ absl::Status RotateLighting(int lmax, const Mat3& world_rotation, std::span<doub
                                                    rgb_coeffs.size()));
   }
   SHRM_RETURN_IF_ERROR(ValidateRotationMatrix(world_rotation));
-  if (IsIdentity(world_rotation)) return absl::OkStatus();
+  if (world_rotation.IsIdentity()) return absl::OkStatus();
   const Mat3 rot_s = ShFrameRotationFromWorld(world_rotation);
   std::vector<double> in(n), out(n);
   for (int c = 0; c < kChannels; ++c) {
@@ -100,7 +93,7 @@ absl::StatusOr<std::vector<double>> LightingCoefficients(const EnvMap& map, int 
     SHRM_ASSIGN_OR_RETURN(
         coeffs, ForwardSht(grid, lmax, kChannels, resampled.pixels, num_threads, quadrature));
   }
-  if (!IsIdentity(world_rotation)) {
+  if (!world_rotation.IsIdentity()) {
     SHRM_RETURN_IF_ERROR(RotateLighting(lmax, world_rotation, coeffs));
   }
   return coeffs;
@@ -149,7 +142,7 @@ absl::StatusOr<std::vector<double>> LightingCoefficientsDirect(const EnvMap& map
   std::vector<double> coeffs(n_coeff * kChannels, 0.0);
   for (const auto& p : partial)
     for (size_t i = 0; i < coeffs.size(); ++i) coeffs[i] += p[i];
-  if (!IsIdentity(world_rotation)) {
+  if (!world_rotation.IsIdentity()) {
     SHRM_RETURN_IF_ERROR(RotateLighting(lmax, world_rotation, coeffs));
   }
   return coeffs;

@@ -22,13 +22,6 @@ constexpr int kPanelNodes = 16;
 // Luminance weights (Rec. 709) of the energy per degree that drives the degree choice.
 constexpr std::array<double, 3> kLuma = {0.2126, 0.7152, 0.0722};
 
-bool IsIdentityRotation(const Mat3& r) {
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      if (r.m[i][j] != (i == j ? 1.0 : 0.0)) return false;
-  return true;
-}
-
 bool IsPowerOfTwo(int v) { return v > 0 && (v & (v - 1)) == 0; }
 
 int Log2(int v) {
@@ -264,7 +257,7 @@ absl::StatusOr<SpecularLight> ComputeSpecularLight(const EnvMap& map, const Mat3
   int limit = map.lat_long_image() != nullptr
                   ? ShtMaxDegree(ShtGrid{map.width(), map.height(), ShtGridKind::kEquiangular})
                   : map.NativeLatLongWidth() / 2 - 1;
-  if (!IsIdentityRotation(rotation)) limit = std::min(limit, kMaxRotationLmax);
+  if (!rotation.IsIdentity()) limit = std::min(limit, kMaxRotationLmax);
   if (max_degree > 0) limit = std::min(limit, max_degree);
   limit = std::max(limit, 0);
   SpecularLight light;
