@@ -8,6 +8,8 @@
 #   2. three.js in headless Chromium (Debian's chromium, WebGL2 on SwiftShader, playwright-core)
 #      reads every texel back through GL's cube-map selection, renders the cube on a sphere (which
 #      side is +X), three's own IBL path and a LightProbe from radiance_sh9.
+#   4. Filament (WASM) in the same browser loads the KTX1 files (--containers ktx1) as it loads
+#      cmgen's and renders spheres: white furnace, orientation, CPU render of its shading.
 # npm packages are pinned in tests/engines/package-lock.json and installed with `npm ci` into
 # CACHE_DIR/engines-node (reused while the lockfile is unchanged); nothing else needs a network.
 # The maps are made here with oiiotool; screenshots land in CACHE_DIR/engines-out.
@@ -43,7 +45,7 @@ fi
 NODE_DIR="$CACHE/engines-node"
 mkdir -p "$NODE_DIR"
 cp "$ROOT"/tests/engines/package.json "$ROOT"/tests/engines/package-lock.json \
-  "$ROOT"/tests/engines/*.mjs "$ROOT"/tests/engines/*.html "$NODE_DIR/"
+  "$ROOT"/tests/engines/*.mjs "$ROOT"/tests/engines/*.js "$ROOT"/tests/engines/*.html "$NODE_DIR/"
 stamp=$(sha256sum "$NODE_DIR/package-lock.json" | cut -d' ' -f1)
 if [ -d "$NODE_DIR/node_modules" ] && [ "$(cat "$NODE_DIR/.stamp" 2>/dev/null)" = "$stamp" ]; then
   echo "PASS: npm packages cached in $NODE_DIR (package-lock.json unchanged)"
@@ -59,7 +61,7 @@ else
   tail -n 20 "$TMP/npm.log"
   exit 1
 fi
-for p in ktx-parse three playwright-core; do
+for p in ktx-parse three playwright-core filament; do
   [ -f "$NODE_DIR/node_modules/$p/package.json" ] ||
     { echo "FAIL: $NODE_DIR/node_modules/$p missing after npm ci"; exit 1; }
 done
@@ -155,6 +157,20 @@ rm -rf "$OUT"
 CHROMIUM="$CHROMIUM" run_node browser run_browser.mjs "$OUT" "$SETS/patches-rgba16f" \
   "$SETS/patches-rgba32f" "$SETS/patches-r11g11b10f" "$SETS/patches-rgb9e5" "$SETS/courtyard-rgba16f" \
   --broken "$SETS/broken-mirror-x" "$SETS/broken-flip-rows" --probe "$SETS/courtyard-rgba16f"
+
+# --- 4. Filament in Chromium (KTX1 as cmgen writes it) ---------------------------------------------
+# The white furnace, the skybox and the spheres' orientation (a negative control mirrored in x),
+# and spheres per roughness against a CPU render of Filament's shading from the set's KTX2 files.
+before=$FAILURES
+make_set filament-white white.exr --size 64 --containers ktx1 --verify 0
+make_set filament-patches patches.exr --size 128 --containers ktx2,ktx1 --verify 0
+make_set filament-courtyard courtyard.exr --size 128 --containers ktx2,ktx1 --format r11g11b10f --verify 0
+if [ "$FAILURES" -eq "$before" ]; then
+  run_node break-ktx1 break_ktx1.mjs "$SETS/filament-patches" "$SETS/filament-broken-mirror-x"
+  CHROMIUM="$CHROMIUM" run_node filament run_filament.mjs "$OUT" "$SETS/filament-white" \
+    "$SETS/filament-patches" "$SETS/filament-courtyard" --broken "$SETS/filament-broken-mirror-x"
+fi
+echo "(Filament done: $(($(date +%s) - START)) s)"
 
 PASSED=$(cat "$TMP"/*.out | grep -c '^PASS' || true)
 echo "engines_test: $(($(date +%s) - START)) s"
