@@ -152,7 +152,7 @@ void AddIblJobOptions(CLI::App* sub, IblArgs* args) {
   AddEnvOptions(sub, &args->env, /*required=*/true);
   sub->add_option("--preset", args->preset, Help("preset"))
       ->capture_default_str()
-      ->check(CLI::IsMember({"filament", "gltf", "explicit"}));
+      ->check(CLI::IsMember({"filament", "gltf", "babylon", "explicit"}));
   sub->add_option("--roughness", args->roughness, Help("roughness"));
   sub->add_option("--size", args->size, Help("size"))
       ->capture_default_str()

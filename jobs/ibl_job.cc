@@ -177,8 +177,9 @@ absl::Status ValidateDfgChoice(absl::string_view choice) {
 std::optional<ibl::DfgConsumer> ResolvedDfg(const IblJob& job) {
   if (job.dfg == "none") return std::nullopt;
   if (job.dfg == "auto") {
-    return job.preset == ibl::RoughnessPreset::kFilament ? ibl::DfgConsumer::kFilament
-                                                         : ibl::DfgConsumer::kGltfLutGgx;
+    return job.preset == ibl::RoughnessPreset::kFilament  ? ibl::DfgConsumer::kFilament
+           : job.preset == ibl::RoughnessPreset::kBabylon ? ibl::DfgConsumer::kBabylon
+                                                          : ibl::DfgConsumer::kGltfLutGgx;
   }
   for (ibl::DfgConsumer c : kDfgConsumers)
     if (job.dfg == ibl::DfgConsumerName(c)) return c;

@@ -98,7 +98,9 @@ const std::array<JobOption, 16> kPrefilterOptions =
 
 // The IBL job's own options (after the environment's).
 const std::array<IblJobOption, 13> kIblJobOptions = {{
-    {"preset", "roughness per mip: filament (cmgen), gltf (glTF-IBL-Sampler) or explicit",
+    {"preset",
+     "roughness per mip: filament (cmgen), gltf (glTF-IBL-Sampler), babylon (Babylon.js's "
+     "glTF loader) or explicit",
      kEverywhere, "--preset gltf", "\"gltf\"",
      [](IblJob* j) { j->preset = ibl::RoughnessPreset::kGltf; }, ""},
     {"roughness", "explicit perceptual roughness per level, r0,r1,... (implies --preset explicit)",

@@ -28,6 +28,7 @@ constexpr std::pair<ibl::RoughnessPreset, v1::IblPreset> kIblPresets[] = {
     {ibl::RoughnessPreset::kFilament, v1::IBL_PRESET_FILAMENT},
     {ibl::RoughnessPreset::kGltf, v1::IBL_PRESET_GLTF},
     {ibl::RoughnessPreset::kExplicit, v1::IBL_PRESET_EXPLICIT},
+    {ibl::RoughnessPreset::kBabylon, v1::IBL_PRESET_BABYLON},
     {ibl::RoughnessPreset::kFilament, v1::IBL_PRESET_UNSPECIFIED}};
 constexpr std::pair<jobs::IblFormat, v1::IblFormat> kIblFormats[] = {
     {jobs::IblFormat::kRgba16f, v1::IBL_FORMAT_RGBA16F},

@@ -99,6 +99,21 @@ TEST(SplitSumTest, PresetsFollowTheConsumersFormulas) {
   ASSERT_TRUE(g.ok()) << g.status();
   ASSERT_EQ(g->levels(), 8);  // glTF-IBL-Sampler: floor(log2(256)) mips
   for (int k = 0; k < 8; ++k) EXPECT_NEAR(g->roughness[k], k / 7.0, 1e-15);
+  // Babylon.js: its glTF loader sets lodGenerationScale = (levels - 1) / log2(size) and its PBR
+  // shader reads lod = log2(size alphaG) x lodGenerationScale; level k must hold that alpha.
+  for (int levels : {0, 5}) {
+    auto b = MakeMipChain(RoughnessPreset::kBabylon, 256, levels);
+    ASSERT_TRUE(b.ok()) << b.status();
+    const int n = levels == 0 ? 9 : levels;  // default: the full chain, 256 down to 1 x 1
+    ASSERT_EQ(b->levels(), n);
+    EXPECT_EQ(b->roughness[0], 0.0);
+    EXPECT_EQ(b->face_size[n - 1], 256 >> (n - 1));
+    for (int k = 1; k < n; ++k) {
+      const double alpha = b->roughness[k] * b->roughness[k];
+      EXPECT_NEAR(std::log2(256 * alpha) * (n - 1) / std::log2(256.0), k, 1e-12) << k;
+    }
+    EXPECT_NEAR(b->roughness[n - 1], 1.0, 1e-15);
+  }
   const double list[] = {0, 0.5, 1};
   auto e = MakeMipChain(RoughnessPreset::kExplicit, 64, 0, list);
   ASSERT_TRUE(e.ok()) << e.status();

@@ -78,6 +78,8 @@ const char* RoughnessPresetName(RoughnessPreset preset) {
       return "filament";
     case RoughnessPreset::kGltf:
       return "gltf";
+    case RoughnessPreset::kBabylon:
+      return "babylon";
     default:
       return "explicit";
   }
@@ -88,8 +90,10 @@ absl::StatusOr<RoughnessPreset> ParseRoughnessPreset(std::string_view name) {
   if (n == "filament") return RoughnessPreset::kFilament;
   if (n == "gltf") return RoughnessPreset::kGltf;
   if (n == "explicit") return RoughnessPreset::kExplicit;
-  return absl::InvalidArgumentError(absl::StrCat("unknown roughness preset '", std::string(name),
-                                                 "' (expected filament, gltf or explicit)"));
+  if (n == "babylon") return RoughnessPreset::kBabylon;
+  return absl::InvalidArgumentError(
+      absl::StrCat("unknown roughness preset '", std::string(name),
+                   "' (expected filament, gltf, babylon or explicit)"));
 }
 
 absl::StatusOr<MipChain> MakeMipChain(RoughnessPreset preset, int face_size, int levels,
@@ -109,8 +113,9 @@ absl::StatusOr<MipChain> MakeMipChain(RoughnessPreset preset, int face_size, int
     }
     levels = static_cast<int>(roughness.size());
   } else if (levels == 0) {
-    levels = preset == RoughnessPreset::kFilament ? std::max(1, max_levels - 4)
-                                                  : std::max(1, max_levels - 1);
+    levels = preset == RoughnessPreset::kFilament  ? std::max(1, max_levels - 4)
+             : preset == RoughnessPreset::kBabylon ? max_levels
+                                                   : std::max(1, max_levels - 1);
   }
   if (levels < 1 || levels > max_levels) {
     return absl::InvalidArgumentError(
@@ -128,6 +133,9 @@ absl::StatusOr<MipChain> MakeMipChain(RoughnessPreset preset, int face_size, int
         break;
       case RoughnessPreset::kGltf:
         r = t;
+        break;
+      case RoughnessPreset::kBabylon:  // alpha = S^(t - 1) past the base level
+        r = k == 0 ? 0.0 : std::sqrt(std::pow(static_cast<double>(face_size), t - 1));
         break;
       case RoughnessPreset::kExplicit:
         r = roughness[k];

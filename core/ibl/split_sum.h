@@ -33,7 +33,12 @@
 //    (cmgen's IBL_DEFAULT_MIN_LOD_SIZE), i.e. log2(S) - 3;
 //  - kGltf: glTF-IBL-Sampler and the Khronos sample viewer, r = t (lod = r (mipCount - 1));
 //    default levels floor(log2(S)) (the sampler's default mip count);
-//  - kExplicit: the caller's list, one r per level.
+//  - kExplicit: the caller's list, one r per level;
+//  - kBabylon: Babylon.js's EXT_lights_image_based loader (lodGenerationScale = (levels - 1) /
+//    log2(S)) and PBR shader (lod = log2(S alpha) x lodGenerationScale, pbrIBLFunctions
+//    getLodFromAlphaG): level k >= 1 holds alpha = S^(k / (levels - 1) - 1), r = sqrt(alpha)
+//    (with the full chain alpha = 2^k / S); default levels log2(S) + 1 (down to 1 x 1, as
+//    Babylon's own prefiltering).
 // The base level (r = 0) is the map itself, resampled bilinearly at the texel centres (what both
 // tools do); a level with r > 0 but a lobe narrower than its texels is still convolved.
 //
@@ -70,9 +75,9 @@ enum class SpecularLobe { kGgx, kCharlie, kLambert };
 const char* SpecularLobeName(SpecularLobe lobe);
 absl::StatusOr<SpecularLobe> ParseSpecularLobe(std::string_view name);
 
-enum class RoughnessPreset { kFilament, kGltf, kExplicit };
+enum class RoughnessPreset { kFilament, kGltf, kExplicit, kBabylon };
 
-// "filament", "gltf", "explicit" (the last only names a caller-given list).
+// "filament", "gltf", "explicit", "babylon" ("explicit" only names a caller-given list).
 const char* RoughnessPresetName(RoughnessPreset preset);
 absl::StatusOr<RoughnessPreset> ParseRoughnessPreset(std::string_view name);
 
