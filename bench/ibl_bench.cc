@@ -5,7 +5,7 @@
 // irradiance cube, and the importance-sampled chain over the same texels. Counters: the largest
 // relative RMS and largest relative error of any level against the brute-force pixel sum at 32
 // seeded texel centres per level (|got - ref| / max(|ref|, 0.01 mean |ref|), luminance). Also the
-// DFG table's time.
+// DFG table's time, and the time and size of each container and format.
 // Flags: --map=NAME (default courtyard.exr), --size=S (default 256).
 #include <benchmark/benchmark.h>
 
@@ -16,6 +16,8 @@
 
 #include "core/base/cubemap.h"
 #include "core/envmap/envmap.h"
+#include "core/export/ktx1.h"
+#include "core/export/ktx2.h"
 #include "core/ibl/dfg.h"
 #include "core/ibl/split_sum.h"
 
@@ -118,6 +120,75 @@ void BM_ImportanceSampled1024(benchmark::State& state) {
   state.counters["worst_level_max"] = largest;
 }
 BENCHMARK(BM_ImportanceSampled1024)->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();
+
+// Writing the chain (computed once) into each container and format, in memory: KTX2 (RGBA, the
+// alpha channel 1 as the job writes it) and KTX1 (RGB, Filament's frame). Counter: the file's
+// bytes.
+const SpecularChain& Chain() {
+  static const SpecularChain chain = *PrefilterSpecular(Map(), Options());
+  return chain;
+}
+
+void BM_EncodeKtx2(benchmark::State& state) {
+  const ktx2::Format format = static_cast<ktx2::Format>(state.range(0));
+  const int channels = ktx2::ChannelCount(format);
+  ktx2::Ktx2Image image;
+  image.format = format;
+  image.faces = 6;
+  image.width = image.height = Chain().levels.front().face_size;
+  for (const SpecularLevel& l : Chain().levels) {
+    ktx2::Level level;
+    level.width = level.height = l.face_size;
+    const size_t texels = l.cube.data.size() / 3;
+    level.pixels.assign(texels * channels, 1.0f);
+    for (size_t t = 0; t < texels; ++t)
+      for (int c = 0; c < 3; ++c)
+        level.pixels[t * channels + c] = std::max(0.0f, l.cube.data[t * 3 + c]);
+    image.levels.push_back(std::move(level));
+  }
+  size_t bytes = 0;
+  for (auto _ : state) {
+    auto b = ktx2::EncodeKtx2(image);
+    if (!b.ok()) state.SkipWithError(std::string(b.status().message()).c_str());
+    bytes = b->size();
+  }
+  state.counters["bytes"] = static_cast<double>(bytes);
+  state.SetLabel(std::string(ktx2::FormatName(format)));
+}
+BENCHMARK(BM_EncodeKtx2)
+    ->Arg(static_cast<int>(ktx2::Format::kR16G16B16A16Sfloat))
+    ->Arg(static_cast<int>(ktx2::Format::kR32G32B32A32Sfloat))
+    ->Arg(static_cast<int>(ktx2::Format::kB10G11R11UfloatPack32))
+    ->Arg(static_cast<int>(ktx2::Format::kE5B9G9R9UfloatPack32))
+    ->Unit(benchmark::kMillisecond);
+
+void BM_EncodeKtx1Filament(benchmark::State& state) {
+  const ktx1::Format format = static_cast<ktx1::Format>(state.range(0));
+  const Mat3 frame{{{{-1, 0, 0}, {0, 1, 0}, {0, 0, -1}}}};  // Filament's (docs/ibl.md)
+  size_t bytes = 0;
+  for (auto _ : state) {
+    ktx1::Ktx1Cube cube;
+    cube.format = format;
+    for (const SpecularLevel& l : Chain().levels) {
+      ktx1::CubeLevel level;
+      level.size = l.face_size;
+      level.pixels.resize(l.cube.data.size());
+      CubeInFrame(frame, l.face_size, 3, l.cube.data.data(), level.pixels.data());
+      for (float& v : level.pixels) v = std::max(0.0f, v);
+      cube.levels.push_back(std::move(level));
+    }
+    auto b = ktx1::EncodeKtx1Cube(cube, "bench");
+    if (!b.ok()) state.SkipWithError(std::string(b.status().message()).c_str());
+    bytes = b->size();
+  }
+  state.counters["bytes"] = static_cast<double>(bytes);
+  state.SetLabel(ktx1::FormatName(format));
+}
+BENCHMARK(BM_EncodeKtx1Filament)
+    ->Arg(static_cast<int>(ktx1::Format::kRgb16f))
+    ->Arg(static_cast<int>(ktx1::Format::kRgb32f))
+    ->Arg(static_cast<int>(ktx1::Format::kR11fG11fB10f))
+    ->Unit(benchmark::kMillisecond);
 
 // The DFG table (core/ibl/dfg.h) by its deterministic quadrature, one thread: Filament's three
 // channels and Karis' two, at 128 and 256.

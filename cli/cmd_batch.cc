@@ -192,6 +192,11 @@ void ParseIblOptions(const nlohmann::json& o, jobs::IblJob* job,
         fail("must be a number in (0, 1)");
       else
         job->tolerance = v.get<double>();
+    } else if (key == "preview") {
+      if (!v.is_boolean())
+        fail("must be true or false");
+      else
+        job->preview = v.get<bool>();
     } else if (key == "containers") {
       text([](const std::string& t) { return jobs::ParseIblContainers(t); }, &job->containers);
     } else if (key == "rotate") {
@@ -199,7 +204,8 @@ void ParseIblOptions(const nlohmann::json& o, jobs::IblJob* job,
     } else {
       fail(
           "unknown option (expected preset, roughness, size, levels, sheen, format, "
-          "irradiance_size, dfg_size, tolerance, verify, sh_window, dfg, containers, rotate)");
+          "irradiance_size, dfg_size, tolerance, verify, sh_window, dfg, containers, preview, "
+          "rotate)");
     }
   }
   if (!job->roughness.empty() && !preset_given) job->preset = ibl::RoughnessPreset::kExplicit;

@@ -179,6 +179,7 @@ void AddIblJobOptions(CLI::App* sub, IblArgs* args) {
       ->check(CLI::IsMember({"auto", "none", "cmgen"}));
   sub->add_option("--dfg", args->dfg, Help("dfg"))->capture_default_str();
   sub->add_option("--containers", args->containers, Help("containers"))->capture_default_str();
+  sub->add_flag("--preview", args->preview, Help("preview"));
 }
 
 absl::StatusOr<jobs::IblJob> IblJobFromArgs(const IblArgs& a) {
@@ -213,6 +214,7 @@ absl::StatusOr<jobs::IblJob> IblJobFromArgs(const IblArgs& a) {
                        absl::StrCat("--containers: ", containers.status().message()));
   }
   job.containers = *std::move(containers);
+  job.preview = a.preview;
   SHRM_RETURN_IF_ERROR(jobs::ValidateIblJob(job));
   return job;
 }

@@ -31,6 +31,7 @@ struct IblArgs {
   std::string sh_window = "auto";
   std::string dfg = "auto";
   std::string containers = "ktx2";
+  bool preview = false;
 };
 
 // What the command does with a job besides computing it.

@@ -433,7 +433,8 @@ nlohmann::json IblOptionsJson(const IblJob& job) {
                       {"verify", job.verify},
                       {"sh_window", IblShWindowName(job.sh_window)},
                       {"dfg", job.dfg},
-                      {"containers", IblContainersText(job.containers)}};
+                      {"containers", IblContainersText(job.containers)},
+                      {"preview", job.preview}};
   o["rotate"] = job.env.rotate_ypr_deg ? nlohmann::json(*job.env.rotate_ypr_deg) : nlohmann::json();
   return o;
 }

@@ -99,6 +99,7 @@ struct IblJob {
   IblShWindow sh_window = IblShWindow::kAuto;
   std::string dfg = "auto";
   std::vector<IblContainer> containers = {IblContainer::kKtx2};  // sorted, no repeats
+  bool preview = false;  // preview.png: the contact sheet of the chain (jobs/ibl_outputs.h)
   bool operator==(const IblJob&) const = default;
 };
 

@@ -1,5 +1,8 @@
 #include "jobs/ibl_outputs.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
@@ -195,6 +198,58 @@ absl::Status EncodeKtx1(const IblJob& job, const IblRun& run, std::vector<IblFil
   return absl::OkStatus();
 }
 
+// preview.png (docs/ibl.md "Preview"): one row per level of the specular chain, then one for the
+// irradiance cube; in a row the faces +X, -X, +Y, -Y, +Z, -Z (kPreviewTile texels each, nearest
+// texel, row 0 = t 0 as stored) and a mirror sphere seen from +Z (+Y up, +X to the right; the
+// level at the reflected direction). Exposure: level 0's median luminance at 0.18, then
+// TonemapPreview (Reinhard, sRGB). Background and gaps: 0.
+Image PreviewSheet(const IblRun& run) {
+  const int t = kPreviewTile, g = kPreviewGap;
+  std::vector<const ibl::SpecularLevel*> rows;
+  for (const ibl::SpecularLevel& l : run.specular.chain.levels) rows.push_back(&l);
+  for (const ibl::SpecularLevel& l : run.irradiance.chain.levels) rows.push_back(&l);
+  Image sheet;
+  sheet.width = 7 * t + 8 * g;
+  sheet.height = static_cast<int>(rows.size()) * (t + g) + g;
+  sheet.channels = 3;
+  sheet.pixels.assign(static_cast<size_t>(sheet.width) * sheet.height * 3, 0.0f);
+  auto put = [&](int x, int y, const float* rgb) {
+    for (int c = 0; c < 3; ++c)
+      sheet.pixels[(static_cast<size_t>(y) * sheet.width + x) * 3 + c] = rgb[c];
+  };
+  auto texel = [](const ibl::SpecularLevel& l, const Vec3& d) {
+    int face = 0;
+    double s = 0, tt = 0;
+    CubeFaceCoordinates(d, &face, &s, &tt);
+    const int n = l.face_size;
+    const int x = std::min(n - 1, static_cast<int>(s * n));
+    const int y = std::min(n - 1, static_cast<int>(tt * n));
+    return &l.cube.data[l.cube.Index(face, x, y, 0)];
+  };
+  for (size_t r = 0; r < rows.size(); ++r) {
+    const ibl::SpecularLevel& l = *rows[r];
+    const int y0 = g + static_cast<int>(r) * (t + g);
+    for (int face = 0; face < kCubeFaceCount; ++face)
+      for (int v = 0; v < t; ++v)
+        for (int u = 0; u < t; ++u)
+          put(g + face * (t + g) + u, y0 + v, texel(l, CubeTexelDirection(face, u, v, t)));
+    for (int j = 0; j < t; ++j)
+      for (int i = 0; i < t; ++i) {
+        const double x = 2 * (i + 0.5) / t - 1, y = 1 - 2 * (j + 0.5) / t, r2 = x * x + y * y;
+        if (r2 >= 1) continue;
+        const double z = std::sqrt(1 - r2);  // normal (x, y, z), view +Z: R = 2 z N - V
+        put(g + 6 * (t + g) + i, y0 + j, texel(l, Vec3{2 * z * x, 2 * z * y, 2 * z * z - 1}));
+      }
+  }
+  std::vector<double> lum;
+  const std::vector<float>& d0 = run.specular.chain.levels.front().cube.data;
+  for (size_t i = 0; i < d0.size(); i += 3)
+    lum.push_back(0.2126 * d0[i] + 0.7152 * d0[i + 1] + 0.0722 * d0[i + 2]);
+  std::nth_element(lum.begin(), lum.begin() + lum.size() / 2, lum.end());
+  const double median = lum[lum.size() / 2];
+  return TonemapPreview(sheet, median > 0 ? std::log2(0.18 / median) : 0.0);
+}
+
 // The SH9 in every consumer's convention (core/ibl/sh9.h) with its frame and what its formula
 // returns.
 absl::StatusOr<nlohmann::json> Sh9Json(const IblRun& run) {
@@ -252,6 +307,13 @@ absl::StatusOr<std::vector<IblFile>> EncodeIblOutputs(const IblJob& job, const I
   }
   if (HasContainer(job, IblContainer::kKtx1)) SHRM_RETURN_IF_ERROR(EncodeKtx1(job, run, &files));
   if (run.dfg) SHRM_RETURN_IF_ERROR(EncodeDfg(job, run, &files));
+  if (job.preview) {
+    SHRM_ASSIGN_OR_RETURN(std::string png, EncodeImage(PreviewSheet(run), ImageEncoding::kPng8));
+    files.push_back({"preview.png", std::move(png),
+                     absl::StrCat("contact sheet: ", run.specular.chain.levels.size(),
+                                  " specular levels and the irradiance, faces and a mirror sphere"),
+                     "image"});
+  }
   SHRM_ASSIGN_OR_RETURN(nlohmann::json sh9, Sh9Json(run));
   nlohmann::json sh9_file = {{"radiance_sh9", run.report["radiance_sh9"]},
                              {"sh_window", run.report["sh_window"]},

@@ -13,12 +13,19 @@
 
 namespace shrm::jobs {
 
+// preview.png's layout: tiles of kPreviewTile x kPreviewTile pixels with kPreviewGap between
+// them and at the borders; 7 tiles a row (six faces, a sphere), one row per specular level and
+// one for the irradiance.
+inline constexpr int kPreviewTile = 64;
+inline constexpr int kPreviewGap = 4;
+
 struct IblFile {
   std::string name;   // file name inside the output folder
   std::string bytes;  // contents
   std::string what;   // one line for the summary
   // "cube" (a KTX2 cube map, one level per roughness), "table" (the 2D DFG table: KTX2, EXR,
-  // PNG), "json".
+  // PNG), "ktx1" (Filament's KTX1 cubes), "gltf", "text" (sh.txt), "image" (preview.png),
+  // "json".
   std::string type;
 };
 

@@ -97,7 +97,7 @@ const std::array<JobOption, 16> kPrefilterOptions =
     Concat(EnvironmentOptions<PrefilterJob>(), kPrefilterJobOptions);
 
 // The IBL job's own options (after the environment's).
-const std::array<IblJobOption, 13> kIblJobOptions = {{
+const std::array<IblJobOption, 14> kIblJobOptions = {{
     {"preset",
      "roughness per mip: filament (cmgen), gltf (glTF-IBL-Sampler), babylon (Babylon.js's "
      "glTF loader) or explicit",
@@ -143,8 +143,11 @@ const std::array<IblJobOption, 13> kIblJobOptions = {{
        j->containers = {IblContainer::kKtx2, IblContainer::kKtx1};
      },
      ""},
+    {"preview",
+     "also preview.png: a contact sheet, one row per level (the six faces and a mirror sphere)",
+     kEverywhere, "--preview", "true", [](IblJob* j) { j->preview = true; }, ""},
 }};
-const std::array<IblJobOption, 20> kIblOptions =
+const std::array<IblJobOption, 21> kIblOptions =
     Concat(EnvironmentOptions<IblJob>(), kIblJobOptions);
 
 }  // namespace

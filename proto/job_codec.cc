@@ -233,6 +233,7 @@ v1::IblRequest EncodeIblRequest(const jobs::IblJob& job, const v1::Environment& 
   req.set_sh_window(ToProto(kIblShWindows, job.sh_window));
   req.set_dfg(job.dfg);
   req.set_containers(jobs::IblContainersText(job.containers));
+  req.set_preview(job.preview);
   return req;
 }
 
@@ -254,6 +255,7 @@ absl::StatusOr<WireIbl> DecodeIblRequest(const v1::IblRequest& request) {
   if (request.tolerance() != 0) w.job.tolerance = request.tolerance();
   if (request.has_verify()) w.job.verify = request.verify();
   if (!request.dfg().empty()) w.job.dfg = request.dfg();
+  w.job.preview = request.preview();
   if (!request.containers().empty()) {
     absl::StatusOr<std::vector<jobs::IblContainer>> containers =
         jobs::ParseIblContainers(request.containers());

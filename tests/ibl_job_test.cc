@@ -293,6 +293,89 @@ TEST(IblJobTest, Ktx1ContainerHoldsTheChainInFilamentsFrame) {
   std::remove(path.c_str());
 }
 
+// --preview: preview.png read back with OpenImageIO. A constant map gives one grey on every tile
+// pixel (the median luminance is exposed to 0.18: Reinhard then sRGB, 0.1525 -> 0.4286 ->
+// 109/255) and black gaps; on the patches map (red at world +X) the +X face of level 0 is the
+// reddest face and the mirror sphere is red on its right (+X) half.
+TEST(IblJobTest, PreviewIsAContactSheetOfTheChain) {
+  constexpr double kPng8Tol = 1.0 / 255;  // one 8-bit step
+  Image white;
+  white.width = 64;
+  white.height = 32;
+  white.channels = 3;
+  white.pixels.assign(64 * 32 * 3, 1.0f);
+  Image patches = white;
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 64; ++x)
+      for (int c = 0; c < 3; ++c) {
+        // Red (8, 0, 0) around u = 0.75 (world +X) near the horizon, grey 0.05 elsewhere.
+        const bool red = x >= 44 && x < 52 && y >= 12 && y < 20;
+        patches.pixels[(y * 64 + x) * 3 + c] = red ? (c == 0 ? 8.0f : 0.0f) : 0.05f;
+      }
+  for (int which = 0; which < 2; ++which) {
+    const std::string path = testing::UniqueTempPath(which == 0 ? "white.exr" : "patches.exr");
+    ASSERT_TRUE(WriteExr(path, which == 0 ? white : patches).ok());
+    IblJob job = SmallJob(path);
+    job.face_size = 16;
+    job.verify = 0;
+    job.preview = true;
+    auto run = RunIblJob(job, 2);
+    ASSERT_TRUE(run.ok()) << run.status();
+    auto files = EncodeIblOutputs(job, *run);
+    ASSERT_TRUE(files.ok()) << files.status();
+    const IblFile* png = nullptr;
+    for (const IblFile& f : *files)
+      if (f.name == "preview.png") png = &f;
+    ASSERT_NE(png, nullptr);
+    EXPECT_EQ(png->type, "image");
+    const std::string tmp = testing::UniqueTempPath("preview.png");
+    ASSERT_TRUE(WriteFileAtomically(tmp, png->bytes).ok());
+    auto img = ReadImageRgb(tmp);
+    ASSERT_TRUE(img.ok()) << img.status();
+    const int rows = static_cast<int>(run->specular.chain.levels.size()) + 1;
+    const int t = kPreviewTile, g = kPreviewGap;
+    ASSERT_EQ(img->width, 7 * t + 8 * g);
+    ASSERT_EQ(img->height, rows * (t + g) + g);
+    auto tile_mean = [&](int row, int col, int c, bool right_half = false) {
+      double sum = 0;
+      int n = 0;
+      for (int v = 0; v < t; ++v)
+        for (int u = right_half ? t / 2 : 0; u < (right_half ? t : t / 2); ++u) {
+          sum += img->at(g + col * (t + g) + u, g + row * (t + g) + v, c);
+          ++n;
+        }
+      return sum / n;
+    };
+    if (which == 0) {
+      const double grey = 0.15254237288135594;  // 0.18 / 1.18
+      const double want = 1.055 * std::pow(grey, 1 / 2.4) - 0.055;
+      for (int row = 0; row < rows; ++row)
+        for (int col = 0; col < 6; ++col)
+          for (int v = 0; v < t; v += 7)
+            for (int u = 0; u < t; u += 7)
+              ASSERT_NEAR(img->at(g + col * (t + g) + u, g + row * (t + g) + v, 1), want, kPng8Tol)
+                  << "row " << row << " tile " << col;
+      EXPECT_NEAR(img->at(g + 6 * (t + g) + t / 2, g + t / 2, 0), want, kPng8Tol);  // sphere
+      EXPECT_EQ(img->at(0, 0, 0), 0.0f);                                            // border
+      EXPECT_EQ(img->at(g + t + g / 2, g + t / 2, 0), 0.0f);                        // gap
+    } else {
+      int reddest = -1;
+      double best = -1;
+      for (int col = 0; col < 6; ++col) {
+        const double red = (tile_mean(0, col, 0) + tile_mean(0, col, 0, true)) -
+                           (tile_mean(0, col, 1) + tile_mean(0, col, 1, true));
+        if (red > best) best = red, reddest = col;
+      }
+      EXPECT_EQ(reddest, kPosX);
+      EXPECT_GT(tile_mean(0, 6, 0, true) - tile_mean(0, 6, 1, true),
+                tile_mean(0, 6, 0) - tile_mean(0, 6, 1))
+          << "the mirror sphere's red is on its +X (right) half";
+    }
+    std::remove(tmp.c_str());
+    std::remove(path.c_str());
+  }
+}
+
 TEST(IblJobTest, AMissedTargetIsReportedWithTheLevel) {
   IblJob job = SmallJob("x.exr");
   nlohmann::json report = {{"tolerance", {{"rms", 1e-3}, {"max", 5e-3}}},

@@ -59,8 +59,11 @@ constexpr absl::Duration kSlowStage = absl::Milliseconds(200);
 constexpr absl::Duration kGateTimeout = absl::Seconds(60);
 // Attempts of a call that fails in the transport before it reaches the server.
 constexpr int kTransportAttempts = 5;
-// The deadline: far shorter than a slow job (~1.2 s).
-constexpr absl::Duration kShortDeadline = absl::Milliseconds(200);
+// The deadline of the abandonment test: the job is held at the stage gate until it has passed,
+// so it only has to be long enough for the call to reach the server on a loaded 2-core machine
+// (a 200 ms deadline once expired before the call arrived, and nothing was abandoned). Not a
+// timing claim: the test waits for it to pass.
+constexpr absl::Duration kHeldDeadline = absl::Seconds(10);
 // How long the server may take to notice a deadline or a cancellation and stop the job: it checks
 // between stages, so one slow stage (200 ms) plus scheduling; generous, because the poll returns
 // as soon as the count moves and a loaded 2-core CI machine must not fail it.
@@ -484,16 +487,24 @@ TEST_F(ServiceTest, AdmissionControlRefusesExcessJobsQuickly) {
 }
 
 TEST_F(ServiceTest, ShortDeadlineGivesDeadlineExceededAndTheServerAbandonsTheJob) {
+  // By the order of events: the job waits at the gate until the client has seen its deadline
+  // pass, then the server must stop it at its next stage check and count it.
   ServerOptions opt;
-  opt.service.test_stage_delay = kSlowStage;
+  testing::StageGate gate;
+  opt.service.test_stage_hook = gate.Hook();
   auto c = StartServer(opt);
   absl::StatusOr<std::string> sha = c->UploadIfMissing(MapPath("interior.exr"));
   ASSERT_TRUE(sha.ok());
   auto abandoned = [] { return server::Metrics::Global().AbandonedCount("deadline"); };
   const uint64_t before = abandoned();
-  absl::StatusOr<client::PrefilterOutcome> r =
-      c->Prefilter(Request(*sha, "phong:s=32"), nullptr, kShortDeadline);
-  EXPECT_EQ(r.status().code(), absl::StatusCode::kDeadlineExceeded) << r.status();
+  absl::Status status;
+  std::thread caller(
+      [&] { status = c->Prefilter(Request(*sha, "phong:s=32"), nullptr, kHeldDeadline).status(); });
+  const bool reached = gate.WaitHeld(1, kGateTimeout);
+  caller.join();  // returns once the deadline has passed: the job is held meanwhile
+  gate.Open();
+  ASSERT_TRUE(reached) << "the job never reached a stage";
+  EXPECT_EQ(status.code(), absl::StatusCode::kDeadlineExceeded) << status;
   // The server stops the job at its next stage boundary, counted in /metrics.
   EXPECT_EQ(WaitForIncrease(abandoned, before), before + 1);
   EXPECT_NE(

@@ -233,7 +233,7 @@ absl::StatusOr<std::string> EncodeImage(const Image& image, ImageEncoding encodi
   return std::string(proxy.buffer().begin(), proxy.buffer().end());
 }
 
-absl::Status WritePreviewPng(const std::string& path, const Image& linear, double exposure) {
+Image TonemapPreview(const Image& linear, double exposure) {
   Image encoded = linear;
   const double scale = std::exp2(exposure);
   for (float& v : encoded.pixels) {
@@ -242,7 +242,11 @@ absl::Status WritePreviewPng(const std::string& path, const Image& linear, doubl
     x = x / (1.0 + x);
     v = static_cast<float>(x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1 / 2.4) - 0.055);
   }
-  return WriteImage8Bit(path, encoded);
+  return encoded;
+}
+
+absl::Status WritePreviewPng(const std::string& path, const Image& linear, double exposure) {
+  return WriteImage8Bit(path, TonemapPreview(linear, exposure));
 }
 
 }  // namespace shrm

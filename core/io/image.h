@@ -72,6 +72,8 @@ absl::Status WriteExr(const std::string& path, const Image& image);
 // Writes a tone-mapped 8-bit sRGB preview (PNG or TIFF by extension) of a linear RGB image: scale
 // by 2^exposure, Reinhard x / (1 + x) per channel, sRGB OETF, 8-bit rounding. Atomic like WriteExr.
 absl::Status WritePreviewPng(const std::string& path, const Image& linear, double exposure = 0);
+// The same tone mapping in memory: values in [0, 1], sRGB-encoded, for EncodeImage(kPng8).
+Image TonemapPreview(const Image& linear, double exposure = 0);
 
 // Writes `image` (values in [0, 1], clamped; NaN -> 0) as 8-bit PNG or TIFF, chosen by the
 // extension (.png, .tif, .tiff; anything else is InvalidArgument), without any colour
