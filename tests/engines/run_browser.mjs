@@ -24,17 +24,14 @@
 //   LightProbe:  radiance_sh9 converted to three's SphericalHarmonics3 lights a Lambert sphere:
 //                rendered = three's SH irradiance formula evaluated in node, red around +X,
 //                and close to irradiance.ktx2.
-import { createServer } from 'node:http';
-import { readFileSync, existsSync, statSync, writeFileSync, mkdirSync } from 'node:fs';
-import { join, resolve, extname, dirname, basename } from 'node:path';
-import { fileURLToPath } from 'node:url';
-import { chromium } from 'playwright-core';
+import { readFileSync, existsSync, writeFileSync, mkdirSync } from 'node:fs';
+import { join, resolve, basename } from 'node:path';
+import { serveEngines, launchChromium } from './browser.mjs';
 import { read } from 'ktx-parse';
 import {
   decodeCubeLevel, texelDirection, sampleNearest, normalize, projectToThreeSh9, patchCentre,
 } from './ktx_cube.mjs';
 
-const HERE = dirname(fileURLToPath(import.meta.url));
 const groups = { '': [], '--broken': [], '--probe': [] };
 let group = '';
 for (const a of process.argv.slice(2)) {
@@ -62,23 +59,10 @@ const check = (ok, m) => (ok ? pass(m) : fail(m));
 
 // --- loopback server: /engines/ = this folder, /node_modules/, /set/<k>/ = the sets -----------
 const sets = [patchSet, ...lookupSets, ...brokenSets];
-const MIME = { '.html': 'text/html', '.mjs': 'text/javascript', '.js': 'text/javascript', '.json': 'application/json' };
-const server = createServer((req, res) => {
-  const url = decodeURIComponent(new URL(req.url, 'http://x').pathname);
-  let file = null;
-  let m;
-  if ((m = url.match(/^\/engines\/([\w.-]+)$/))) file = join(HERE, m[1]);
-  else if (url.startsWith('/node_modules/') && !url.includes('..')) file = join(HERE, url);
-  else if ((m = url.match(/^\/set\/(\d+)\/([\w.-]+)$/)) && sets[+m[1]]) file = join(sets[+m[1]], m[2]);
-  if (!file || !existsSync(file) || !statSync(file).isFile()) {
-    res.writeHead(404).end();
-    return;
-  }
-  res.writeHead(200, { 'Content-Type': MIME[extname(file)] ?? 'application/octet-stream' });
-  res.end(readFileSync(file));
+const { server, base } = await serveEngines((url) => {
+  const m = url.match(/^\/set\/(\d+)\/([\w.-]+)$/);
+  return m && sets[+m[1]] ? join(sets[+m[1]], m[2]) : null;
 });
-await new Promise((ok) => server.listen(0, '127.0.0.1', ok));
-const base = `http://127.0.0.1:${server.address().port}`;
 
 // --- node-side decoding -------------------------------------------------------------------------
 function loadCube(file) {
@@ -288,16 +272,7 @@ async function runChecks() {
 }
 
 // --- main (last: the helpers above are initialized by now) ---------------------------------
-const browser = await chromium.launch({
-  executablePath: CHROMIUM,
-  headless: true,
-  timeout: 120000,
-  args: [
-    '--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist',
-    '--disable-background-networking', '--disable-component-update', '--disable-sync',
-    '--no-first-run', '--disable-quic',
-  ],
-});
+const browser = await launchChromium(CHROMIUM);
 const consoleLog = [];
 let page;
 try {
