@@ -192,12 +192,14 @@ void ParseIblOptions(const nlohmann::json& o, jobs::IblJob* job,
         fail("must be a number in (0, 1)");
       else
         job->tolerance = v.get<double>();
+    } else if (key == "containers") {
+      text([](const std::string& t) { return jobs::ParseIblContainers(t); }, &job->containers);
     } else if (key == "rotate") {
       if (!ParseRotate(v, &job->env.rotate_ypr_deg)) fail(kRotateError);
     } else {
       fail(
           "unknown option (expected preset, roughness, size, levels, sheen, format, "
-          "irradiance_size, dfg_size, tolerance, verify, sh_window, dfg, rotate)");
+          "irradiance_size, dfg_size, tolerance, verify, sh_window, dfg, containers, rotate)");
     }
   }
   if (!job->roughness.empty() && !preset_given) job->preset = ibl::RoughnessPreset::kExplicit;

@@ -178,6 +178,7 @@ void AddIblJobOptions(CLI::App* sub, IblArgs* args) {
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "none", "cmgen"}));
   sub->add_option("--dfg", args->dfg, Help("dfg"))->capture_default_str();
+  sub->add_option("--containers", args->containers, Help("containers"))->capture_default_str();
 }
 
 absl::StatusOr<jobs::IblJob> IblJobFromArgs(const IblArgs& a) {
@@ -205,6 +206,13 @@ absl::StatusOr<jobs::IblJob> IblJobFromArgs(const IblArgs& a) {
   job.verify = a.verify;
   SHRM_ASSIGN_OR_RETURN(job.sh_window, jobs::ParseIblShWindow(a.sh_window));
   job.dfg = a.dfg;
+  absl::StatusOr<std::vector<jobs::IblContainer>> containers =
+      jobs::ParseIblContainers(a.containers);
+  if (!containers.ok()) {
+    return WithMessage(containers.status(),
+                       absl::StrCat("--containers: ", containers.status().message()));
+  }
+  job.containers = *std::move(containers);
   SHRM_RETURN_IF_ERROR(jobs::ValidateIblJob(job));
   return job;
 }

@@ -30,6 +30,7 @@ struct IblArgs {
   int verify = jobs::kDefaultIblVerify;
   std::string sh_window = "auto";
   std::string dfg = "auto";
+  std::string containers = "ktx2";
 };
 
 // What the command does with a job besides computing it.

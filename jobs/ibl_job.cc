@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 #include "core/base/cubemap.h"
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
@@ -210,6 +211,49 @@ double IblFormatRounding(IblFormat format) {
   }
 }
 
+const char* IblContainerName(IblContainer container) {
+  switch (container) {
+    case IblContainer::kKtx2:
+      return "ktx2";
+    case IblContainer::kKtx1:
+      return "ktx1";
+    default:
+      return "gltf";
+  }
+}
+
+absl::StatusOr<std::vector<IblContainer>> ParseIblContainers(absl::string_view list) {
+  constexpr IblContainer kAll[] = {IblContainer::kKtx2, IblContainer::kKtx1, IblContainer::kGltf};
+  if (list == "all") return std::vector<IblContainer>(std::begin(kAll), std::end(kAll));
+  std::vector<IblContainer> out;
+  for (absl::string_view name : absl::StrSplit(list, ',')) {
+    const IblContainer* c = std::find_if(std::begin(kAll), std::end(kAll), [&](IblContainer x) {
+      return name == IblContainerName(x);
+    });
+    if (c == std::end(kAll)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "unknown container \"", name, "\" (expected a list of ktx2, ktx1, gltf, or all)"));
+    }
+    if (std::find(out.begin(), out.end(), *c) != out.end()) {
+      return absl::InvalidArgumentError(absl::StrCat("container ", name, " given twice"));
+    }
+    out.push_back(*c);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::string IblContainersText(const std::vector<IblContainer>& containers) {
+  std::string out;
+  for (IblContainer c : containers)
+    absl::StrAppend(&out, out.empty() ? "" : ",", IblContainerName(c));
+  return out;
+}
+
+bool HasContainer(const IblJob& job, IblContainer container) {
+  return std::find(job.containers.begin(), job.containers.end(), container) != job.containers.end();
+}
+
 absl::Status ValidateIblJob(const IblJob& job) {
   SHRM_RETURN_IF_ERROR(ValidateEnvironment(job.env));
   if (!(job.tolerance > 0 && job.tolerance < 1)) {
@@ -229,6 +273,19 @@ absl::Status ValidateIblJob(const IblJob& job) {
         absl::StrCat("DFG size must be in [1, ", kMaxDfgSize, "], got ", job.dfg_size));
   }
   SHRM_RETURN_IF_ERROR(ValidateDfgChoice(job.dfg));
+  if (job.containers.empty()) {
+    return absl::InvalidArgumentError("containers: give at least one of ktx2, ktx1, gltf");
+  }
+  if (!std::is_sorted(job.containers.begin(), job.containers.end()) ||
+      std::adjacent_find(job.containers.begin(), job.containers.end()) != job.containers.end()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "containers must be sorted without repeats, got ", IblContainersText(job.containers)));
+  }
+  if (HasContainer(job, IblContainer::kKtx1) && job.format == IblFormat::kE5b9g9r9) {
+    return absl::InvalidArgumentError(
+        "the ktx1 container cannot hold rgb9e5 (Filament's KTX1 reader has no pixel type for "
+        "RGB9_E5): use the format rgba16f, rgba32f or r11g11b10f");
+  }
   if (job.preset != ibl::RoughnessPreset::kExplicit && !job.roughness.empty()) {
     return absl::InvalidArgumentError(
         absl::StrCat("a roughness list needs the explicit preset (got preset ",
@@ -256,7 +313,9 @@ absl::Status ValidateIblJobNamingOptions(
       {"irradiance_size",
        [](const IblJob& f, IblJob* t) { t->irradiance_size = f.irradiance_size; }},
       {"dfg_size", [](const IblJob& f, IblJob* t) { t->dfg_size = f.dfg_size; }},
-      {"dfg", [](const IblJob& f, IblJob* t) { t->dfg = f.dfg; }}};
+      {"dfg", [](const IblJob& f, IblJob* t) { t->dfg = f.dfg; }},
+      {"format", [](const IblJob& f, IblJob* t) { t->format = f.format; }},
+      {"containers", [](const IblJob& f, IblJob* t) { t->containers = f.containers; }}};
   IblJob probe;
   for (const auto& [option, copy] : kOptions) {
     copy(job, &probe);
@@ -372,7 +431,8 @@ nlohmann::json IblOptionsJson(const IblJob& job) {
                       {"tolerance", job.tolerance},
                       {"verify", job.verify},
                       {"sh_window", IblShWindowName(job.sh_window)},
-                      {"dfg", job.dfg}};
+                      {"dfg", job.dfg},
+                      {"containers", IblContainersText(job.containers)}};
   o["rotate"] = job.env.rotate_ypr_deg ? nlohmann::json(*job.env.rotate_ypr_deg) : nlohmann::json();
   return o;
 }

@@ -63,6 +63,19 @@ enum class IblShWindow { kAuto, kNone, kCmgen };
 const char* IblShWindowName(IblShWindow window);  // "auto", "none", "cmgen"
 absl::StatusOr<IblShWindow> ParseIblShWindow(absl::string_view name);
 
+// The containers the set is written in (docs/ibl.md "Files"; sh9.json, ibl.json and the DFG
+// table's EXR and PNG are always written):
+//   kKtx2  specular.ktx2, [sheen.ktx2], irradiance.ktx2, dfg.ktx2 (the default)
+//   kKtx1  Filament's files as cmgen --deploy writes them: ibl.ktx (the specular chain with the
+//          "sh" key), skybox.ktx (level 0) and sh.txt, in Filament's frame (docs/ibl.md)
+//   kGltf  ibl.glb: glTF 2.0 with EXT_lights_image_based and a sphere per roughness
+enum class IblContainer { kKtx2, kKtx1, kGltf };
+const char* IblContainerName(IblContainer container);  // "ktx2", "ktx1", "gltf"
+// "ktx1,ktx2" -> {kKtx2, kKtx1} (sorted as the enum; "all" = every container). InvalidArgument
+// on an empty list, an unknown name or a repeated one.
+absl::StatusOr<std::vector<IblContainer>> ParseIblContainers(absl::string_view list);
+std::string IblContainersText(const std::vector<IblContainer>& containers);  // "ktx2,ktx1"
+
 // The DFG lookup table's consumer (core/ibl/dfg.h): a name of DfgConsumerName, "auto" (the
 // preset's: filament -> "filament", otherwise "gltf-lut-ggx") or "none".
 absl::Status ValidateDfgChoice(absl::string_view choice);
@@ -85,17 +98,20 @@ struct IblJob {
   int verify = kDefaultIblVerify;  // directions per level of the job's own check; 0 = none
   IblShWindow sh_window = IblShWindow::kAuto;
   std::string dfg = "auto";
+  std::vector<IblContainer> containers = {IblContainer::kKtx2};  // sorted, no repeats
   bool operator==(const IblJob&) const = default;
 };
+
+bool HasContainer(const IblJob& job, IblContainer container);
 
 // Every option within its range, the chain buildable (MakeMipChain's errors).
 [[nodiscard]] absl::Status ValidateIblJob(const IblJob& job);
 
 // ValidateIblJob with the first invalid option named: the options (by their names in
 // jobs/job_options.h: env, size, roughness with the preset, levels, tolerance, verify,
-// irradiance_size, dfg_size) are added one by one to a default job, and the first that makes it
-// invalid is reported as "<name(option)>: <the job's message>". Front ends name their fields
-// with `name` (the wire's face_size, the manifest's $.options.size).
+// irradiance_size, dfg_size, dfg, format, containers) are added one by one to a default job, and
+// the first that makes it invalid is reported as "<name(option)>: <the job's message>". Front ends
+// name their fields with `name` (the wire's face_size, the manifest's $.options.size).
 [[nodiscard]] absl::Status ValidateIblJobNamingOptions(
     const IblJob& job, const std::function<std::string(std::string_view option)>& name);
 

@@ -3,7 +3,9 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "core/base/cubemap.h"
 #include "core/base/status_macros.h"
+#include "core/export/ktx1.h"
 #include "core/export/ktx2.h"
 #include "core/ibl/sh9.h"
 #include "core/io/image.h"
@@ -103,13 +105,93 @@ absl::Status EncodeDfg(const IblJob& job, const IblRun& run, std::vector<IblFile
       ": column i at N.V = (i + 0.5) / n, row j at roughness (j + 0.5) / n (docs/ibl_dfg.md)");
   ktx2::EncodeOptions opt;
   opt.writer = absl::StrCat("shrm ", kVersion);
-  SHRM_ASSIGN_OR_RETURN(std::string ktx, ktx2::EncodeKtx2(image, opt));
   SHRM_ASSIGN_OR_RETURN(std::string exr, EncodeImage(rgb, ImageEncoding::kExrFloat));
   SHRM_ASSIGN_OR_RETURN(std::string png, EncodeImage(rgb, ImageEncoding::kPng8));
   const std::string what = absl::StrCat("DFG table (", consumer, "), ", lut.size, " x ", lut.size);
-  files->push_back({"dfg.ktx2", std::move(ktx), what, "table"});
+  if (HasContainer(job, IblContainer::kKtx2)) {
+    SHRM_ASSIGN_OR_RETURN(std::string ktx, ktx2::EncodeKtx2(image, opt));
+    files->push_back({"dfg.ktx2", std::move(ktx), what, "table"});
+  }
   files->push_back({"dfg.exr", std::move(exr), what + ", float", "table"});
   files->push_back({"dfg.png", std::move(png), what + ", 8-bit", "table"});
+  return absl::OkStatus();
+}
+
+// KTX1 for Filament (docs/ibl.md "KTX1 for Filament"): cmgen --deploy's ibl.ktx (the specular
+// chain, the irradiance SH as the "sh" key), skybox.ktx (level 0) and sh.txt, with the faces in
+// Filament's frame (the cube a cmgen import of the same lat-long map gives: core/ibl/sh9.h
+// ConsumerFrameMatrix(kFilament), an exact permutation of our texels).
+ktx1::Format Ktx1Format(IblFormat format) {
+  switch (format) {
+    case IblFormat::kRgba32f:
+      return ktx1::Format::kRgb32f;
+    case IblFormat::kB10g11r11:
+      return ktx1::Format::kR11fG11fB10f;
+    default:
+      return ktx1::Format::kRgb16f;  // rgba16f (rgb9e5 is refused by ValidateIblJob)
+  }
+}
+
+absl::Status EncodeKtx1(const IblJob& job, const IblRun& run, std::vector<IblFile>* files) {
+  const Mat3 frame = ibl::ConsumerFrameMatrix(ibl::Sh9Convention::kFilament);
+  SHRM_ASSIGN_OR_RETURN(
+      const ibl::Sh9Rgb sh,
+      ibl::ConvertRadianceSh9(run.radiance_sh9, 2, ibl::Sh9Convention::kFilament));
+  std::string sh_key, sh_txt;
+  for (int l = 0, i = 0; l <= 2; ++l)
+    for (int m = -l; m <= l; ++m, ++i) {
+      absl::StrAppendFormat(&sh_key, "%.9g %.9g %.9g\n", sh[i][0], sh[i][1], sh[i][2]);
+      // cmgen's outputSh lines.
+      absl::StrAppendFormat(&sh_txt,
+                            "(%18.15f, %18.15f, %18.15f); // L%d%d, irradiance, pre-scaled base\n",
+                            sh[i][0], sh[i][1], sh[i][2], l, m);
+    }
+  ktx1::Ktx1Cube ibl_cube;
+  ibl_cube.format = Ktx1Format(job.format);
+  std::vector<std::string> roughness;
+  for (const ibl::SpecularLevel& l : run.specular.chain.levels) {
+    ktx1::CubeLevel level;
+    level.size = l.face_size;
+    level.pixels.resize(l.cube.data.size());
+    if (!CubeInFrame(frame, l.face_size, 3, l.cube.data.data(), level.pixels.data())) {
+      return absl::InternalError("Filament's frame is not an axis permutation");
+    }
+    ibl_cube.levels.push_back(std::move(level));
+    roughness.push_back(absl::StrFormat("%.17g", l.roughness));
+  }
+  ktx1::Ktx1Cube sky;
+  sky.format = ibl_cube.format;
+  sky.levels.push_back(ibl_cube.levels.front());
+  const std::string frame_text =
+      "Filament's frame as cmgen places a lat-long map: n = (-x, y, -z) of the world direction "
+      "(shrm docs/ibl.md); faces +X,-X,+Y,-Y,+Z,-Z in the OpenGL cube-map convention";
+  for (ktx1::Ktx1Cube* c : {&ibl_cube, &sky}) {
+    c->key_values["shrm:version"] = kVersion;
+    c->key_values["shrm:units"] =
+        absl::StrCat("linear radiance, working space ", job.env.working_colour_space);
+    c->key_values["shrm:cube"] = frame_text;
+    c->key_values["shrm:source"] = run.source.names;
+    c->key_values["shrm:source_sha256"] = run.source.sha256;
+  }
+  ibl_cube.key_values["sh"] = sh_key;
+  ibl_cube.key_values["shrm:content"] =
+      "split-sum prefiltered radiance (N = V = R), lobe GGX, one roughness per level; \"sh\": "
+      "Filament's pre-scaled irradiance SH (E / pi)";
+  ibl_cube.key_values["shrm:preset"] = ibl::RoughnessPresetName(job.preset);
+  ibl_cube.key_values["shrm:roughness"] = absl::StrJoin(roughness, ",");
+  sky.key_values["shrm:content"] = "the environment map resampled (the IBL's level 0)";
+  const std::string writer = absl::StrCat("shrm ", kVersion);
+  SHRM_ASSIGN_OR_RETURN(std::string ibl_bytes, ktx1::EncodeKtx1Cube(ibl_cube, writer));
+  SHRM_ASSIGN_OR_RETURN(std::string sky_bytes, ktx1::EncodeKtx1Cube(sky, writer));
+  const std::string fmt = ktx1::FormatName(ibl_cube.format);
+  files->push_back({"ibl.ktx", std::move(ibl_bytes),
+                    absl::StrCat("Filament IBL (KTX1, ", fmt, ", ", ibl_cube.levels.size(),
+                                 " levels, SH in the \"sh\" key)"),
+                    "ktx1"});
+  files->push_back({"skybox.ktx", std::move(sky_bytes),
+                    absl::StrCat("Filament skybox (KTX1, ", fmt, ")"), "ktx1"});
+  files->push_back(
+      {"sh.txt", std::move(sh_txt), "Filament's irradiance SH as cmgen writes sh.txt", "text"});
   return absl::OkStatus();
 }
 
@@ -151,21 +233,24 @@ absl::StatusOr<nlohmann::json> Sh9Json(const IblRun& run) {
 absl::StatusOr<std::vector<IblFile>> EncodeIblOutputs(const IblJob& job, const IblRun& run) {
   std::vector<IblFile> files;
   const std::string fmt = IblFormatName(job.format);
-  SHRM_ASSIGN_OR_RETURN(std::string specular, EncodeCube(job, run, run.specular));
-  files.push_back(
-      {"specular.ktx2", std::move(specular),
-       absl::StrCat("GGX radiance cube, ", run.specular.chain.levels.size(), " levels, ", fmt),
-       "cube"});
-  if (job.sheen) {
-    SHRM_ASSIGN_OR_RETURN(std::string sheen, EncodeCube(job, run, run.sheen));
-    files.push_back({"sheen.ktx2", std::move(sheen),
-                     absl::StrCat("Charlie sheen radiance cube, ", run.sheen.chain.levels.size(),
-                                  " levels, ", fmt),
-                     "cube"});
+  if (HasContainer(job, IblContainer::kKtx2)) {
+    SHRM_ASSIGN_OR_RETURN(std::string specular, EncodeCube(job, run, run.specular));
+    files.push_back(
+        {"specular.ktx2", std::move(specular),
+         absl::StrCat("GGX radiance cube, ", run.specular.chain.levels.size(), " levels, ", fmt),
+         "cube"});
+    if (job.sheen) {
+      SHRM_ASSIGN_OR_RETURN(std::string sheen, EncodeCube(job, run, run.sheen));
+      files.push_back({"sheen.ktx2", std::move(sheen),
+                       absl::StrCat("Charlie sheen radiance cube, ", run.sheen.chain.levels.size(),
+                                    " levels, ", fmt),
+                       "cube"});
+    }
+    SHRM_ASSIGN_OR_RETURN(std::string irradiance, EncodeCube(job, run, run.irradiance));
+    files.push_back({"irradiance.ktx2", std::move(irradiance),
+                     absl::StrCat("irradiance / pi cube, ", fmt), "cube"});
   }
-  SHRM_ASSIGN_OR_RETURN(std::string irradiance, EncodeCube(job, run, run.irradiance));
-  files.push_back({"irradiance.ktx2", std::move(irradiance),
-                   absl::StrCat("irradiance / pi cube, ", fmt), "cube"});
+  if (HasContainer(job, IblContainer::kKtx1)) SHRM_RETURN_IF_ERROR(EncodeKtx1(job, run, &files));
   if (run.dfg) SHRM_RETURN_IF_ERROR(EncodeDfg(job, run, &files));
   SHRM_ASSIGN_OR_RETURN(nlohmann::json sh9, Sh9Json(run));
   nlohmann::json sh9_file = {{"radiance_sh9", run.report["radiance_sh9"]},

@@ -97,7 +97,7 @@ const std::array<JobOption, 16> kPrefilterOptions =
     Concat(EnvironmentOptions<PrefilterJob>(), kPrefilterJobOptions);
 
 // The IBL job's own options (after the environment's).
-const std::array<IblJobOption, 12> kIblJobOptions = {{
+const std::array<IblJobOption, 13> kIblJobOptions = {{
     {"preset", "roughness per mip: filament (cmgen), gltf (glTF-IBL-Sampler) or explicit",
      kEverywhere, "--preset gltf", "\"gltf\"",
      [](IblJob* j) { j->preset = ibl::RoughnessPreset::kGltf; }, ""},
@@ -133,8 +133,16 @@ const std::array<IblJobOption, 12> kIblJobOptions = {{
      "DFG table for: auto (the preset's engine), none, filament, filament-cmgen-exact, "
      "filament-single-scatter, gltf-lut-ggx, gltf-lut-charlie, gltf-lut-sheen-e, babylon, karis",
      kEverywhere, "--dfg babylon", "\"babylon\"", [](IblJob* j) { j->dfg = "babylon"; }, ""},
+    {"containers",
+     "files to write, a list of: ktx2 (KTX2 cubes and DFG), ktx1 (Filament: cmgen's ibl.ktx, "
+     "skybox.ktx, sh.txt), gltf (ibl.glb with EXT_lights_image_based), or all",
+     kEverywhere, "--containers ktx2,ktx1", "\"ktx2,ktx1\"",
+     [](IblJob* j) {
+       j->containers = {IblContainer::kKtx2, IblContainer::kKtx1};
+     },
+     ""},
 }};
-const std::array<IblJobOption, 19> kIblOptions =
+const std::array<IblJobOption, 20> kIblOptions =
     Concat(EnvironmentOptions<IblJob>(), kIblJobOptions);
 
 }  // namespace

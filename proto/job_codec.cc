@@ -231,6 +231,7 @@ v1::IblRequest EncodeIblRequest(const jobs::IblJob& job, const v1::Environment& 
   req.set_verify(job.verify);
   req.set_sh_window(ToProto(kIblShWindows, job.sh_window));
   req.set_dfg(job.dfg);
+  req.set_containers(jobs::IblContainersText(job.containers));
   return req;
 }
 
@@ -252,6 +253,15 @@ absl::StatusOr<WireIbl> DecodeIblRequest(const v1::IblRequest& request) {
   if (request.tolerance() != 0) w.job.tolerance = request.tolerance();
   if (request.has_verify()) w.job.verify = request.verify();
   if (!request.dfg().empty()) w.job.dfg = request.dfg();
+  if (!request.containers().empty()) {
+    absl::StatusOr<std::vector<jobs::IblContainer>> containers =
+        jobs::ParseIblContainers(request.containers());
+    if (!containers.ok()) {
+      return WithMessage(containers.status(),
+                         absl::StrCat("containers: ", containers.status().message()));
+    }
+    w.job.containers = *std::move(containers);
+  }
   // Errors name the request's fields (jobs/job_options.h names the options).
   SHRM_RETURN_IF_ERROR(jobs::ValidateIblJobNamingOptions(w.job, [](std::string_view option) {
     return option == "env"    ? std::string("environment")

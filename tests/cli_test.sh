@@ -81,7 +81,7 @@ head -c 4096 /dev/zero >>inputs/huge.hdr
 # Output files that must not exist after a failed command (in the case's folder).
 leftovers() {
   find "$1" -mindepth 1 -maxdepth 2 \( -name '*.shrm.exr' -o -name '*.tmp-*' -o -name '*.png' \
-    -o -name '*.json' -o -name '*.exr' -o -name '*.ktx2' -o -name 'ibl_out' \) -print 2>/dev/null
+    -o -name '*.json' -o -name '*.exr' -o -name '*.ktx2' -o -name '*.ktx' -o -name 'ibl_out' \) -print 2>/dev/null
 }
 
 # expect_error NAME RC REGEX CMD...: runs CMD in a fresh folder cases/NAME (outputs go there),
@@ -339,6 +339,12 @@ expect_error ibl_roughness_not_a_number 1 "roughness: 'x' is not a number" \
   "$SHRM" "${IBL[@]}" --roughness 0,x --env "$IN/ok.pfm"
 expect_error ibl_tolerance 1 'tolerance must be in' "$SHRM" "${IBL[@]}" --tolerance 0 --env "$IN/ok.pfm"
 expect_error ibl_corrupt_map 1 'corrupt\.exr' "$SHRM" "${IBL[@]}" --env "$IN/corrupt.exr"
+expect_error ibl_unknown_container 1 'unknown container "ktx3"' \
+  "$SHRM" "${IBL[@]}" --containers ktx2,ktx3 --env "$IN/ok.pfm"
+expect_error ibl_container_twice 1 'container ktx1 given twice' \
+  "$SHRM" "${IBL[@]}" --containers ktx1,ktx1 --env "$IN/ok.pfm"
+expect_error ibl_ktx1_rgb9e5 1 'ktx1 container cannot hold rgb9e5' \
+  "$SHRM" "${IBL[@]}" --containers ktx1 --format rgb9e5 --env "$IN/ok.pfm"
 mkdir -p "$TMP/cases/ibl_output_is_a_file" && : >"$TMP/cases/ibl_output_is_a_file/ibl_file"
 expect_error ibl_output_is_a_file 1 'ibl_file is not a folder' \
   "$SHRM" ibl --size 16 -o ibl_file --env "$IN/ok.pfm"

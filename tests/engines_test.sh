@@ -8,9 +8,11 @@
 #   2. three.js in headless Chromium (Debian's chromium, WebGL2 on SwiftShader, playwright-core)
 #      reads every texel back through GL's cube-map selection, renders the cube on a sphere (which
 #      side is +X), three's own IBL path and a LightProbe from radiance_sh9;
-#   3. gltf-validator and Babylon.js (its glTF loader's EXT_lights_image_based) read ibl.glb: no
-#      validation errors, the RGBD faces = specular.ktx2, the render = a node render of Babylon's
-#      shading, the red patch on the +X side (a mirrored copy must fail).
+#   3. gltf-validator and Babylon.js (its glTF loader's EXT_lights_image_based) read ibl.glb
+#      (--containers gltf): no validation errors, the RGBD faces = specular.ktx2, Babylon's specular
+#      term = a node render of its shading, the red patch on the +X side (a mirrored copy fails);
+#   4. Filament (WASM) in the same browser loads the KTX1 files (--containers ktx1) as it loads
+#      cmgen's and renders spheres: white furnace, orientation, CPU render of its shading.
 # npm packages are pinned in tests/engines/package-lock.json and installed with `npm ci` into
 # CACHE_DIR/engines-node (reused while the lockfile is unchanged); nothing else needs a network.
 # The maps are made here with oiiotool; screenshots land in CACHE_DIR/engines-out.
@@ -46,7 +48,7 @@ fi
 NODE_DIR="$CACHE/engines-node"
 mkdir -p "$NODE_DIR"
 cp "$ROOT"/tests/engines/package.json "$ROOT"/tests/engines/package-lock.json \
-  "$ROOT"/tests/engines/*.mjs "$ROOT"/tests/engines/*.html "$NODE_DIR/"
+  "$ROOT"/tests/engines/*.mjs "$ROOT"/tests/engines/*.js "$ROOT"/tests/engines/*.html "$NODE_DIR/"
 stamp=$(sha256sum "$NODE_DIR/package-lock.json" | cut -d' ' -f1)
 if [ -d "$NODE_DIR/node_modules" ] && [ "$(cat "$NODE_DIR/.stamp" 2>/dev/null)" = "$stamp" ]; then
   echo "PASS: npm packages cached in $NODE_DIR (package-lock.json unchanged)"
@@ -62,7 +64,7 @@ else
   tail -n 20 "$TMP/npm.log"
   exit 1
 fi
-for p in ktx-parse three playwright-core; do
+for p in ktx-parse three playwright-core filament; do
   [ -f "$NODE_DIR/node_modules/$p/package.json" ] ||
     { echo "FAIL: $NODE_DIR/node_modules/$p missing after npm ci"; exit 1; }
 done
@@ -164,6 +166,7 @@ CHROMIUM="$CHROMIUM" run_node browser run_browser.mjs "$OUT" "$SETS/patches-rgba
 # faces against specular.ktx2, Babylon's render against a node render of its shading, orientation
 # with a mirrored negative control (tests/engines/babylon_run.mjs, docs/engines.md).
 # The white map makes the same scene: Babylon's environment-BRDF factor per pixel (a white furnace).
+before=$FAILURES
 make_set white-gltf white.exr --size 32 --preset gltf --containers ktx2,gltf --verify 0
 make_set patches-gltf patches.exr --size 32 --preset gltf --containers ktx2,gltf --verify 0
 make_set courtyard-gltf courtyard.exr --size 32 --preset gltf --containers ktx2,gltf --verify 0
@@ -171,8 +174,25 @@ for p in @babylonjs/core @babylonjs/loaders gltf-validator; do
   [ -f "$NODE_DIR/node_modules/$p/package.json" ] ||
     { echo "FAIL: $NODE_DIR/node_modules/$p missing after npm ci"; FAILURES=$((FAILURES + 1)); }
 done
-CHROMIUM="$CHROMIUM" run_node babylon babylon_run.mjs "$OUT" "$SETS/white-gltf" "$SETS/patches-gltf" "$SETS/courtyard-gltf"
+if [ "$FAILURES" -eq "$before" ]; then
+  CHROMIUM="$CHROMIUM" run_node babylon babylon_run.mjs "$OUT" "$SETS/white-gltf" "$SETS/patches-gltf" \
+    "$SETS/courtyard-gltf"
+fi
 echo "(Babylon.js and gltf-validator checks done: $(($(date +%s) - START)) s)"
+
+# --- 4. Filament in Chromium (KTX1 as cmgen writes it) ---------------------------------------------
+# The white furnace, the skybox and the spheres' orientation (a negative control mirrored in x),
+# and spheres per roughness against a CPU render of Filament's shading from the set's KTX2 files.
+before=$FAILURES
+make_set filament-white white.exr --size 64 --containers ktx1 --verify 0
+make_set filament-patches patches.exr --size 128 --containers ktx2,ktx1 --verify 0
+make_set filament-courtyard courtyard.exr --size 128 --containers ktx2,ktx1 --format r11g11b10f --verify 0
+if [ "$FAILURES" -eq "$before" ]; then
+  run_node break-ktx1 break_ktx1.mjs "$SETS/filament-patches" "$SETS/filament-broken-mirror-x"
+  CHROMIUM="$CHROMIUM" run_node filament run_filament.mjs "$OUT" "$SETS/filament-white" \
+    "$SETS/filament-patches" "$SETS/filament-courtyard" --broken "$SETS/filament-broken-mirror-x"
+fi
+echo "(Filament done: $(($(date +%s) - START)) s)"
 
 PASSED=$(cat "$TMP"/*.out | grep -c '^PASS' || true)
 echo "engines_test: $(($(date +%s) - START)) s"

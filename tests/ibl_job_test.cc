@@ -1,11 +1,13 @@
 // The IBL job (jobs/ibl_job.h, jobs/ibl_outputs.h): validation of every option, the embedded run
 // on a real map (its cubes against the brute-force pixel sum at texels the job did not check
 // itself), the stored values equal to what the format stores, the report's verdict, and the
-// files: their names, order and KTX2 sizes.
+// files: their names, order and KTX2 sizes; the KTX1 container's texels in Filament's frame.
 #include "jobs/ibl_job.h"
 
 #include <cmath>
+#include <cstring>
 #include <random>
+#include <sstream>
 
 #include "core/base/cubemap.h"
 #include "core/export/ktx2.h"
@@ -13,6 +15,7 @@
 #include "core/io/image.h"
 #include "gtest/gtest.h"
 #include "jobs/ibl_outputs.h"
+#include "tests/float_decoders.h"
 #include "tests/test_maps.h"
 #include "tests/test_paths.h"
 
@@ -50,7 +53,24 @@ TEST(IblJobTest, EveryOptionIsValidated) {
   bad([](IblJob& j) { j.levels = 7; }, "levels");
   bad([](IblJob& j) { j.roughness = {0, 0.5}; }, "explicit");
   bad([](IblJob& j) { j.env.files.clear(); }, "");
+  bad([](IblJob& j) { j.containers.clear(); }, "at least one");
+  bad([](IblJob& j) { j.containers = {IblContainer::kKtx1, IblContainer::kKtx2}; }, "sorted");
+  bad(
+      [](IblJob& j) {
+        j.containers = {IblContainer::kKtx1};
+        j.format = IblFormat::kE5b9g9r9;
+      },
+      "rgb9e5");
   EXPECT_FALSE(ParseIblFormat("rgb8").ok());
+  EXPECT_FALSE(ParseIblContainers("").ok());
+  EXPECT_FALSE(ParseIblContainers("ktx2,ktx2").ok());
+  EXPECT_FALSE(ParseIblContainers("KTX2").ok());
+  auto all = ParseIblContainers("all");
+  ASSERT_TRUE(all.ok());
+  EXPECT_EQ(IblContainersText(*all), "ktx2,ktx1,gltf");
+  auto sorted = ParseIblContainers("gltf,ktx2");
+  ASSERT_TRUE(sorted.ok());
+  EXPECT_EQ(IblContainersText(*sorted), "ktx2,gltf");
   for (IblFormat f :
        {IblFormat::kRgba16f, IblFormat::kRgba32f, IblFormat::kB10g11r11, IblFormat::kE5b9g9r9}) {
     auto back = ParseIblFormat(IblFormatName(f));
@@ -178,6 +198,98 @@ TEST(IblJobTest, RunsOnARealMapWithinItsTolerance) {
   // The l <= 2 truncation is measured and reported (a few percent on real maps).
   EXPECT_GT(run->report["sh9_measured"]["rms"].get<double>(), 0.0);
   EXPECT_EQ(sidecar["format"], "rgba16f");
+  std::remove(path.c_str());
+}
+
+// --containers ktx1: Filament's files (cmgen's names), no KTX2 file; ibl.ktx's texel at Filament
+// direction n is the stored chain's texel at world direction (-n.x, n.y, -n.z) (the frame of
+// docs/ibl.md, read here from the file with the KTX 1.1 layout and the specification's
+// R11F_G11F_B10F decoder), and its "sh" key and sh.txt hold sh9.json's `filament` coefficients.
+TEST(IblJobTest, Ktx1ContainerHoldsTheChainInFilamentsFrame) {
+  const std::string path = testing::UniqueTempPath("ibl_job_ktx1.exr");
+  ASSERT_TRUE(WriteExr(path, testing::LoadBundledMap("courtyard.exr", 256)).ok());
+  IblJob job = SmallJob(path);
+  job.preset = ibl::RoughnessPreset::kFilament;
+  job.levels = 2;
+  job.verify = 0;
+  job.format = IblFormat::kB10g11r11;
+  job.containers = {IblContainer::kKtx1};
+  auto run = RunIblJob(job, 2);
+  ASSERT_TRUE(run.ok()) << run.status();
+  auto files = EncodeIblOutputs(job, *run);
+  ASSERT_TRUE(files.ok()) << files.status();
+  std::map<std::string, std::string> by_name;
+  std::vector<std::string> names;
+  for (const IblFile& f : *files) {
+    names.push_back(f.name);
+    by_name[f.name] = f.bytes;
+  }
+  const std::vector<std::string> want = {"ibl.ktx", "skybox.ktx", "sh.txt",  "dfg.exr",
+                                         "dfg.png", "sh9.json",   "ibl.json"};
+  EXPECT_EQ(names, want);
+
+  const std::string& b = by_name["ibl.ktx"];
+  auto u32 = [&](size_t at) {
+    uint32_t v;
+    std::memcpy(&v, b.data() + at, 4);  // little endian (endianness 0x04030201 checked)
+    return v;
+  };
+  ASSERT_EQ(b.substr(1, 6), "KTX 11");
+  ASSERT_EQ(u32(12), 0x04030201u);
+  ASSERT_EQ(u32(28), 0x8C3Au);  // glInternalFormat GL_R11F_G11F_B10F
+  ASSERT_EQ(u32(52), 6u);       // numberOfFaces
+  ASSERT_EQ(u32(56), 2u);       // numberOfMipmapLevels
+  // Key/value data: find "sh".
+  std::string sh_value;
+  size_t at = 64;
+  for (const size_t end = at + u32(60); at < end;) {
+    const uint32_t size = u32(at);
+    const std::string entry = b.substr(at + 4, size);
+    const size_t nul = entry.find('\0');
+    if (entry.substr(0, nul) == "sh") sh_value = entry.substr(nul + 1, size - nul - 2);
+    at += 4 + size + (3 - ((size + 3) % 4));
+  }
+  const nlohmann::json sh9 = nlohmann::json::parse(by_name["sh9.json"]);
+  const auto& filament = sh9["conventions"]["filament"]["coefficients"];
+  std::istringstream sh_numbers(sh_value);
+  std::istringstream txt(by_name["sh.txt"]);
+  constexpr double kNineDigits = 1e-8;  // %.9g in the key; sh.txt has 15 decimals
+  for (int i = 0; i < 9; ++i) {
+    std::string line;
+    std::getline(txt, line);
+    double r, g, bl;
+    ASSERT_EQ(std::sscanf(line.c_str(), "(%lf, %lf, %lf);", &r, &g, &bl), 3) << line;
+    const double from_txt[3] = {r, g, bl};
+    for (int c = 0; c < 3; ++c) {
+      double v = 0;
+      ASSERT_TRUE(sh_numbers >> v);
+      const double want_c = filament[i][c].get<double>();
+      EXPECT_NEAR(v, want_c, kNineDigits * std::abs(want_c) + 1e-12) << i << " " << c;
+      EXPECT_NEAR(from_txt[c], want_c, 1e-14 + 1e-15 * std::abs(want_c)) << line;
+    }
+  }
+  // Texels: level by level, six faces of imageSize bytes each.
+  for (size_t k = 0; k < 2; ++k) {
+    const ibl::SpecularLevel& level = run->specular.chain.levels[k];
+    const int n = level.face_size;
+    ASSERT_EQ(u32(at), static_cast<uint32_t>(n * n * 4)) << "imageSize = one face";
+    at += 4;
+    for (int face = 0; face < kCubeFaceCount; ++face)
+      for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+          const std::array<double, 3> got = testing::DecodeB10G11R11(u32(at));
+          at += 4;
+          const Vec3 d = CubeTexelDirection(face, x, y, n);
+          int wf = 0;
+          double s = 0, t = 0;
+          CubeFaceCoordinates(Vec3{-d.x, d.y, -d.z}, &wf, &s, &t);
+          const int wx = static_cast<int>(s * n), wy = static_cast<int>(t * n);
+          for (int c = 0; c < 3; ++c)
+            ASSERT_EQ(got[c], level.cube.data[level.cube.Index(wf, wx, wy, c)])
+                << "level " << k << " face " << face << " (" << x << ", " << y << ")";
+        }
+  }
+  EXPECT_EQ(at, b.size());
   std::remove(path.c_str());
 }
 

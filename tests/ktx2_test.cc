@@ -5,8 +5,6 @@
 // decode formulas for the packed unsigned floats.
 #include "core/export/ktx2.h"
 
-#include <Imath/half.h>
-
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -17,9 +15,13 @@
 #include <vector>
 
 #include "gtest/gtest.h"
+#include "tests/float_decoders.h"
 
 namespace shrm::ktx2 {
 namespace {
+
+using ::shrm::testing::DecodeUfloat;
+using ::shrm::testing::ImathHalfToFloat;
 
 // Tolerances of the decoded values (relative to the value, or absolute near zero).
 constexpr double kHalfRel = 0x1p-11;     // half: RNE to 10 mantissa bits, half an ulp
@@ -318,21 +320,6 @@ std::string KeyValueOf(const Parsed& p, const std::string& key) {
 
 // ---------------------------------------------------------------------------------------------
 // Decoders from the specifications (not the encoder's code).
-
-float ImathHalfToFloat(uint16_t bits) {
-  Imath::half h;
-  h.setBits(bits);
-  return static_cast<float>(h);
-}
-
-// Unsigned 10/11-bit floats: DF spec "Unsigned 11-bit / 10-bit floating-point numbers".
-double DecodeUfloat(uint32_t n, int mantissa_bits) {
-  const uint32_t e = n >> mantissa_bits, m = n & ((1u << mantissa_bits) - 1);
-  const double frac = std::ldexp(double(m), -mantissa_bits);
-  if (e == 0) return std::ldexp(frac, -14);
-  if (e == 31) return m == 0 ? INFINITY : NAN;
-  return std::ldexp(1 + frac, int(e) - 15);
-}
 
 // E5B9G9R9: Vulkan "Shared Exponent": channel = mantissa * 2^(exp - B - N), B = 15, N = 9.
 std::array<double, 3> DecodeE5(uint32_t w) {

@@ -94,6 +94,45 @@ inline double CubeTexelSolidAngle(int x, int y, int size) {
   return area(u0, v0) - area(u0, v1) - area(u1, v0) + area(u1, v1);
 }
 
+// Whether m maps each axis onto an axis (a signed permutation matrix: entries 0 or +-1, one
+// nonzero per row and column), the frame changes that move cube texels onto cube texels.
+inline bool IsSignedPermutation(const Mat3& m) {
+  for (int i = 0; i < 3; ++i) {
+    int row = 0, col = 0;
+    for (int j = 0; j < 3; ++j) {
+      if (m.m[i][j] != 0 && std::abs(m.m[i][j]) != 1) return false;
+      row += m.m[i][j] != 0;
+      col += m.m[j][i] != 0;
+    }
+    if (row != 1 || col != 1) return false;
+  }
+  return true;
+}
+
+// The cube seen in another frame (n = M d maps world directions d to the frame's n): dst's texel
+// at direction n holds src's texel at direction M^T n. For a signed permutation M texel centres
+// go onto texel centres, so this is an exact permutation of texels (no resampling). Layout of
+// src and dst: faces +X..-Z, S x S texels each, `channels` floats per texel. Returns false (dst
+// untouched) if M is not a signed permutation.
+inline bool CubeInFrame(const Mat3& m, int size, int channels, const float* src, float* dst) {
+  if (!IsSignedPermutation(m)) return false;
+  const Mat3 mt = m.Transposed();
+  for (int face = 0; face < kCubeFaceCount; ++face)
+    for (int y = 0; y < size; ++y)
+      for (int x = 0; x < size; ++x) {
+        int f = 0;
+        double s = 0, t = 0;
+        CubeFaceCoordinates(mt * CubeFaceDirection(face, (x + 0.5) / size, (y + 0.5) / size), &f,
+                            &s, &t);
+        const int sx = static_cast<int>(std::floor(s * size));
+        const int sy = static_cast<int>(std::floor(t * size));
+        const size_t from = ((static_cast<size_t>(f) * size + sy) * size + sx) * channels;
+        const size_t to = ((static_cast<size_t>(face) * size + y) * size + x) * channels;
+        for (int c = 0; c < channels; ++c) dst[to + c] = src[from + c];
+      }
+  return true;
+}
+
 }  // namespace shrm
 
 #endif  // SHRM_CORE_BASE_CUBEMAP_H_

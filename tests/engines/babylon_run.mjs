@@ -37,7 +37,7 @@
 import { readFileSync, writeFileSync, mkdirSync } from 'node:fs';
 import { join, resolve, basename } from 'node:path';
 import { createRequire } from 'node:module';
-import { serveEngines, launchChromium } from './browser.mjs';
+import { CHROMIUM, checker, launchChromium, serve } from './harness.mjs';
 import { read } from 'ktx-parse';
 import { decodeCubeLevel, faceCoordinates, faceDirection, normalize, patchCentre } from './ktx_cube.mjs';
 import { parseGlb, writeGlb, decodePng, encodePng, specularImages } from './babylon_glb.mjs';
@@ -48,13 +48,9 @@ if (!outDir || !patchSet) {
   console.error('usage: node babylon_run.mjs OUT_DIR WHITE_SET PATCH_SET [SET ...]');
   process.exit(2);
 }
-const CHROMIUM = process.env.CHROMIUM ?? '/usr/bin/chromium';
 mkdirSync(outDir, { recursive: true });
 
-let failures = 0;
-const pass = (m) => console.log(`PASS: ${m}`);
-const fail = (m) => { console.log(`FAIL: ${m}`); failures++; };
-const check = (ok, m) => (ok ? pass(m) : fail(m));
+const { fail, check, failures } = checker();
 
 // Tolerances.
 // RGBD PNG vs specular.ktx2 (rgba16f): half an 8-bit step of v^(1/2.2) is a relative step of
@@ -79,12 +75,11 @@ const MIRROR_DEG = 20;
 // The page's camera position (Babylon and glTF z agree under the loader's root node).
 const EYE_Z = 10;
 
-// --- loopback server: /engines/ = this folder, /node_modules/, /glb/<k> = GLBs ----------------
-const glbs = [];
-const { server, base } = await serveEngines((url) => {
-  const m = url.match(/^\/glb\/(\d+)\.glb$/);
-  return m && glbs[+m[1]] ? glbs[+m[1]] : null;
-});
+// --- loopback server (harness.mjs): /engines/, /node_modules/, /set/<k>/ibl.glb ---------------
+// /set/<k>/ibl.glb: the sets, then the folder of the mirrored copy.
+const glbs = [whiteSet, patchSet, ...otherSets, join(outDir, 'mirrored')];
+const server = await serve(glbs);
+const base = server.base;
 
 // --- geometry of the scene ----------------------------------------------------------------
 const W = 768, H = 128;
@@ -219,7 +214,7 @@ function screenshot(name, pixels) {
 // One render of GLB `ci` by the page: the float pixels and what Babylon reports.
 async function babylonRender(ci, sc, linearEnv, specularOnly) {
   const res = await page.evaluate(([u, w, h, hw, hh, lin, so]) => window.shrmBabylon.render(u, w, h, hw, hh, lin, so),
-    [`/glb/${ci}.glb`, W, H, sc.halfWidth, sc.halfHeight, linearEnv, specularOnly]);
+    [`/set/${ci}/ibl.glb`, W, H, sc.halfWidth, sc.halfHeight, linearEnv, specularOnly]);
   return { img: Float32Array.from(res.pixels), info: res.info };
 }
 
@@ -344,7 +339,7 @@ async function checkSet(dir, withOrientation) {
   const sc = sceneOf(glb);
   const cube = babylonCube(levels);
   const S = light.specularImageSize, scale = (levels.length - 1) / Math.log2(S);
-  const ci = glbs.push(Buffer.from(bytes)) - 1;
+  const ci = glbs.indexOf(dir);
   const def = await babylonRender(ci, sc, false, false);
   checkDefaultRender(name, def, sc, light, S, scale);
   const spec = await babylonRender(ci, sc, true, true);
@@ -353,7 +348,7 @@ async function checkSet(dir, withOrientation) {
     const wsc = sceneOf(parseGlb(new Uint8Array(wb)));
     check(wsc.spheres.length === sc.spheres.length && wsc.spheres.every((s, k) => s.x === sc.spheres[k].x && s.roughness === sc.spheres[k].roughness),
       `white-furnace set ${basename(whiteSet)}: the same scene (sphere positions and roughness) as ${name}`);
-    whiteRender = await babylonRender(glbs.push(wb) - 1, wsc, true, true);
+    whiteRender = await babylonRender(0, wsc, true, true);
     screenshot(`babylon_${basename(whiteSet)}_specular.png`, whiteRender.img);
   }
   compareSpecular(name, spec, whiteRender, sc, cube, light, S, scale);
@@ -394,7 +389,7 @@ function orientation(img, sc) {
 }
 
 // --- main ---------------------------------------------------------------------------------------
-const browser = await launchChromium(CHROMIUM);
+const browser = await launchChromium();
 const consoleLog = [];
 let page;
 try {
@@ -412,8 +407,10 @@ try {
   check(o.ok, `orientation ${basename(patchSet)} in Babylon: red on the mirror sphere centred ${o.mirror.toFixed(1)} deg from the normal that reflects the view ray into the red patch (want < ${MIRROR_DEG}; centroid x ${o.mirrorX.toFixed(2)} > 0), red on the diffuse sphere towards +X (centroid x ${o.diffuseX.toFixed(2)} > 0.3)`);
   // Negative control: the mirrored copy must fail the orientation check.
   const mirrored = mirroredGlb(first.glb);
-  const mi = glbs.push(mirrored) - 1;
-  const res = await page.evaluate(([u, w, h, hw, hh]) => window.shrmBabylon.render(u, w, h, hw, hh, false, false), [`/glb/${mi}.glb`, W, H, first.sc.halfWidth, first.sc.halfHeight]);
+  mkdirSync(join(outDir, 'mirrored'), { recursive: true });
+  writeFileSync(join(outDir, 'mirrored', 'ibl.glb'), mirrored);
+  const mi = glbs.length - 1;
+  const res = await page.evaluate(([u, w, h, hw, hh]) => window.shrmBabylon.render(u, w, h, hw, hh, false, false), [`/set/${mi}/ibl.glb`, W, H, first.sc.halfWidth, first.sc.halfHeight]);
   const mimg = Float32Array.from(res.pixels);
   screenshot(`babylon_${basename(patchSet)}_mirrored.png`, mimg);
   const mo = orientation(mimg, first.sc);
@@ -427,5 +424,5 @@ try {
   await browser.close();
   server.close();
 }
-console.log(`babylon: ${failures === 0 ? 'all checks passed' : `${failures} check(s) failed`}`);
-process.exit(failures === 0 ? 0 : 1);
+console.log(`babylon: ${failures() === 0 ? 'all checks passed' : `${failures()} check(s) failed`}`);
+process.exit(failures() === 0 ? 0 : 1);

@@ -26,7 +26,7 @@
 //                and close to irradiance.ktx2.
 import { readFileSync, existsSync, writeFileSync, mkdirSync } from 'node:fs';
 import { join, resolve, basename } from 'node:path';
-import { serveEngines, launchChromium } from './browser.mjs';
+import { CHROMIUM, checker, launchChromium, serve } from './harness.mjs';
 import { read } from 'ktx-parse';
 import {
   decodeCubeLevel, texelDirection, sampleNearest, normalize, projectToThreeSh9, patchCentre,
@@ -45,24 +45,18 @@ if (!outDir || !patchSet) {
   console.error('usage: node run_browser.mjs OUT_DIR PATCH_SET [LOOKUP_SET ...]');
   process.exit(2);
 }
-const CHROMIUM = process.env.CHROMIUM ?? '/usr/bin/chromium';
 if (!existsSync(CHROMIUM)) {
   console.log(`FAIL: ${CHROMIUM} missing: run scripts/install-deps.sh (Debian package chromium)`);
   process.exit(1);
 }
 mkdirSync(outDir, { recursive: true });
 
-let failures = 0;
-const pass = (m) => console.log(`PASS: ${m}`);
-const fail = (m) => { console.log(`FAIL: ${m}`); failures++; };
-const check = (ok, m) => (ok ? pass(m) : fail(m));
+const { pass, fail, check, failures } = checker();
 
 // --- loopback server: /engines/ = this folder, /node_modules/, /set/<k>/ = the sets -----------
 const sets = [patchSet, ...lookupSets, ...brokenSets];
-const { server, base } = await serveEngines((url) => {
-  const m = url.match(/^\/set\/(\d+)\/([\w.-]+)$/);
-  return m && sets[+m[1]] ? join(sets[+m[1]], m[2]) : null;
-});
+const server = await serve(sets);
+const base = server.base;
 
 // --- node-side decoding -------------------------------------------------------------------------
 function loadCube(file) {
@@ -272,7 +266,7 @@ async function runChecks() {
 }
 
 // --- main (last: the helpers above are initialized by now) ---------------------------------
-const browser = await launchChromium(CHROMIUM);
+const browser = await launchChromium();
 const consoleLog = [];
 let page;
 try {
@@ -292,5 +286,5 @@ try {
   await browser.close();
   server.close();
 }
-console.log(`browser: ${failures === 0 ? 'all checks passed' : `${failures} check(s) failed`}`);
-process.exit(failures === 0 ? 0 : 1);
+console.log(`browser: ${failures() === 0 ? 'all checks passed' : `${failures()} check(s) failed`}`);
+process.exit(failures() === 0 ? 0 : 1);
