@@ -18,7 +18,7 @@ struct IblFile {
   std::string bytes;  // contents
   std::string what;   // one line for the summary
   // "cube" (a KTX2 cube map, one level per roughness), "table" (the 2D DFG table: KTX2, EXR,
-  // PNG), "json".
+  // PNG), "json", "ktx1" (Filament's KTX1 files), "gltf" (ibl.glb).
   std::string type;
 };
 
