@@ -230,7 +230,7 @@ absl::StatusOr<nlohmann::json> Sh9Json(const IblRun& run) {
 }
 
 // ibl.glb (core/export/gltf_ibl.h): the stored (rounded) GGX chain as RGBD PNG faces and the SH9
-// in the extension's frame with the gltf-babylon scaling (docs/ibl.md "glTF").
+// in the extension's frame as the literal E_lm (docs/ibl.md "glTF").
 absl::Status EncodeGltf(const IblRun& run, std::vector<IblFile>* files) {
   SHRM_ASSIGN_OR_RETURN(const ibl::Sh9Rgb coeff,
                         gltf::GltfIrradianceCoefficients(run.radiance_sh9));

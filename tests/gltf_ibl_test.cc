@@ -361,23 +361,33 @@ TEST(GltfIblTest, RgbdKnownAnswers) {
   EXPECT_NEAR(DecodeRgbd(EncodeRgbd({1000, 0, 0}))[0], 255, 1e-9);
 }
 
+// Babylon 9.35's default diffuse from irradianceCoefficients c (its loader's 1 / pi, then its
+// harmonics shader path, harmonicsFunctions.fx with preScaleForRendering's basis constants):
+// sum_i (c_i / pi) s_i k_i P_i(n), P = {1, y, z, x, yx, yz, 3z^2 - 1, zx, x^2 - y^2}.
+double BabylonDefaultDiffuse(const ibl::Sh9Rgb& c, int ch, const Vec3& n) {
+  constexpr double k[9] = {0.282095, 0.488603, 0.488603, 0.488603, 1.092548,
+                           1.092548, 0.315392, 1.092548, 0.546274};
+  constexpr double s[9] = {1, -1, 1, -1, 1, -1, 1, -1, 1};
+  const double p[9] = {
+      1, n.y, n.z, n.x, n.y * n.x, n.y * n.z, 3 * n.z * n.z - 1, n.z * n.x, n.x * n.x - n.y * n.y};
+  double e = 0;
+  for (int i = 0; i < 9; ++i) e += c[i][ch] / kPi * s[i] * k[i] * p[i];
+  return e;
+}
+
 TEST(GltfIblTest, IrradianceCoefficientsMirrorAndScale) {
-  // A radiance field L(d) = a + b x: in the images' frame (x negated) Babylon's basis term x
-  // (index 3, Condon-Shortley sign -) carries +b * pi * sqrt(4 pi / 3) / (-k1)... checked by
-  // evaluation: c_i P_i summed with Babylon's formula equals E/pi of the mirrored field.
+  // L = 1 (red) and L = -x (green; Y_11 = -sqrt(3 / 4pi) x with the Condon-Shortley phase). In the
+  // images' frame (x negated) the green field is +n_x, so Babylon must show E / pi = 1 (red) and
+  // (2/3) n_x (green: A_1 / pi).
   std::vector<double> sh(27, 0.0);
   const double y00 = 0.5 / std::sqrt(kPi), y1 = std::sqrt(3 / (4 * kPi));
-  sh[0] = 1 / y00;  // L = 1 (red)
-  sh[3 * 3 + 1] =
-      1 / y1;  // L_11 = 1/y1 in green: L = -x_s = -x with Condon-Shortley (Y_11 = -y1 x)
+  sh[0] = 1 / y00;
+  sh[3 * 3 + 1] = 1 / y1;
   const auto c = GltfIrradianceCoefficients(sh);
   ASSERT_TRUE(c.ok()) << c.status();
-  // Babylon (gltf-babylon) evaluates E/pi at its direction n; our field in the images' frame is
-  // L'(n) = L(-n_x, n_y, n_z) = +n_x (green), so E'/pi = (2/3) n_x.
   for (const Vec3 n : {Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{-0.6, 0, 0.8}}) {
-    const auto e = ibl::EvalConsumerSh9(ibl::Sh9Convention::kGltfBabylon, *c, n);
-    EXPECT_NEAR(e[0], 1.0, 1e-3);  // E / pi of a constant 1 (Babylon's 0.886277 typo: 6e-5)
-    EXPECT_NEAR(e[1], 2.0 / 3 * n.x, 1e-3);
+    EXPECT_NEAR(BabylonDefaultDiffuse(*c, 0, n), 1.0, 1e-5);  // 6-digit constants
+    EXPECT_NEAR(BabylonDefaultDiffuse(*c, 1, n), 2.0 / 3 * n.x, 1e-5);
   }
   EXPECT_FALSE(GltfIrradianceCoefficients(std::vector<double>(26, 0.0)).ok());
 }

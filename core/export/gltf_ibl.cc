@@ -179,7 +179,7 @@ absl::StatusOr<ibl::Sh9Rgb> GltfIrradianceCoefficients(std::span<const double> r
   std::vector<double> mirrored(radiance_sh9.begin(), radiance_sh9.end());
   for (int index : {3, 4, 7})
     for (int c = 0; c < 3; ++c) mirrored[index * 3 + c] = -mirrored[index * 3 + c];
-  return ibl::ConvertRadianceSh9(mirrored, 2, ibl::Sh9Convention::kGltfBabylon);
+  return ibl::ConvertRadianceSh9(mirrored, 2, ibl::Sh9Convention::kGltf);
 }
 
 std::array<uint8_t, 4> EncodeRgbd(const std::array<float, 3>& rgb) {

@@ -38,10 +38,13 @@
 //     (tests/engines/babylon_*.mjs) checks this against Babylon with a mirrored negative control.
 //   - irradianceCoefficients: 9 x 3, in the same frame as the images (Babylon evaluates them at
 //     the same direction it samples the cube with). GltfIrradianceCoefficients makes them from
-//     shrm's radiance SH with the `gltf-babylon` scaling of docs/ibl_sh9.md (c = pi L_lm in
-//     Babylon's Condon-Shortley basis), the one with which Babylon's loader shows the physically
-//     right diffuse E / pi; the literal E_lm (`gltf`) makes Babylon show the irradiance
-//     convolved twice.
+//     shrm's radiance SH as the literal irradiance E_lm = A_l L_lm in Babylon's Condon-Shortley
+//     basis (`gltf` of docs/ibl_sh9.md). Babylon 9.35's loader divides by pi and its default
+//     shader path (harmonics, PBRBRDFConfiguration.DEFAULT_USE_SPHERICAL_HARMONICS) evaluates
+//     sum (c_i / pi) s_i k_i P_i, which is then E / pi, the physically right diffuse (measured:
+//     its harmonics are its polynomial's with band 1 x 1.5 and band 2 x 4, i.e. without the
+//     A_l / pi that its legacy polynomial path applies, for which `gltf-babylon` = pi L_lm would
+//     be right; with those, the default path went negative on courtyard).
 //   - intensity and rotation (unit quaternion x, y, z, w) as given (defaults 1 and identity).
 // The glTF frame is right-handed, +Y up, like shrm's world frame (docs/conventions.md); glTF
 // directions are shrm world directions.
@@ -97,8 +100,8 @@ struct GltfIblFile {
 Vec3 GltfDirectionOfTexel(int face, int column, int row, int size);
 
 // irradianceCoefficients (coeff[i][rgb]) from shrm's radiance SH `radiance_sh9` (rgb[ShIndex(l,
-// m) * 3 + c], l <= 2, SH frame of docs/conventions.md): gltf-babylon scaling, in the images'
-// frame. InvalidArgument for a wrong size or non-finite values.
+// m) * 3 + c], l <= 2, SH frame of docs/conventions.md): the literal E_lm (`gltf`), in the
+// images' frame. InvalidArgument for a wrong size or non-finite values.
 absl::StatusOr<ibl::Sh9Rgb> GltfIrradianceCoefficients(std::span<const double> radiance_sh9);
 
 // Babylon's RGBD packing of one linear RGB texel (values >= 0; above kRgbdMaxValue clamped) and
