@@ -8,6 +8,7 @@
 #include "absl/strings/str_join.h"
 #include "core/base/cubemap.h"
 #include "core/base/status_macros.h"
+#include "core/export/gltf_ibl.h"
 #include "core/export/ktx1.h"
 #include "core/export/ktx2.h"
 #include "core/ibl/sh9.h"
@@ -283,6 +284,23 @@ absl::StatusOr<nlohmann::json> Sh9Json(const IblRun& run) {
   return out;
 }
 
+// ibl.glb (core/export/gltf_ibl.h): the stored (rounded) GGX chain as RGBD PNG faces and the SH9
+// in the extension's frame as the literal E_lm (docs/ibl.md "glTF").
+absl::Status EncodeGltf(const IblRun& run, std::vector<IblFile>* files) {
+  SHRM_ASSIGN_OR_RETURN(const ibl::Sh9Rgb coeff,
+                        gltf::GltfIrradianceCoefficients(run.radiance_sh9));
+  gltf::GltfIblOptions opt;
+  opt.generator = absl::StrCat("shrm ", kVersion);
+  SHRM_ASSIGN_OR_RETURN(gltf::GltfIblFile glb, gltf::EncodeGltfIbl(run.specular.chain, coeff, opt));
+  files->push_back(
+      {"ibl.glb", std::move(glb.glb),
+       absl::StrCat("glTF 2.0 (EXT_lights_image_based: ", run.specular.chain.levels.size(),
+                    " RGBD PNG levels, SH9), a sphere per roughness",
+                    glb.clamped ? absl::StrCat(", ", glb.clamped, " texels clamped to 255") : ""),
+       "gltf"});
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 absl::StatusOr<std::vector<IblFile>> EncodeIblOutputs(const IblJob& job, const IblRun& run) {
@@ -306,6 +324,7 @@ absl::StatusOr<std::vector<IblFile>> EncodeIblOutputs(const IblJob& job, const I
                      absl::StrCat("irradiance / pi cube, ", fmt), "cube"});
   }
   if (HasContainer(job, IblContainer::kKtx1)) SHRM_RETURN_IF_ERROR(EncodeKtx1(job, run, &files));
+  if (HasContainer(job, IblContainer::kGltf)) SHRM_RETURN_IF_ERROR(EncodeGltf(run, &files));
   if (run.dfg) SHRM_RETURN_IF_ERROR(EncodeDfg(job, run, &files));
   if (job.preview) {
     SHRM_ASSIGN_OR_RETURN(std::string png, EncodeImage(PreviewSheet(run), ImageEncoding::kPng8));

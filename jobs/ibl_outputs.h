@@ -24,8 +24,8 @@ struct IblFile {
   std::string bytes;  // contents
   std::string what;   // one line for the summary
   // "cube" (a KTX2 cube map, one level per roughness), "table" (the 2D DFG table: KTX2, EXR,
-  // PNG), "ktx1" (Filament's KTX1 cubes), "gltf", "text" (sh.txt), "image" (preview.png),
-  // "json".
+  // PNG), "ktx1" (Filament's KTX1 cubes), "gltf" (ibl.glb), "text" (sh.txt), "image"
+  // (preview.png), "json".
   std::string type;
 };
 

@@ -7,7 +7,10 @@
 #      and an upside-down copy of a set must fail (negative controls);
 #   2. three.js in headless Chromium (Debian's chromium, WebGL2 on SwiftShader, playwright-core)
 #      reads every texel back through GL's cube-map selection, renders the cube on a sphere (which
-#      side is +X), three's own IBL path and a LightProbe from radiance_sh9.
+#      side is +X), three's own IBL path and a LightProbe from radiance_sh9;
+#   3. gltf-validator and Babylon.js (its glTF loader's EXT_lights_image_based) read ibl.glb
+#      (--containers gltf): no validation errors, the RGBD faces = specular.ktx2, Babylon's specular
+#      term = a node render of its shading, the red patch on the +X side (a mirrored copy fails);
 #   4. Filament (WASM) in the same browser loads the KTX1 files (--containers ktx1) as it loads
 #      cmgen's and renders spheres: white furnace, orientation, CPU render of its shading.
 # npm packages are pinned in tests/engines/package-lock.json and installed with `npm ci` into
@@ -157,6 +160,25 @@ rm -rf "$OUT"
 CHROMIUM="$CHROMIUM" run_node browser run_browser.mjs "$OUT" "$SETS/patches-rgba16f" \
   "$SETS/patches-rgba32f" "$SETS/patches-r11g11b10f" "$SETS/patches-rgb9e5" "$SETS/courtyard-rgba16f" \
   --broken "$SETS/broken-mirror-x" "$SETS/broken-flip-rows" --probe "$SETS/courtyard-rgba16f"
+
+# --- 3. Babylon.js and gltf-validator ----------------------------------------------------------
+# ibl.glb (EXT_lights_image_based) of sets made with --containers ktx2,gltf: gltf-validator, the RGBD
+# faces against specular.ktx2, Babylon's render against a node render of its shading, orientation
+# with a mirrored negative control (tests/engines/babylon_run.mjs, docs/engines.md).
+# The white map makes the same scene: Babylon's environment-BRDF factor per pixel (a white furnace).
+before=$FAILURES
+make_set white-gltf white.exr --size 32 --preset gltf --containers ktx2,gltf --verify 0
+make_set patches-gltf patches.exr --size 32 --preset gltf --containers ktx2,gltf --verify 0
+make_set courtyard-gltf courtyard.exr --size 32 --preset gltf --containers ktx2,gltf --verify 0
+for p in @babylonjs/core @babylonjs/loaders gltf-validator; do
+  [ -f "$NODE_DIR/node_modules/$p/package.json" ] ||
+    { echo "FAIL: $NODE_DIR/node_modules/$p missing after npm ci"; FAILURES=$((FAILURES + 1)); }
+done
+if [ "$FAILURES" -eq "$before" ]; then
+  CHROMIUM="$CHROMIUM" run_node babylon babylon_run.mjs "$OUT" "$SETS/white-gltf" "$SETS/patches-gltf" \
+    "$SETS/courtyard-gltf"
+fi
+echo "(Babylon.js and gltf-validator checks done: $(($(date +%s) - START)) s)"
 
 # --- 4. Filament in Chromium (KTX1 as cmgen writes it) ---------------------------------------------
 # The white furnace, the skybox and the spheres' orientation (a negative control mirrored in x),

@@ -223,6 +223,9 @@ absl::StatusOr<std::string> EncodeImage(const Image& image, ImageEncoding encodi
   const OIIO::TypeDesc type = exr ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8;
   OIIO::ImageSpec spec(image.width, image.height, image.channels, type);
   if (exr) spec.attribute("compression", "zip");
+  // The values are stored as given: OpenImageIO would otherwise take a 4th channel as associated
+  // alpha and divide the colour by it (RGBD data in the glTF IBL's PNGs is not premultiplied).
+  spec.attribute("oiio:UnassociatedAlpha", 1);
   spec.attribute("DateTime", "1970:01:01 00:00:00");
   if (!out->set_ioproxy(&proxy) || !out->open(exr ? "memory.exr" : "memory.png", spec) ||
       !out->write_image(type, exr ? static_cast<const void*>(image.pixels.data())
