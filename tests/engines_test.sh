@@ -167,9 +167,9 @@ CHROMIUM="$CHROMIUM" run_node browser run_browser.mjs "$OUT" "$SETS/patches-rgba
 # with a mirrored negative control (tests/engines/babylon_run.mjs, docs/engines.md).
 # The white map makes the same scene: Babylon's environment-BRDF factor per pixel (a white furnace).
 before=$FAILURES
-make_set white-gltf white.exr --size 32 --preset gltf --containers ktx2,gltf --verify 0
-make_set patches-gltf patches.exr --size 32 --preset gltf --containers ktx2,gltf --verify 0
-make_set courtyard-gltf courtyard.exr --size 32 --preset gltf --containers ktx2,gltf --verify 0
+make_set white-gltf white.exr --size 32 --preset babylon --levels 4 --containers ktx2,gltf --verify 0
+make_set patches-gltf patches.exr --size 32 --preset babylon --levels 4 --containers ktx2,gltf --verify 0
+make_set courtyard-gltf courtyard.exr --size 32 --preset babylon --levels 4 --containers ktx2,gltf --verify 0
 for p in @babylonjs/core @babylonjs/loaders gltf-validator; do
   [ -f "$NODE_DIR/node_modules/$p/package.json" ] ||
     { echo "FAIL: $NODE_DIR/node_modules/$p missing after npm ci"; FAILURES=$((FAILURES + 1)); }
