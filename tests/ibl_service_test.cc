@@ -90,7 +90,9 @@ class IblServiceTest : public ::testing::Test {
     job.irradiance_size = 8;
     job.dfg_size = 16;
     job.verify = 4;
-    job.containers = {jobs::IblContainer::kKtx2, jobs::IblContainer::kKtx1};
+    job.containers = {jobs::IblContainer::kKtx2, jobs::IblContainer::kKtx1,
+                      jobs::IblContainer::kGltf};
+    job.preview = true;
     return job;
   }
 

@@ -37,7 +37,7 @@
 import { readFileSync, writeFileSync, mkdirSync } from 'node:fs';
 import { join, resolve, basename } from 'node:path';
 import { createRequire } from 'node:module';
-import { CHROMIUM, checker, launchChromium, serve } from './harness.mjs';
+import { checker, launchChromium, serve, openPage, requireChromium } from './harness.mjs';
 import { read } from 'ktx-parse';
 import { decodeCubeLevel, faceCoordinates, faceDirection, normalize, patchCentre } from './ktx_cube.mjs';
 import { parseGlb, writeGlb, decodePng, encodePng, specularImages } from './babylon_glb.mjs';
@@ -48,6 +48,7 @@ if (!outDir || !patchSet) {
   console.error('usage: node babylon_run.mjs OUT_DIR WHITE_SET PATCH_SET [SET ...]');
   process.exit(2);
 }
+requireChromium();
 mkdirSync(outDir, { recursive: true });
 
 const { fail, check, failures } = checker();
@@ -390,15 +391,10 @@ function orientation(img, sc) {
 
 // --- main ---------------------------------------------------------------------------------------
 const browser = await launchChromium();
-const consoleLog = [];
+let consoleLog = [];
 let page;
 try {
-  page = await browser.newPage({ viewport: { width: W, height: H } });
-  page.setDefaultTimeout(300000);
-  page.on('console', (msg) => consoleLog.push(`${msg.type()}: ${msg.text()}`));
-  page.on('pageerror', (e) => consoleLog.push(`pageerror: ${e.message}`));
-  await page.goto(`${base}/engines/babylon_page.html`);
-  await page.waitForFunction(() => window.shrmReady === true);
+  ({ page, log: consoleLog } = await openPage(browser, `${base}/engines/babylon_page.html`, W, H));
   const info = await page.evaluate(() => window.shrmBabylon.info());
   check(info.webgl2 === 2 && info.floatRender, `browser: ${await browser.version()}, Babylon.js ${info.version}, WebGL${info.webgl2}, ${info.renderer}, float render targets ${info.floatRender}`);
   const t0 = Date.now();

@@ -56,3 +56,23 @@ export function checker() {
   const fail = (m) => { console.log(`FAIL: ${m}`); failures++; };
   return { pass, fail, check: (ok, m) => (ok ? pass(m) : fail(m)), failures: () => failures };
 }
+
+// Exits with a FAIL line when Debian's chromium is missing (an install error, never a skip).
+export function requireChromium() {
+  if (existsSync(CHROMIUM)) return;
+  console.log(`FAIL: ${CHROMIUM} missing: run scripts/install-deps.sh (Debian package chromium)`);
+  process.exit(1);
+}
+
+// A page of `browser` at `url` (viewport width x height) that has set window.shrmReady; its
+// console and page errors collect in the returned log.
+export async function openPage(browser, url, width, height) {
+  const log = [];
+  const page = await browser.newPage({ viewport: { width, height } });
+  page.setDefaultTimeout(300000);
+  page.on('console', (msg) => log.push(`${msg.type()}: ${msg.text()}`));
+  page.on('pageerror', (e) => log.push(`pageerror: ${e.message}`));
+  await page.goto(url);
+  await page.waitForFunction(() => window.shrmReady === true);
+  return { page, log };
+}

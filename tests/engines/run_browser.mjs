@@ -24,9 +24,9 @@
 //   LightProbe:  radiance_sh9 converted to three's SphericalHarmonics3 lights a Lambert sphere:
 //                rendered = three's SH irradiance formula evaluated in node, red around +X,
 //                and close to irradiance.ktx2.
-import { readFileSync, existsSync, writeFileSync, mkdirSync } from 'node:fs';
+import { readFileSync, writeFileSync, mkdirSync } from 'node:fs';
 import { join, resolve, basename } from 'node:path';
-import { CHROMIUM, checker, launchChromium, serve } from './harness.mjs';
+import { checker, launchChromium, serve, openPage, requireChromium } from './harness.mjs';
 import { read } from 'ktx-parse';
 import {
   decodeCubeLevel, texelDirection, sampleNearest, normalize, projectToThreeSh9, patchCentre,
@@ -45,10 +45,7 @@ if (!outDir || !patchSet) {
   console.error('usage: node run_browser.mjs OUT_DIR PATCH_SET [LOOKUP_SET ...]');
   process.exit(2);
 }
-if (!existsSync(CHROMIUM)) {
-  console.log(`FAIL: ${CHROMIUM} missing: run scripts/install-deps.sh (Debian package chromium)`);
-  process.exit(1);
-}
+requireChromium();
 mkdirSync(outDir, { recursive: true });
 
 const { pass, fail, check, failures } = checker();
@@ -267,15 +264,10 @@ async function runChecks() {
 
 // --- main (last: the helpers above are initialized by now) ---------------------------------
 const browser = await launchChromium();
-const consoleLog = [];
+let consoleLog = [];
 let page;
 try {
-  page = await browser.newPage({ viewport: { width: 256, height: 256 } });
-  page.setDefaultTimeout(300000);
-  page.on('console', (msg) => consoleLog.push(`${msg.type()}: ${msg.text()}`));
-  page.on('pageerror', (e) => consoleLog.push(`pageerror: ${e.message}`));
-  await page.goto(`${base}/engines/page.html`);
-  await page.waitForFunction(() => window.shrmReady === true);
+  ({ page, log: consoleLog } = await openPage(browser, `${base}/engines/page.html`, 256, 256));
   const info = await page.evaluate(() => window.shrmEngines.info());
   check(info.colorBufferFloat, `browser: ${await browser.version()}, ${info.version}, ${info.renderer}, three r${info.three}, EXT_color_buffer_float`);
   await runChecks();

@@ -25,10 +25,10 @@
 //                anti-aliasing); red on the side facing the patch.
 //   diffuse:     a white dielectric sphere at roughness 1: Filament's evaluateIBL with the "sh"
 //                key through its own SH formula, the chain and dfg.ktx2.
-import { readFileSync, existsSync, writeFileSync, mkdirSync } from 'node:fs';
+import { readFileSync, writeFileSync, mkdirSync } from 'node:fs';
 import { join, resolve, basename } from 'node:path';
 import { read } from 'ktx-parse';
-import { HERE, CHROMIUM, checker, launchChromium, serve } from './harness.mjs';
+import { HERE, checker, launchChromium, serve, openPage, requireChromium } from './harness.mjs';
 import { decodeKtx1 } from './ktx1.mjs';
 import { decodeCubeLevel, faceCoordinates, halfToFloat, latLongUv, normalize, patchesPixel, PATCHES } from './ktx_cube.mjs';
 
@@ -44,10 +44,7 @@ if (!outDir || !whiteSet || !patchSet) {
   console.error('usage: node run_filament.mjs OUT_DIR WHITE_SET PATCH_SET [REAL_SET ...] [--broken SET ...]');
   process.exit(2);
 }
-if (!existsSync(CHROMIUM)) {
-  console.log(`FAIL: ${CHROMIUM} missing: run scripts/install-deps.sh (Debian package chromium)`);
-  process.exit(1);
-}
+requireChromium();
 mkdirSync(outDir, { recursive: true });
 
 const { pass, fail, check, failures } = checker();
@@ -359,15 +356,10 @@ async function runChecks() {
 }
 
 const browser = await launchChromium();
-const consoleLog = [];
+let consoleLog = [];
 let page;
 try {
-  page = await browser.newPage({ viewport: { width: S, height: S } });
-  page.setDefaultTimeout(300000);
-  page.on('console', (msg) => consoleLog.push(`${msg.type()}: ${msg.text()}`));
-  page.on('pageerror', (e) => consoleLog.push(`pageerror: ${e.message}`));
-  await page.goto(`${base}/engines/filament_page.html`);
-  await page.waitForFunction(() => window.shrmReady === true);
+  ({ page, log: consoleLog } = await openPage(browser, `${base}/engines/filament_page.html`, S, S));
   const info = await page.evaluate(() => window.shrmFilament.info());
   pass(`Filament ${JSON.parse(readFileSync(join(HERE, 'node_modules/filament/package.json'), 'utf8')).version} started in ${await browser.version()}, ${info.version}, ${info.renderer}`);
   await runChecks();
