@@ -64,6 +64,9 @@ constexpr int kTransportAttempts = 5;
 // (a 200 ms deadline once expired before the call arrived, and nothing was abandoned). Not a
 // timing claim: the test waits for it to pass.
 constexpr absl::Duration kHeldDeadline = absl::Seconds(10);
+// grpc-timeout travels in whole units (milliseconds for 10 s), rounded up: the server's deadline
+// can be that much later than the timeout says.
+constexpr absl::Duration kTimeoutRounding = absl::Milliseconds(100);
 // How long the server may take to notice a deadline or a cancellation and stop the job: it checks
 // between stages, so one slow stage (200 ms) plus scheduling; generous, because the poll returns
 // as soon as the count moves and a loaded 2-core CI machine must not fail it.
@@ -501,7 +504,12 @@ TEST_F(ServiceTest, ShortDeadlineGivesDeadlineExceededAndTheServerAbandonsTheJob
   std::thread caller(
       [&] { status = c->Prefilter(Request(*sha, "phong:s=32"), nullptr, kHeldDeadline).status(); });
   const bool reached = gate.WaitHeld(1, kGateTimeout);
-  caller.join();  // returns once the deadline has passed: the job is held meanwhile
+  const absl::Time held_by = absl::Now();
+  caller.join();  // returns once the client's deadline has passed: the job is held meanwhile
+  // The server's deadline is the call's arrival plus the timeout the client sent (gRPC sends the
+  // time left, not the instant), so it can lie after the client's; it is at most held_by +
+  // kHeldDeadline. Past it, the server's next check must find the deadline, not a cancellation.
+  absl::SleepFor(held_by + kHeldDeadline + kTimeoutRounding - absl::Now());
   gate.Open();
   ASSERT_TRUE(reached) << "the job never reached a stage";
   EXPECT_EQ(status.code(), absl::StatusCode::kDeadlineExceeded) << status;
