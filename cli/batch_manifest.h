@@ -21,6 +21,7 @@ struct BatchOptions {
   jobs::IblJob ibl_job;    // kind ibl: env.files is per job
   bool report = false;
   bool preview = false;
+  bool ktx2 = false;  // also <stem>.shrm.ktx2
 };
 
 struct BatchJob {
@@ -32,7 +33,7 @@ struct BatchJob {
   bool ibl = false;  // an IBL job (ibl_job, output: a folder) instead of a prefilter job (job)
   jobs::PrefilterJob job;
   jobs::IblJob ibl_job;
-  std::string output, report, preview;
+  std::string output, report, preview, ktx2;
   // Outcome.
   std::string status = "pending";  // ok, skipped, failed
   std::string orders;

@@ -85,6 +85,7 @@ std::string Mismatch(const BatchJob& job, const std::string& source_sha256, std:
   if (!fs::exists(job.output, ec)) return "new";
   if (!job.report.empty() && !fs::exists(job.report, ec)) return "report missing";
   if (!job.preview.empty() && !fs::exists(job.preview, ec)) return "preview missing";
+  if (!job.ktx2.empty() && !fs::exists(job.ktx2, ec)) return "KTX2 missing";
   absl::StatusOr<ShrmFile> file = ReadShrmFile(job.output);
   if (!file.ok()) return absl::StrCat("existing output unreadable (", file.status().message(), ")");
   if (auto it = file->attributes.find("shrm:orders"); it != file->attributes.end()) {
@@ -342,13 +343,14 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
             err(path, "must be a string \"F,P\" with integers F, P >= 0");
           else
             opt->job.orders = *o;
-        } else if (key == "half" || key == "report" || key == "preview") {
+        } else if (key == "half" || key == "report" || key == "preview" || key == "ktx2") {
           if (!v.is_boolean()) {
             err(path, "must be true or false");
           } else {
-            (key == "half"     ? opt->job.half
-             : key == "report" ? opt->report
-                               : opt->preview) = v.get<bool>();
+            (key == "half"      ? opt->job.half
+             : key == "report"  ? opt->report
+             : key == "preview" ? opt->preview
+                                : opt->ktx2) = v.get<bool>();
           }
         } else if (key == "rotate") {
           if (!ParseRotate(v, &opt->job.env.rotate_ypr_deg)) err(path, kRotateError);
@@ -356,7 +358,7 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
           err(path,
               "unknown option (expected epsilon, tolerance, window, verify, kind, size, orders, "
               "half, "
-              "rotate, report, preview)");
+              "rotate, report, preview, ktx2)");
         }
       }
     }
@@ -411,6 +413,7 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
       job.output = Resolve(dir, name);
       if (opt->report) job.report = OutputStem(job.output) + ".json";
       if (opt->preview) job.preview = OutputStem(job.output) + ".png";
+      if (opt->ktx2) job.ktx2 = OutputStem(job.output) + ".shrm.ktx2";
       auto [it, inserted] = seen.emplace(job.output, job.index);
       if (!inserted) {
         err("$.output", absl::StrCat("jobs ", it->second, " and ", job.index, " both write ",
@@ -447,7 +450,7 @@ absl::Status RunBatch(const BatchArgs& args) {
   }
   for (const BatchJob& job : jobs) {
     std::error_code ec;
-    for (const std::string& out : {job.output, job.report, job.preview}) {
+    for (const std::string& out : {job.output, job.report, job.preview, job.ktx2}) {
       const fs::path parent = fs::path(out).parent_path();
       if (!out.empty() && !parent.empty()) fs::create_directories(parent, ec);
     }
@@ -525,6 +528,7 @@ absl::Status RunBatch(const BatchArgs& args) {
           batch_run(&run);
           run.report = job.report;
           run.preview = job.preview;
+          run.ktx2 = job.ktx2;
           PrefilterJobOutcome outcome;
           s = RunPrefilterJob(job.job, run, &outcome);
           retries = outcome.retries;

@@ -12,6 +12,7 @@
 #include "core/base/status_macros.h"
 #include "core/brdf/brdf.h"
 #include "core/envmap/lighting.h"
+#include "core/export/shrm_ktx2.h"
 #include "core/shrm/shrm_file.h"
 #include "core/shrm/shrm_reference.h"
 #include "core/shrm/shrm_synthesis.h"
@@ -57,7 +58,7 @@ absl::Status ParseGeometry(const PointArgs& a, bool tangent_index, Vec3* index, 
 }
 
 absl::Status RunEval(const PointArgs& a) {
-  SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrmFile(a.shrm));
+  SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrm(a.shrm));
   Vec3 index, v;
   SHRM_RETURN_IF_ERROR(ParseGeometry(a, file.cube.index == ReparamKind::kTangent, &index, &v));
   PrintRgb(ShrmEval(file.cube, index, v), a.json);
@@ -103,7 +104,7 @@ absl::Status RunReference(const PointArgs& a) {
 }
 
 absl::Status RunInfo(const std::string& path, bool json) {
-  SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrmFile(path));
+  SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrm(path));
   const ShrmCube& c = file.cube;
   double lo = INFINITY, hi = -INFINITY;
   for (size_t t = 0; t < c.size() / (c.coeff_count() * 3); ++t)

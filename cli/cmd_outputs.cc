@@ -5,18 +5,24 @@
 #include <string>
 #include <vector>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "cli/cli_common.h"
 #include "cli/commands.h"
 #include "client/shrm_client.h"
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
+#include "core/export/ktx2.h"
+#include "core/export/shrm_ktx2.h"
+#include "core/io/atomic_file.h"
 #include "core/sh/sh.h"
 #include "core/shrm/shrm_explicit.h"
 #include "core/shrm/shrm_file.h"
 #include "jobs/cli_validators.h"
 #include "jobs/point_jobs.h"
 #include "jobs/report.h"
+#include "shrm/version.h"
 
 namespace shrm::cli {
 namespace {
@@ -39,9 +45,32 @@ struct OutputArgs {
 absl::Status RunRender(const OutputArgs& a) {
   SHRM_RETURN_IF_ERROR(CheckOutputPath(a.output, "--output"));
   SHRM_ASSIGN_OR_RETURN(Vec3 v, ParseDirection(a.view, "--view"));
-  SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrmFile(a.shrm));
+  SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrm(a.shrm));
   SHRM_ASSIGN_OR_RETURN(RadianceCube map,
                         ReflectionMapForView(file.cube, v, ResolveThreads(a.threads)));
+  if (absl::EndsWith(a.output, ".ktx2")) {
+    // A cube map an engine (or the shader tests, docs/shaders.md) reads as it is: RGBA32F, A = 1.
+    ktx2::Ktx2Image image;
+    image.format = ktx2::Format::kR32G32B32A32Sfloat;
+    image.width = image.height = map.face_size;
+    image.faces = 6;
+    ktx2::Level level{map.face_size, map.face_size, {}};
+    const size_t texels = size_t{6} * map.face_size * map.face_size;
+    level.pixels.resize(texels * 4);
+    for (size_t t = 0; t < texels; ++t) {
+      for (int c = 0; c < 3; ++c) level.pixels[t * 4 + c] = map.data[t * map.channels + c];
+      level.pixels[t * 4 + 3] = 1.0f;
+    }
+    image.levels.push_back(std::move(level));
+    image.key_values["shrm:view"] = absl::StrFormat("%.17g,%.17g,%.17g", v.x, v.y, v.z);
+    image.key_values["shrm:eval"] = "eq. 5.35: B(R) = sum c_pq(R) Y_pq(V_s) for shrm:view";
+    SHRM_ASSIGN_OR_RETURN(const std::string bytes,
+                          ktx2::EncodeKtx2(image, {.writer = absl::StrCat("shrm ", kVersion)}));
+    SHRM_RETURN_IF_ERROR(WriteFileAtomically(a.output, bytes));
+    std::printf("wrote %s: reflection map for view (%.4g, %.4g, %.4g), KTX2 cube map %d x %d\n",
+                a.output.c_str(), v.x, v.y, v.z, map.face_size, map.face_size);
+    return absl::OkStatus();
+  }
   SHRM_RETURN_IF_ERROR(WriteRadianceCross(a.output, map));
   std::printf("wrote %s: reflection map for view (%.4g, %.4g, %.4g), horizontal cross %d x %d\n",
               a.output.c_str(), v.x, v.y, v.z, 4 * map.face_size, 3 * map.face_size);
@@ -51,7 +80,7 @@ absl::Status RunRender(const OutputArgs& a) {
 absl::Status RunExplicit(const OutputArgs& a) {
   if (a.tb < 1) return absl::InvalidArgumentError("--tb must be >= 1");
   SHRM_RETURN_IF_ERROR(CheckOutputPath(absl::StrCat(a.output, "_0.exr"), "--output"));
-  SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrmFile(a.shrm));
+  SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrm(a.shrm));
   const int threads = ResolveThreads(a.threads);
   std::vector<RadianceCube> maps;
   if (a.form == "cabral") {
@@ -144,7 +173,9 @@ void RegisterRender(CLI::App& app, absl::Status* status) {
   sub->add_option("--view", args->view, "view direction V (towards the viewer) as x,y,z")
       ->required()
       ->check(jobs::kDirection);
-  sub->add_option("-o,--output", args->output, "output EXR (horizontal cross)")->required();
+  sub->add_option("-o,--output", args->output,
+                  "output: EXR (horizontal cross), or a KTX2 cube map (.ktx2)")
+      ->required();
   sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
       ->check(CLI::NonNegativeNumber);
   sub->callback([args, status] { *status = RunRender(*args); });

@@ -1,8 +1,9 @@
-// `shrm prefilter`: the SHRM of a map and a BRDF, written as an SHRM file with an optional JSON
-// report and PNG preview (SHRM paper sec. 5.6.2).
+// `shrm prefilter`: the SHRM of a map and a BRDF, written as an SHRM file (and, with --ktx2, as
+// KTX2 too) with an optional JSON report and PNG preview (SHRM paper sec. 5.6.2).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -13,6 +14,7 @@
 #include "cli/prefilter_job.h"
 #include "client/remote_jobs.h"
 #include "core/base/status_macros.h"
+#include "core/export/shrm_ktx2.h"
 #include "core/io/atomic_file.h"
 #include "core/io/image.h"
 #include "core/shrm/shrm_file.h"
@@ -24,6 +26,14 @@
 
 namespace shrm::cli {
 namespace {
+
+// The SHRM as KTX2 (docs/formats.md "SHRM in KTX2"); `name` labels errors.
+absl::Status WriteShrmKtx2(const std::string& tmp, const ShrmCube& cube,
+                           const std::map<std::string, std::string>& attributes, bool half,
+                           const std::string& name) {
+  SHRM_ASSIGN_OR_RETURN(const std::string bytes, EncodeShrmKtx2(name, cube, attributes, half));
+  return WriteFileAtomically(tmp, bytes);
+}
 
 // Preview: three spheres seen from these directions (front, side, above).
 constexpr int kPreviewSize = 256;
@@ -133,18 +143,28 @@ absl::Status RunPrefilterRemote(const jobs::PrefilterJob& job, const PrefilterRu
   nlohmann::json report = nlohmann::json::parse(rep.report_json(), nullptr, false);
   if (report.is_discarded()) return absl::DataLossError("the server's report is not JSON");
   report["output"] = run.output;
+  if (!run.ktx2.empty()) report["ktx2"] = run.ktx2;
   report["source"] = job.env.files;
   report["server"] = run.server;
   report["timings"]["upload_ms"] = upload_ms;
   report["retries"] = retries;
   report["timings"]["local_write_ms"] = write_ms;
-  if (!run.preview.empty()) {
-    progress.Begin("preview");
+  if (!run.preview.empty() || !run.ktx2.empty()) {
+    // The cube and its attributes back from the server's file: the KTX2 equals the embedded run's.
     SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrmFile(shrm_tmp));
-    const Image spheres = RenderSpheres(file.cube);
-    SHRM_RETURN_IF_ERROR(
-        WritePreviewPng(outputs.Temp(run.preview), spheres, AutoExposure(spheres)));
-    report["timings"]["preview_ms"] = progress.End();
+    if (!run.ktx2.empty()) {
+      progress.Begin("ktx2");
+      SHRM_RETURN_IF_ERROR(
+          WriteShrmKtx2(outputs.Temp(run.ktx2), file.cube, file.attributes, job.half, run.ktx2));
+      report["timings"]["ktx2_ms"] = progress.End();
+    }
+    if (!run.preview.empty()) {
+      progress.Begin("preview");
+      const Image spheres = RenderSpheres(file.cube);
+      SHRM_RETURN_IF_ERROR(
+          WritePreviewPng(outputs.Temp(run.preview), spheres, AutoExposure(spheres)));
+      report["timings"]["preview_ms"] = progress.End();
+    }
   }
   if (!run.report.empty())
     SHRM_RETURN_IF_ERROR(jobs::WriteJsonFile(outputs.Temp(run.report), report));
@@ -197,10 +217,17 @@ absl::Status RunPrefilterEmbedded(const jobs::PrefilterJob& job, const Prefilter
 
   nlohmann::json report = r->report;
   report["output"] = run.output;
+  if (!run.ktx2.empty()) report["ktx2"] = run.ktx2;
   report["source"] = job.env.files;
   nlohmann::json timings = jobs::TimingsJson(r->result.timings);
   timings["decode_ms"] = r->decode_ms;
   timings["write_ms"] = write_ms;
+  if (!run.ktx2.empty()) {
+    progress.Begin("ktx2");
+    SHRM_RETURN_IF_ERROR(
+        WriteShrmKtx2(outputs.Temp(run.ktx2), r->result.cube, r->attributes, job.half, run.ktx2));
+    timings["ktx2_ms"] = progress.End();
+  }
   if (!run.preview.empty()) {
     progress.Begin("preview");
     const Image spheres = RenderSpheres(r->result.cube);
@@ -290,6 +317,7 @@ absl::Status RunPrefilterJob(const jobs::PrefilterJob& job, const PrefilterRun& 
   if (run.threads < 0) return absl::InvalidArgumentError("--threads must be >= 0");
   SHRM_RETURN_IF_ERROR(CheckOutputPath(run.output, "--output"));
   SHRM_RETURN_IF_ERROR(CheckOutputPath(run.preview, "--preview"));
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.ktx2, "--ktx2"));
   SHRM_RETURN_IF_ERROR(CheckOutputPath(run.report, "--report"));
   if (!run.server.empty()) return RunPrefilterRemote(job, run, outcome);
   return RunPrefilterEmbedded(job, run, outcome);
@@ -303,6 +331,9 @@ void RegisterPrefilter(CLI::App& app, absl::Status* status) {
   sub->add_option("-o,--output", run->output, "output SHRM file (.shrm.exr)")->required();
   sub->add_option("--report", run->report, "write a JSON report here");
   sub->add_option("--preview", run->preview, "write a PNG preview (three spheres) here");
+  sub->add_option("--ktx2", run->ktx2,
+                  "also write the SHRM here as KTX2 (a cube-map array: docs/formats.md, for the "
+                  "shaders of docs/shaders.md)");
   sub->add_option("--threads", run->threads, "worker threads (0: all cores)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);

@@ -34,6 +34,7 @@ struct PrefilterRun {
   std::string output;
   std::string report;
   std::string preview;
+  std::string ktx2;  // the SHRM also as KTX2 (docs/formats.md "SHRM in KTX2")
   int threads = 0;
   bool json = false;
   bool verbose = false;

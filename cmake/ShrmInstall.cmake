@@ -191,6 +191,9 @@ install(FILES ${PROJECT_SOURCE_DIR}/data/envmaps/city.exr ${PROJECT_SOURCE_DIR}/
               ${PROJECT_SOURCE_DIR}/data/envmaps/interior.exr
               ${PROJECT_SOURCE_DIR}/data/envmaps/README.md
         DESTINATION ${CMAKE_INSTALL_DATADIR}/shrm/envmaps COMPONENT shrm)
+# The shader library (docs/shaders.md), for engines to copy.
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/shaders/glsl ${PROJECT_SOURCE_DIR}/shaders/wgsl
+        DESTINATION ${CMAKE_INSTALL_DATADIR}/shrm/shaders COMPONENT shrm)
 install(FILES ${PROJECT_SOURCE_DIR}/data/ocio/config.ocio
         DESTINATION ${CMAKE_INSTALL_DATADIR}/shrm/ocio COMPONENT shrm)
 install(FILES ${PROJECT_SOURCE_DIR}/README.md DESTINATION ${CMAKE_INSTALL_DOCDIR} COMPONENT shrm)

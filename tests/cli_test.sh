@@ -224,8 +224,8 @@ CHECKS=$((CHECKS + 1))
 mkdir -p "$TMP/happy"
 cd "$TMP/happy" || exit 2
 if "$SHRM" prefilter --env "$MAP" --brdf phong:s=32 --size 16 -o h.shrm.exr --report h.json \
-  --preview h.png >h.stdout 2>h.stderr; then
-  for f in h.shrm.exr h.json h.png; do [ -s "$f" ] || fail "happy: $f missing or empty"; done
+  --preview h.png --ktx2 h.shrm.ktx2 >h.stdout 2>h.stderr; then
+  for f in h.shrm.exr h.json h.png h.shrm.ktx2; do [ -s "$f" ] || fail "happy: $f missing or empty"; done
   [ "$(head -c 4 h.png | od -An -tx1 | tr -d ' \n')" = "89504e47" ] || fail "happy: h.png is not a PNG"
   json_ok h.json || fail "happy: h.json is not valid JSON"
   [ -z "$(find . -name '*.tmp-*')" ] || fail "happy: temporaries left: $(find . -name '*.tmp-*')"
@@ -236,6 +236,26 @@ if "$SHRM" prefilter --env "$MAP" --brdf phong:s=32 --size 16 -o h.shrm.exr --re
 else
   fail "happy: prefilter failed: $(cat h.stderr)"
 fi
+
+# The SHRM in KTX2 (docs/formats.md): the same cube as the EXR, so every command reading it gives
+# the same bytes (the reflection map of a view, eq. 5.35), and a damaged copy is refused.
+CHECKS=$((CHECKS + 1))
+if "$SHRM" render --shrm h.shrm.exr --view 0.3,0.5,0.8 -o from_exr.exr >/dev/null 2>r1.stderr &&
+  "$SHRM" render --shrm h.shrm.ktx2 --view 0.3,0.5,0.8 -o from_ktx2.exr >/dev/null 2>r2.stderr; then
+  if cmp -s from_exr.exr from_ktx2.exr; then
+    echo "ok: render from the KTX2 SHRM = render from the EXR SHRM (byte for byte)"
+  else
+    fail "ktx2: the render from h.shrm.ktx2 differs from the one from h.shrm.exr"
+  fi
+else
+  fail "ktx2: render failed: $(cat r1.stderr r2.stderr)"
+fi
+head -c 300 h.shrm.ktx2 >"$TMP/truncated.shrm.ktx2"
+expect_error truncated_shrm_ktx2 1 'truncated\.shrm\.ktx2.*(outside|truncated|runs past)' \
+  "$SHRM" render --shrm "$TMP/truncated.shrm.ktx2" --view 0,0,1 -o r.exr
+expect_error unwritable_ktx2 1 '/nonexistent/x\.shrm\.ktx2' \
+  "$SHRM" prefilter --env "$IN/ok.pfm" --brdf phong:s=32 --size 16 -o out.shrm.exr \
+  --ktx2 /nonexistent/x.shrm.ktx2
 
 # --tolerance on the real map: the orders, window and size chosen for the per-direction error,
 # the estimate in the summary, the report and the header. A forced Lanczos window cannot meet 1%

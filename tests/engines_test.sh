@@ -12,7 +12,9 @@
 #      (--containers gltf): no validation errors, the RGBD faces = specular.ktx2, Babylon's specular
 #      term = a node render of its shading, the red patch on the +X side (a mirrored copy fails);
 #   4. Filament (WASM) in the same browser loads the KTX1 files (--containers ktx1) as it loads
-#      cmgen's and renders spheres: white furnace, orientation, CPU render of its shading.
+#      cmgen's and renders spheres: white furnace, orientation, CPU render of its shading;
+#   5. the shipped WGSL (shaders/wgsl/shrm.wgsl) in the same browser's WebGPU evaluates SHRMs
+#      written with `shrm prefilter --ktx2` (ktx-parse reads them) = shrm's CPU evaluation.
 # npm packages are pinned in tests/engines/package-lock.json and installed with `npm ci` into
 # CACHE_DIR/engines-node (reused while the lockfile is unchanged); nothing else needs a network.
 # The maps are made here with oiiotool; screenshots land in CACHE_DIR/engines-out.
@@ -193,6 +195,32 @@ if [ "$FAILURES" -eq "$before" ]; then
     "$SETS/filament-patches" "$SETS/filament-courtyard" --broken "$SETS/filament-broken-mirror-x"
 fi
 echo "(Filament done: $(($(date +%s) - START)) s)"
+
+# --- 5. The shader library (WGSL) in Chromium's WebGPU ---------------------------------------------
+# SHRMs of a bundled real map as `shrm prefilter --ktx2` writes them, evaluated by
+# shaders/wgsl/shrm.wgsl (the per-frame pass of eq. 5.35, eq. 5.10 per direction) against shrm's own
+# CPU evaluation of the same files (`shrm render`). tests/engines/run_shaders.mjs, docs/shaders.md.
+before=$FAILURES
+SHRMS="$TMP/shrms"
+mkdir -p "$SHRMS"
+for kind in global local; do
+  if "$SHRM" prefilter --env "$COURTYARD" --brdf microfacet:sigma=0.3 --orders 8,3 --size 16 \
+    --kind "$kind" -o "$SHRMS/$kind.shrm.exr" --ktx2 "$SHRMS/$kind.shrm.ktx2" --threads 2 \
+    >"$TMP/shrm-$kind.log" 2>&1 &&
+    "$SHRM" render --shrm "$SHRMS/$kind.shrm.ktx2" --view 0.3,0.5,0.8 -o "$SHRMS/$kind-ref.ktx2" \
+      >>"$TMP/shrm-$kind.log" 2>&1; then
+    echo "PASS: shrm prefilter --kind $kind --ktx2, shrm render --view 0.3,0.5,0.8 (courtyard)"
+  else
+    echo "FAIL: shrm prefilter/render ($kind):"
+    cat "$TMP/shrm-$kind.log"
+    FAILURES=$((FAILURES + 1))
+  fi
+done
+if [ "$FAILURES" -eq "$before" ]; then
+  CHROMIUM="$CHROMIUM" run_node shaders run_shaders.mjs "$ROOT/shaders/wgsl/shrm.wgsl" \
+    "$SHRMS/global.shrm.ktx2" "$SHRMS/global-ref.ktx2" "$SHRMS/local.shrm.ktx2" "$SHRMS/local-ref.ktx2"
+fi
+echo "(shaders done: $(($(date +%s) - START)) s)"
 
 PASSED=$(cat "$TMP"/*.out | grep -c '^PASS' || true)
 echo "engines_test: $(($(date +%s) - START)) s"

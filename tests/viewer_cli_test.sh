@@ -193,9 +193,13 @@ OBJ
 expect_image obj_mesh out/obj.png 96,72 "${ENV[@]}" "${BRDF[@]}" --mesh quad.obj --view 0,0
 if [ -n "$SHRM" ] && [ -x "$SHRM" ]; then
   CHECKS=$((CHECKS + 1))
-  if "$SHRM" prefilter --env "$MAP" --brdf phong:s=64 --size 16 -o f.shrm.exr >/dev/null 2>&1; then
+  if "$SHRM" prefilter --env "$MAP" --brdf phong:s=64 --size 16 -o f.shrm.exr \
+    --ktx2 f.shrm.ktx2 >/dev/null 2>&1; then
     expect_image from_file out/file.png 128,96 f.shrm.exr --mode 2
     grep -q 'phong:s=64' "$TMP/from_file.stdout" || fail "from_file: the file's shrm:brdf is not shown"
+    # The same SHRM from its KTX2 container (docs/formats.md): the same image.
+    expect_image from_ktx2 out/file_ktx2.png 128,96 f.shrm.ktx2 --mode 2
+    cmp -s out/file.png out/file_ktx2.png || fail "from_ktx2: the image differs from the EXR file's"
     expect_image from_file_truth out/file5.png 64,48 f.shrm.exr --env "$MAP" --mode 5 --ref-width 32
   else
     fail "shrm prefilter failed: cannot make the SHRM file input"

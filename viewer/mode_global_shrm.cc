@@ -1,18 +1,19 @@
 #include "viewer/mode_global_shrm.h"
 
-#include <chrono>
-#include <optional>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/base/status_macros.h"
+#include "shrm/shaders.h"
 #include "viewer/gl_util.h"
 #include "viewer/glsl_snippets.h"
-#include "viewer/reflection_sum.h"
+#include "viewer/shrm_textures.h"
 
 namespace shrm::viewer {
 namespace {
 
+// The mesh: this frame's reflection map looked up by R (or T) per pixel.
 constexpr char kFragment[] = R"(#version 330 core
 in vec3 v_position;
 in vec3 v_normal;
@@ -29,6 +30,31 @@ void main() {
 }
 )";
 
+// Restores the framebuffers, viewport, depth test and vertex array the renderer had bound.
+class SavedGlState {
+ public:
+  SavedGlState() {
+    glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &draw_fbo_);
+    glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &read_fbo_);
+    glGetIntegerv(GL_VIEWPORT, viewport_);
+    glGetIntegerv(GL_VERTEX_ARRAY_BINDING, &vao_);
+    depth_test_ = glIsEnabled(GL_DEPTH_TEST);
+  }
+  ~SavedGlState() {
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(draw_fbo_));
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, static_cast<GLuint>(read_fbo_));
+    glViewport(viewport_[0], viewport_[1], viewport_[2], viewport_[3]);
+    glBindVertexArray(static_cast<GLuint>(vao_));
+    if (depth_test_) glEnable(GL_DEPTH_TEST);
+  }
+  SavedGlState(const SavedGlState&) = delete;
+  SavedGlState& operator=(const SavedGlState&) = delete;
+
+ private:
+  GLint draw_fbo_ = 0, read_fbo_ = 0, viewport_[4] = {}, vao_ = 0;
+  GLboolean depth_test_ = GL_FALSE;
+};
+
 class GlobalShrmMode final : public RenderMode {
  public:
   [[nodiscard]] absl::Status Init() override {
@@ -38,40 +64,86 @@ class GlobalShrmMode final : public RenderMode {
   }
 
   [[nodiscard]] absl::Status Upload(const SceneData& scene) override {
-    sum_.reset();
+    ready_ = false;
     if (scene.shrm == nullptr) return absl::OkStatus();
-    absl::StatusOr<GlobalReflectionSum> s = GlobalReflectionSum::Create(scene.shrm->global);
-    if (!s.ok()) return s.status();
-    sum_ = *std::move(s);
-    tangent_index_ = scene.shrm->global.index == ReparamKind::kTangent;
-    if (!texture_) texture_ = GlTexture::Generate();
-    glBindTexture(GL_TEXTURE_CUBE_MAP, texture_.get());
-    const int size = sum_->face_size();
-    for (int f = 0; f < 6; ++f)
-      glTexImage2D(GL_TEXTURE_CUBE_MAP_POSITIVE_X + f, 0, GL_RGB32F, size, size, 0, GL_RGB,
-                   GL_FLOAT, nullptr);
-    glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-    glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-    glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-    glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
+    const ShrmCube& cube = scene.shrm->global;
+    if (cube.kind != ShrmKind::kGlobal) {
+      return absl::InvalidArgumentError("mode 1 (eq. 5.35) needs a global SHRM");
+    }
+    const int s = cube.face_size;
+    // The per-frame pass of the shipped shader library (shaders/glsl/shrm_global.glsl).
+    if (!pass_ || pmax_ != cube.pmax) {
+      pass_.reset();
+      pmax_ = -1;
+      const std::string fragment =
+          absl::StrCat("#version 330 core\n#define PMAX ", cube.pmax,
+                       "\n#define SHRM_GLOBAL_PASS\n", shaders::kCommonGlsl, shaders::kGlobalGlsl);
+      SHRM_ASSIGN_OR_RETURN(
+          pass_, BuildProgram(absl::StrCat("#version 330 core\n", shaders::kFullscreenVert),
+                              fragment, "mode 1 (eq. 5.35 pass, shaders/glsl/shrm_global.glsl)"));
+      pmax_ = cube.pmax;
+    }
+    // The coefficients exactly as the KTX2 SHRM stores them (shaders' binding shrm_coeffs).
+    std::vector<float> layers;
+    SHRM_RETURN_IF_ERROR(UploadShrmCoefficients(cube, &coeffs_, &layers));
+    if (!map_ || size_ != s) {
+      map_ = GlTexture::Generate();
+      glBindTexture(GL_TEXTURE_CUBE_MAP, map_.get());
+      for (int f = 0; f < 6; ++f)
+        glTexImage2D(GL_TEXTURE_CUBE_MAP_POSITIVE_X + f, 0, GL_RGBA32F, s, s, 0, GL_RGBA, GL_FLOAT,
+                     nullptr);
+      glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+      glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+      glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+      glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+      glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
+    }
+    if (!fbo_) fbo_ = GlFramebuffer::Generate();
+    if (!vao_) vao_ = GlVertexArray::Generate();
+    {
+      SavedGlState saved;
+      glBindFramebuffer(GL_FRAMEBUFFER, fbo_.get());
+      glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_CUBE_MAP_POSITIVE_X,
+                             map_.get(), 0);
+      const GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+      if (status != GL_FRAMEBUFFER_COMPLETE) {
+        return absl::UnavailableError(absl::StrFormat(
+            "mode 1: an RGBA32F cube face is not a complete framebuffer (status 0x%x)", status));
+      }
+    }
+    size_ = s;
+    tangent_index_ = cube.index == ReparamKind::kTangent;
+    ready_ = true;
     return absl::OkStatus();
   }
 
-  bool ready() const override { return program_ && sum_.has_value(); }
+  bool ready() const override { return program_ && ready_; }
 
   [[nodiscard]] absl::Status Draw(const FrameInputs& frame) override {
     if (!ready()) return absl::FailedPreconditionError("mode 1 has no SHRM to draw");
-    const auto t0 = std::chrono::steady_clock::now();
-    sum_->Compute(frame.central_view, &map_);
-    const auto t1 = std::chrono::steady_clock::now();
-    sum_ms_ = std::chrono::duration<double, std::milli>(t1 - t0).count();
-    const int size = map_.face_size;
-    glBindTexture(GL_TEXTURE_CUBE_MAP, texture_.get());
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    for (int f = 0; f < 6; ++f)
-      glTexSubImage2D(GL_TEXTURE_CUBE_MAP_POSITIVE_X + f, 0, 0, 0, size, size, GL_RGB, GL_FLOAT,
-                      map_.data.data() + map_.Index(f, 0, 0, 0));
+    {
+      // Eq. 5.35 for this frame's central view: six draws, one per face of the map.
+      SavedGlState saved;
+      glBindFramebuffer(GL_FRAMEBUFFER, fbo_.get());
+      glViewport(0, 0, size_, size_);
+      glDisable(GL_DEPTH_TEST);
+      glBindVertexArray(vao_.get());
+      const GLuint pass = pass_.get();
+      glUseProgram(pass);
+      SetUniform(pass, "shrm_view", static_cast<float>(frame.central_view.x),
+                 static_cast<float>(frame.central_view.y),
+                 static_cast<float>(frame.central_view.z));
+      glActiveTexture(GL_TEXTURE0);
+      glBindTexture(GL_TEXTURE_2D_ARRAY, coeffs_.get());
+      SetUniform(pass, "shrm_coeffs", 0);
+      for (int f = 0; f < 6; ++f) {
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0,
+                               GL_TEXTURE_CUBE_MAP_POSITIVE_X + f, map_.get(), 0);
+        SetUniform(pass, "shrm_face", f);
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+      }
+      glUseProgram(0);
+    }
     const GLuint program = program_.get();
     glUseProgram(program);
     SetUniformMat4(program, "u_view_projection", frame.view_projection.data());
@@ -79,7 +151,7 @@ class GlobalShrmMode final : public RenderMode {
                static_cast<float>(frame.eye.z));
     SetUniform(program, "u_tangent_index", tangent_index_ ? 1 : 0);
     glActiveTexture(GL_TEXTURE0);
-    glBindTexture(GL_TEXTURE_CUBE_MAP, texture_.get());
+    glBindTexture(GL_TEXTURE_CUBE_MAP, map_.get());
     SetUniform(program, "u_map", 0);
     frame.mesh->Draw();
     glUseProgram(0);
@@ -87,19 +159,19 @@ class GlobalShrmMode final : public RenderMode {
   }
 
   std::string Status() const override {
-    if (!sum_) return "";
-    return absl::StrFormat("per-view map %dx%dx6, P %d, CPU sum %.3f ms", sum_->face_size(),
-                           sum_->face_size(), sum_->pmax(), sum_ms_);
+    if (!ready_) return "";
+    return absl::StrFormat("per-view map %dx%dx6, P %d, GPU pass (eq. 5.35, shrm_global.glsl)",
+                           size_, size_, pmax_);
   }
 
  private:
-  // Destroyed in reverse order: the texture, then the program.
-  GlProgram program_;
-  GlTexture texture_;
-  std::optional<GlobalReflectionSum> sum_;
-  RadianceCube map_;
-  bool tangent_index_ = false;
-  double sum_ms_ = 0;
+  // Destroyed in reverse order: the GL objects, then the programs.
+  GlProgram program_, pass_;
+  GlTexture coeffs_, map_;
+  GlFramebuffer fbo_;
+  GlVertexArray vao_;
+  int pmax_ = -1, size_ = 0;
+  bool tangent_index_ = false, ready_ = false;
 };
 
 }  // namespace

@@ -34,7 +34,8 @@
 //    program and write LINEAR RADIANCE (working-space RGB of the environment) with alpha = 1;
 //    exposure and tone mapping are applied afterwards by the renderer (frame.exposure is given
 //    for modes that need it, e.g. for dithering, and is otherwise ignored);
-//  - shared GLSL pieces: viewer/glsl_snippets.h (mesh vertex shader, real SH evaluation with the
+//  - shared GLSL pieces: viewer/glsl_snippets.h (mesh vertex shader) and the shipped shader
+//    library shaders/glsl/ ("shrm/shaders.h": real SH evaluation with the
 //    Condon-Shortley phase in the SH frame of docs/conventions.md, cube-face addressing).
 // Scene data for low-frequency modes: scene.env->sh holds the RGB lighting coefficients L_lm to
 // degree scene.env->sh_lmax (core/envmap/lighting.h layout, SH frame), scene.env->latlong the map;

@@ -8,6 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
+#include "core/export/shrm_ktx2.h"
 #include "core/shrm/shrm_file.h"
 #include "jobs/prefilter_job.h"
 #include "viewer/cube_convert.h"
@@ -99,7 +100,7 @@ absl::StatusOr<ShrmData> ShrmDataFromCube(ShrmCube cube,
 
 absl::StatusOr<ShrmData> LoadShrmData(const std::string& path, int threads) {
   const auto t0 = std::chrono::steady_clock::now();
-  SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrmFile(path));
+  SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrm(path));
   SHRM_ASSIGN_OR_RETURN(ShrmData d, ShrmDataFromCube(std::move(file.cube), file.attributes,
                                                      absl::StrCat("file ", path), threads));
   d.compute_ms =

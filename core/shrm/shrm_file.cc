@@ -30,6 +30,49 @@ const std::map<std::string, std::string>& ConventionAttributes() {
 
 }  // namespace
 
+std::map<std::string, std::string> ShrmConventionAttributes(const ShrmCube& cube) {
+  std::map<std::string, std::string> attrs = ConventionAttributes();
+  attrs["shrm:kind"] = cube.kind == ShrmKind::kLocal ? "local" : "global";
+  attrs["shrm:index"] = cube.index == ReparamKind::kTangent ? "tangent" : "reflection";
+  attrs["shrm:pmax"] = absl::StrCat(cube.pmax);
+  return attrs;
+}
+
+absl::Status ParseShrmConventionAttributes(const std::string& label,
+                                           const std::map<std::string, std::string>& attributes,
+                                           ShrmCube* cube) {
+  auto attr = [&](const std::string& k) -> absl::StatusOr<std::string> {
+    auto it = attributes.find(k);
+    if (it == attributes.end()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(label, ": not an SHRM file (header attribute ", k, " missing)"));
+    }
+    return it->second;
+  };
+  SHRM_ASSIGN_OR_RETURN(const std::string format, attr("shrm:format"));
+  if (format != kShrmFormatTag) {
+    return absl::InvalidArgumentError(absl::StrCat(label, ": unsupported SHRM format '", format,
+                                                   "' (expected ", kShrmFormatTag, ")"));
+  }
+  SHRM_ASSIGN_OR_RETURN(const std::string kind, attr("shrm:kind"));
+  SHRM_ASSIGN_OR_RETURN(const std::string index, attr("shrm:index"));
+  SHRM_ASSIGN_OR_RETURN(const std::string pmax, attr("shrm:pmax"));
+  if (kind != "local" && kind != "global") {
+    return absl::InvalidArgumentError(absl::StrCat(label, ": bad shrm:kind '", kind, "'"));
+  }
+  if (index != "reflection" && index != "tangent") {
+    return absl::InvalidArgumentError(absl::StrCat(label, ": bad shrm:index '", index, "'"));
+  }
+  // P <= 255 keeps (P + 1)^2 and every size computed from it far from overflow.
+  constexpr int kMaxPmax = 255;
+  if (!absl::SimpleAtoi(pmax, &cube->pmax) || cube->pmax < 0 || cube->pmax > kMaxPmax) {
+    return absl::InvalidArgumentError(absl::StrCat(label, ": bad shrm:pmax '", pmax, "'"));
+  }
+  cube->kind = kind == "local" ? ShrmKind::kLocal : ShrmKind::kGlobal;
+  cube->index = index == "tangent" ? ReparamKind::kTangent : ReparamKind::kReflection;
+  return absl::OkStatus();
+}
+
 std::string ShrmChannelGroup(int p, int q) { return absl::StrCat("Y_", p, "_", q); }
 
 absl::StatusOr<std::string> EncodeShrmFile(const std::string& path, const ShrmCube& cube,
@@ -52,10 +95,7 @@ absl::StatusOr<std::string> EncodeShrmFile(const std::string& path, const ShrmCu
     }
     exr.attributes[k] = v;
   }
-  for (const auto& [k, v] : ConventionAttributes()) exr.attributes[k] = v;
-  exr.attributes["shrm:kind"] = cube.kind == ShrmKind::kLocal ? "local" : "global";
-  exr.attributes["shrm:index"] = cube.index == ReparamKind::kTangent ? "tangent" : "reflection";
-  exr.attributes["shrm:pmax"] = absl::StrCat(cube.pmax);
+  for (auto& [k, v] : ShrmConventionAttributes(cube)) exr.attributes[k] = std::move(v);
   // cube.data has the file's layout (texel-major, then coefficient, then channel): encoded in
   // place rather than copied (a large SHRM is hundreds of MB).
   return EncodeCubeExr(exr, path, cube.data);
@@ -69,35 +109,12 @@ absl::Status WriteShrmFile(const std::string& path, const ShrmCube& cube,
 
 absl::StatusOr<ShrmFile> ReadShrmFile(const std::string& path, const ImageLimits& limits) {
   SHRM_ASSIGN_OR_RETURN(CubeExr exr, ReadCubeExr(path, limits));
-  auto attr = [&](const std::string& k) -> absl::StatusOr<std::string> {
-    auto it = exr.attributes.find(k);
-    if (it == exr.attributes.end()) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(path, ": not an SHRM file (header attribute ", k, " missing)"));
-    }
-    return it->second;
-  };
-  SHRM_ASSIGN_OR_RETURN(const std::string format, attr("shrm:format"));
-  if (format != kShrmFormatTag) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": unsupported SHRM format '", format,
-                                                   "' (expected ", kShrmFormatTag, ")"));
-  }
   ShrmFile file;
-  SHRM_ASSIGN_OR_RETURN(const std::string kind, attr("shrm:kind"));
-  SHRM_ASSIGN_OR_RETURN(const std::string index, attr("shrm:index"));
-  SHRM_ASSIGN_OR_RETURN(const std::string pmax, attr("shrm:pmax"));
-  if (kind != "local" && kind != "global") {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": bad shrm:kind '", kind, "'"));
-  }
-  if (index != "reflection" && index != "tangent") {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": bad shrm:index '", index, "'"));
-  }
   ShrmCube& cube = file.cube;
-  cube.kind = kind == "local" ? ShrmKind::kLocal : ShrmKind::kGlobal;
-  cube.index = index == "tangent" ? ReparamKind::kTangent : ReparamKind::kReflection;
-  if (!absl::SimpleAtoi(pmax, &cube.pmax) || cube.pmax < 0 || ShCount(cube.pmax) != exr.groups()) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": shrm:pmax '", pmax, "' does not match ",
-                                                   exr.groups(), " channel triples"));
+  SHRM_RETURN_IF_ERROR(ParseShrmConventionAttributes(path, exr.attributes, &cube));
+  if (ShCount(cube.pmax) != exr.groups()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        path, ": shrm:pmax '", cube.pmax, "' does not match ", exr.groups(), " channel triples"));
   }
   // OpenEXR stores channels sorted by name, so map each coefficient's triple by its name.
   std::map<std::string, int> group_of;

@@ -47,6 +47,16 @@ absl::Status WriteShrmFile(const std::string& path, const ShrmCube& cube,
 // list, RGB triples in ShIndex order.
 absl::StatusOr<ShrmFile> ReadShrmFile(const std::string& path, const ImageLimits& limits = {});
 
+// The attributes every SHRM file carries whatever its container: shrm:format, shrm:basis,
+// shrm:frame, shrm:face_order (the EXR's parts; the KTX2 writer states its own), shrm:eval,
+// shrm:kind, shrm:index and shrm:pmax of `cube`.
+std::map<std::string, std::string> ShrmConventionAttributes(const ShrmCube& cube);
+// Checks the attributes ReadShrmFile needs (shrm:format, shrm:kind, shrm:index, shrm:pmax) and
+// sets cube->kind, index and pmax from them; errors are InvalidArgument naming `label`.
+absl::Status ParseShrmConventionAttributes(const std::string& label,
+                                           const std::map<std::string, std::string>& attributes,
+                                           ShrmCube* cube);
+
 // Channel group name of coefficient (p, q): "Y_<p>_<q>".
 std::string ShrmChannelGroup(int p, int q);
 

@@ -36,7 +36,8 @@ export async function serve(sets) {
   return { base: `http://127.0.0.1:${server.address().port}`, close: () => server.close() };
 }
 
-export function launchChromium() {
+// `extraArgs`: e.g. ['--enable-unsafe-webgpu'] for WebGPU on SwiftShader (run_shaders.mjs).
+export function launchChromium(extraArgs = []) {
   return chromium.launch({
     executablePath: CHROMIUM,
     headless: true,
@@ -44,7 +45,7 @@ export function launchChromium() {
     args: [
       '--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist',
       '--disable-background-networking', '--disable-component-update', '--disable-sync',
-      '--no-first-run', '--disable-quic',
+      '--no-first-run', '--disable-quic', ...extraArgs,
     ],
   });
 }

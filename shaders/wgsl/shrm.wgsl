@@ -1,0 +1,211 @@
+// shrm shader library, WGSL (WebGPU): the GLSL library of shaders/glsl/ in one module.
+//   - eq. 5.35, a GLOBAL SHRM evaluated once per frame: the compute entry point shrm_global_pass
+//     writes this frame's reflection cube map (B~(R) = sum_pq B^_pq(R) Y_pq(V));
+//   - eq. 5.10, a LOCAL SHRM per pixel: fn shrm_local(index, view) for the host's own shaders.
+// docs/shaders.md documents the bindings and the SHRM file (`shrm prefilter --ktx2`).
+//
+// The host prepends the SHRM's order P_B (KTX2 key "shrm:pmax") to this text:
+//   const SHRM_PMAX: i32 = 3;
+//
+// Bindings (group 0):
+//   0 shrm_coeffs: texture_2d_array<f32>, S x S, 6 (P + 1)^2 layers: layer k * 6 + face holds SH
+//     coefficient k = p (p + 1) + q of that cube face (faces +X -X +Y -Y +Z -Z). This is the KTX2
+//     file's level 0 as it is (layers, then faces, then rows, row 0 first), e.g. written with
+//     queue.writeTexture into an rgba32float or rgba16float texture. Read with textureLoad only.
+//   1 shrm: ShrmParams (uniform buffer, 16 bytes): view = V (world, unit, towards the viewer; used
+//     by shrm_global_pass), size = S.
+//   2 shrm_out: texture_storage_2d_array<rgba32float, write>, S x S x 6 (used by shrm_global_pass
+//     only): face f of this frame's reflection map in layer f, texel (x, y) = the cube texel (x, y).
+//     A cube view of the same texture (dimension "cube") samples it by R in the shading pass.
+
+const SHRM_SH_COUNT: i32 = (SHRM_PMAX + 1) * (SHRM_PMAX + 1);
+
+struct ShrmParams {
+  view: vec3f,
+  size: i32,
+}
+
+@group(0) @binding(0) var shrm_coeffs: texture_2d_array<f32>;
+@group(0) @binding(1) var<uniform> shrm: ShrmParams;
+@group(0) @binding(2) var shrm_out: texture_storage_2d_array<rgba32float, write>;
+
+// Coefficient k (RGB) of texel xy of cube face `face`.
+fn shrm_coefficient(face: i32, xy: vec2i, k: i32) -> vec3f {
+  return textureLoad(shrm_coeffs, xy, k * 6 + face, 0).rgb;
+}
+
+// The SH frame of a world direction (pole +Y): (w.x, -w.z, w.y).
+fn shrm_sh_frame(w: vec3f) -> vec3f {
+  return vec3f(w.x, -w.z, w.y);
+}
+
+// Real SH with the Condon-Shortley phase, index l (l + 1) + m, of a unit direction d given IN THE
+// SH FRAME, up to degree SHRM_PMAX (the recurrence of shrm_common.glsl's EvalSh).
+fn shrm_eval_sh(d: vec3f) -> array<f32, SHRM_SH_COUNT> {
+  var y: array<f32, SHRM_SH_COUNT>;
+  var cm = 1.0;
+  var sm = 0.0;
+  var pmm = sqrt(0.07957747154594767);
+  for (var m = 0; m <= SHRM_PMAX; m++) {
+    if (m > 0) {
+      pmm *= -sqrt(f32(2 * m + 1) / f32(2 * m));
+      let c = cm * d.x - sm * d.y;
+      sm = cm * d.y + sm * d.x;
+      cm = c;
+    }
+    var p2 = 0.0;
+    var p1 = pmm;
+    for (var l = m; l <= SHRM_PMAX; l++) {
+      var p: f32;
+      if (l == m) {
+        p = pmm;
+      } else if (l == m + 1) {
+        p = sqrt(f32(2 * m + 3)) * d.z * pmm;
+      } else {
+        let fl = f32(l);
+        let fm = f32(m);
+        let a = sqrt((4.0 * fl * fl - 1.0) / (fl * fl - fm * fm));
+        let b = sqrt(((fl - 1.0) * (fl - 1.0) - fm * fm) / (4.0 * (fl - 1.0) * (fl - 1.0) - 1.0));
+        p = a * (d.z * p1 - b * p2);
+      }
+      if (l > m) {
+        p2 = p1;
+        p1 = p;
+      }
+      let base = l * (l + 1);
+      if (m == 0) {
+        y[base] = p;
+      } else {
+        y[base + m] = 1.4142135623730951 * p * cm;
+        y[base - m] = 1.4142135623730951 * p * sm;
+      }
+    }
+  }
+  return y;
+}
+
+// Cube-map addressing (the GL / KTX2 / WebGPU major-axis table), world directions.
+struct ShrmCubeCoord {
+  face: i32,
+  st: vec2f,  // [0, 1]^2; texel (x, y) of an S x S face covers [x, x + 1] / S x [y, y + 1] / S
+}
+
+fn shrm_cube_face_coordinates(d: vec3f) -> ShrmCubeCoord {
+  let a = abs(d);
+  var face: i32;
+  var sc: f32;
+  var tc: f32;
+  var ma: f32;
+  if (a.x >= a.y && a.x >= a.z) {
+    ma = a.x;
+    if (d.x > 0.0) { face = 0; sc = -d.z; tc = -d.y; } else { face = 1; sc = d.z; tc = -d.y; }
+  } else if (a.y >= a.z) {
+    ma = a.y;
+    if (d.y > 0.0) { face = 2; sc = d.x; tc = d.z; } else { face = 3; sc = d.x; tc = -d.z; }
+  } else {
+    ma = a.z;
+    if (d.z > 0.0) { face = 4; sc = d.x; tc = -d.y; } else { face = 5; sc = -d.x; tc = -d.y; }
+  }
+  return ShrmCubeCoord(face, 0.5 * (vec2f(sc, tc) / ma + 1.0));
+}
+
+fn shrm_cube_face_direction(face: i32, st: vec2f) -> vec3f {
+  let sc = 2.0 * st.x - 1.0;
+  let tc = 2.0 * st.y - 1.0;
+  switch face {
+    case 0: { return vec3f(1.0, -tc, -sc); }
+    case 1: { return vec3f(-1.0, -tc, sc); }
+    case 2: { return vec3f(sc, 1.0, tc); }
+    case 3: { return vec3f(sc, -1.0, -tc); }
+    case 4: { return vec3f(sc, -tc, 1.0); }
+    default: { return vec3f(-sc, -tc, -1.0); }
+  }
+}
+
+// R = 2 (N.V) N - V (world, unit): the index of shrm:index "reflection" SHRMs ("tangent" ones are
+// indexed by the unit tangent T).
+fn shrm_reflect(n: vec3f, v: vec3f) -> vec3f {
+  return 2.0 * dot(n, v) * n - v;
+}
+
+// ---- eq. 5.35: a global SHRM, once per frame ----------------------------------------------------
+
+fn shrm_global_texel(face: i32, xy: vec2i, y: array<f32, SHRM_SH_COUNT>) -> vec3f {
+  var sum = vec3f(0.0);
+  for (var k = 0; k < SHRM_SH_COUNT; k++) {
+    sum += y[k] * shrm_coefficient(face, xy, k);
+  }
+  return sum;
+}
+
+// Dispatch (ceil(S / 8), ceil(S / 8), 6) workgroups per frame.
+@compute @workgroup_size(8, 8, 1)
+fn shrm_global_pass(@builtin(global_invocation_id) id: vec3u) {
+  let s = u32(shrm.size);
+  if (id.x >= s || id.y >= s || id.z >= 6u) {
+    return;
+  }
+  let y = shrm_eval_sh(shrm_sh_frame(normalize(shrm.view)));
+  let face = i32(id.z);
+  let sum = shrm_global_texel(face, vec2i(id.xy), y);
+  textureStore(shrm_out, vec2i(id.xy), face, vec4f(sum, 1.0));
+}
+
+// ---- eq. 5.10: a local SHRM, per pixel ------------------------------------------------------------
+
+// w = Rot^T v = Ry(-alpha) Rz(-beta) v for the frame of the SH-frame direction r (unit).
+fn shrm_to_local_frame(r: vec3f, v: vec3f) -> vec3f {
+  let sa = length(r.xy);
+  let ca = r.z;
+  var cb = 1.0;
+  var sb = 0.0;
+  if (sa > 0.0) {
+    cb = r.x / sa;
+    sb = r.y / sa;
+  }
+  let u = vec3f(cb * v.x + sb * v.y, -sb * v.x + cb * v.y, v.z);
+  return vec3f(ca * u.x - sa * u.z, u.y, sa * u.x + ca * u.z);
+}
+
+struct ShrmTexel {
+  face: i32,
+  xy: vec2i,
+}
+
+// The texel of `face` at integer coordinates that may lie one step outside the face: the texel of
+// the adjacent face containing the extrapolated centre direction.
+fn shrm_resolve_texel(face: i32, xy: vec2i) -> ShrmTexel {
+  let s = shrm.size;
+  if (all(xy >= vec2i(0)) && all(xy < vec2i(s))) {
+    return ShrmTexel(face, xy);
+  }
+  let c = shrm_cube_face_coordinates(
+      shrm_cube_face_direction(face, (vec2f(xy) + 0.5) / f32(s)));
+  return ShrmTexel(c.face, clamp(vec2i(floor(c.st * f32(s))), vec2i(0), vec2i(s - 1)));
+}
+
+// B of texel t for the view v_sh (SH frame, unit), in the texel centre's frame.
+fn shrm_local_texel(t: ShrmTexel, v_sh: vec3f) -> vec3f {
+  let r = shrm_sh_frame(normalize(
+      shrm_cube_face_direction(t.face, (vec2f(t.xy) + 0.5) / f32(shrm.size))));
+  let y = shrm_eval_sh(shrm_to_local_frame(r, v_sh));
+  var sum = vec3f(0.0);
+  for (var k = 0; k < SHRM_SH_COUNT; k++) {
+    sum += y[k] * shrm_coefficient(t.face, t.xy, k);
+  }
+  return sum;
+}
+
+// Eq. 5.10 at the index direction (R, or T; world, any length) for the view (world, unit, towards
+// the viewer): the four nearest texels, each evaluated in its own frame, interpolated bilinearly.
+fn shrm_local(index: vec3f, view: vec3f) -> vec3f {
+  let v_sh = shrm_sh_frame(view);
+  let c = shrm_cube_face_coordinates(index);
+  let p = c.st * f32(shrm.size) - 0.5;
+  let p0 = vec2i(floor(p));
+  let f = p - vec2f(p0);
+  return (1.0 - f.x) * (1.0 - f.y) * shrm_local_texel(shrm_resolve_texel(c.face, p0), v_sh) +
+         f.x * (1.0 - f.y) * shrm_local_texel(shrm_resolve_texel(c.face, p0 + vec2i(1, 0)), v_sh) +
+         (1.0 - f.x) * f.y * shrm_local_texel(shrm_resolve_texel(c.face, p0 + vec2i(0, 1)), v_sh) +
+         f.x * f.y * shrm_local_texel(shrm_resolve_texel(c.face, p0 + vec2i(1, 1)), v_sh);
+}

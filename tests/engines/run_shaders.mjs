@@ -1,0 +1,195 @@
+// The shipped WGSL library (shaders/wgsl/shrm.wgsl, docs/shaders.md) in a real WebGPU
+// implementation: Debian's Chromium, WebGPU on SwiftShader, driven by playwright-core. It runs on
+// SHRMs written by `shrm prefilter --ktx2` from a bundled real map, read here with ktx-parse and
+// uploaded as the KTX2 level stands, and is compared with shrm's own CPU evaluation of the same
+// file (`shrm render --view V -o ref.ktx2`: eq. 5.35 for a global SHRM, eq. 5.10 at every texel
+// centre for a local one).
+//
+// Usage: node run_shaders.mjs SHRM_WGSL GLOBAL.ktx2 GLOBAL_REF.ktx2 LOCAL.ktx2 LOCAL_REF.ktx2
+// Checks (PASS/FAIL lines, exit 1 on any FAIL):
+//   ktx2:    ktx-parse reads both SHRMs: cube-map array, layerCount (P + 1)^2 of shrm:pmax, one
+//            level, RGBA32F, the Data Format Descriptor, the conventions' keys;
+//   global:  shrm_global_pass (the per-frame pass) = the CPU's reflection map for the same view,
+//            every texel; and for a mirrored view it differs (negative control);
+//   local:   shrm_local at every texel centre = the CPU's B(R_texel, V); at random directions
+//            inside faces = the bilinear interpolation of those texel values (what eq. 5.10's
+//            four-tap form is: each tap evaluated in its own frame, then interpolated).
+import { readFileSync } from 'node:fs';
+import { resolve } from 'node:path';
+import { read } from 'ktx-parse';
+import { checker, launchChromium, serve, openPage, requireChromium } from './harness.mjs';
+import { faceCoordinates, normalize, texelDirection } from './ktx_cube.mjs';
+
+const [wgslPath, globalPath, globalRefPath, localPath, localRefPath] = process.argv.slice(2).map((p) => resolve(p));
+if (!localRefPath) {
+  console.error('usage: node run_shaders.mjs SHRM_WGSL GLOBAL.ktx2 GLOBAL_REF.ktx2 LOCAL.ktx2 LOCAL_REF.ktx2');
+  process.exit(2);
+}
+requireChromium();
+const { pass, fail, check, failures } = checker();
+
+// Float32 evaluation on the GPU against the CPU's (float coefficients, double SH): the error of a
+// sum of (P + 1)^2 terms c_k Y_k is a few float roundings of sum_k |c_k| |Y_k| (|Y_k| < 1 for
+// P <= 7), so it is compared with that scale. 1e-6 is ~16 float epsilons (measured here: 5e-8).
+const GLOBAL_REL = 1e-6;
+// Local form: the texel frame (a rotation built from the direction) and the SH recurrence in float
+// add a few roundings per term (measured: 1e-7). Random directions: the bilinear weights come from
+// st in float (2^-24 relative of S), within the same scale.
+const LOCAL_REL = 2e-6;
+const RANDOM_POINTS = 2000;
+
+// ktx-parse gives the keys it knows (KTXorientation, KTXwriter) as strings, others as bytes.
+const text = (kv, key) => {
+  const v = kv[key];
+  if (v === undefined || typeof v === 'string') return v;
+  return new TextDecoder().decode(v).replace(/\0$/, '');
+};
+
+function loadShrm(path, name) {
+  const k = read(new Uint8Array(readFileSync(path)));
+  const pmax = Number(text(k.keyValue, 'shrm:pmax'));
+  const count = (pmax + 1) * (pmax + 1);
+  const dfd = k.dataFormatDescriptor[0];
+  check(k.vkFormat === 109 && k.typeSize === 4, `ktx2 ${name}: vkFormat ${k.vkFormat} (R32G32B32A32_SFLOAT 109), typeSize ${k.typeSize}`);
+  check(k.faceCount === 6 && k.layerCount === count && k.levels.length === 1 && k.pixelDepth === 0 &&
+    k.pixelWidth === k.pixelHeight,
+  `ktx2 ${name}: cube-map array of ${k.layerCount} layers ((P + 1)^2 = ${count} for shrm:pmax ${pmax}), ` +
+    `${k.levels.length} level, ${k.pixelWidth} x ${k.pixelHeight}`);
+  check(dfd.colorModel === 1 && dfd.samples.length === 4 && dfd.bytesPlane[0] === 16,
+    `ktx2 ${name}: DFD RGBSDA, ${dfd.samples.length} samples, ${dfd.bytesPlane[0]} bytes per texel`);
+  check(text(k.keyValue, 'shrm:format') === 'shrm-cube/1' && /layer k = SH coefficient k/.test(text(k.keyValue, 'shrm:layout') ?? '') &&
+    text(k.keyValue, 'KTXorientation') === 'rd',
+  `ktx2 ${name}: shrm:format ${text(k.keyValue, 'shrm:format')}, shrm:kind ${text(k.keyValue, 'shrm:kind')}, shrm:layout, KTXorientation rd`);
+  const level = k.levels[0].levelData;
+  const layers = new Float32Array(level.buffer.slice(level.byteOffset, level.byteOffset + level.byteLength));
+  return { pmax, count, size: k.pixelWidth, layers, kind: text(k.keyValue, 'shrm:kind') };
+}
+
+function loadRef(path) {
+  const k = read(new Uint8Array(readFileSync(path)));
+  const level = k.levels[0].levelData;
+  return {
+    size: k.pixelWidth,
+    view: text(k.keyValue, 'shrm:view').split(',').map(Number),
+    data: new Float32Array(level.buffer.slice(level.byteOffset, level.byteOffset + level.byteLength)),
+  };
+}
+
+// sum_k |c_k| of texel (face, x, y), channel c: the scale of its rounding error.
+function magnitude(shrm, face, x, y, c) {
+  let m = 0;
+  for (let k = 0; k < shrm.count; ++k) m += Math.abs(shrm.layers[((((k * 6 + face) * shrm.size + y) * shrm.size + x) * 4) + c]);
+  return m;
+}
+
+// Compares per texel; returns [worst error / scale, texels beyond rel].
+function compareTexels(shrm, got, want, rel) {
+  const s = shrm.size;
+  let worst = 0, over = 0;
+  for (let f = 0; f < 6; ++f)
+    for (let y = 0; y < s; ++y)
+      for (let x = 0; x < s; ++x)
+        for (let c = 0; c < 3; ++c) {
+          const i = ((f * s + y) * s + x) * 4 + c;
+          const scale = magnitude(shrm, f, x, y, c) + 1e-30;
+          const e = Math.abs(got[i] - want[i]) / scale;
+          worst = Math.max(worst, e);
+          if (e > rel) ++over;
+        }
+  return [worst, over];
+}
+
+const shrmGlobal = loadShrm(globalPath, 'global');
+const shrmLocal = loadShrm(localPath, 'local');
+const refGlobal = loadRef(globalRefPath);
+const refLocal = loadRef(localRefPath);
+check(shrmGlobal.kind === 'global' && shrmLocal.kind === 'local' && shrmGlobal.pmax > 0 && shrmLocal.pmax > 0,
+  `inputs: a global (P ${shrmGlobal.pmax}) and a local (P ${shrmLocal.pmax}) SHRM with view dependence`);
+const code = readFileSync(wgslPath, 'utf8');
+
+const server = await serve([]);
+const browser = await launchChromium(['--enable-unsafe-webgpu']);
+try {
+  const { page, log } = await openPage(browser, `${server.base}/engines/shaders_page.html`, 64, 64);
+  const run = (args) => page.evaluate((a) => window.runShrm(a), args);
+  const common = (shrm) => ({ code, pmax: shrm.pmax, size: shrm.size, layers: Array.from(shrm.layers) });
+
+  // Eq. 5.35.
+  let r = await run({ ...common(shrmGlobal), view: refGlobal.view });
+  if (r.error) {
+    fail(`global: ${r.error}`);
+  } else {
+    const [worst, over] = compareTexels(shrmGlobal, r.global, refGlobal.data, GLOBAL_REL);
+    check(over === 0, `global: shrm_global_pass = CPU eq. 5.35 at V = (${refGlobal.view.map((v) => v.toFixed(3))}), ` +
+      `6 x ${shrmGlobal.size}^2 texels: worst error ${worst.toExponential(2)} of sum|c_k| (limit ${GLOBAL_REL})`);
+    const mirrored = [-refGlobal.view[0], refGlobal.view[1], refGlobal.view[2]];
+    const m = await run({ ...common(shrmGlobal), view: mirrored });
+    const [, overMirrored] = compareTexels(shrmGlobal, m.global, refGlobal.data, GLOBAL_REL);
+    check(overMirrored > 0.1 * 6 * 3 * shrmGlobal.size ** 2,
+      `global negative control: at the mirrored view ${overMirrored} channel values differ from the CPU map`);
+    check(r.errors.length === 0, `global: no WebGPU errors ${r.errors.join('; ')}`);
+  }
+
+  // Eq. 5.10 at every texel centre.
+  const s = shrmLocal.size;
+  const centres = [];
+  for (let f = 0; f < 6; ++f)
+    for (let y = 0; y < s; ++y)
+      for (let x = 0; x < s; ++x) centres.push(texelDirection(f, x, y, s));
+  r = await run({ ...common(shrmLocal), view: refLocal.view, dirs: centres });
+  if (r.error) {
+    fail(`local: ${r.error}`);
+  } else {
+    const got = r.local;
+    const [worst, over] = compareTexels(shrmLocal, got, refLocal.data, LOCAL_REL);
+    check(over === 0, `local: shrm_local at the ${centres.length} texel centres = CPU eq. 5.10: worst error ` +
+      `${worst.toExponential(2)} of sum|c_k| (limit ${LOCAL_REL})`);
+  }
+
+  // Random directions inside faces (the four taps on the same face) against the bilinear
+  // interpolation of the CPU texel values.
+  let seed = 12345;
+  const rnd = () => ((seed = (seed * 1103515245 + 12345) % 2147483648) / 2147483648);
+  const dirs = [], want = [], scale = [];
+  while (dirs.length < RANDOM_POINTS) {
+    const d = normalize([rnd() * 2 - 1, rnd() * 2 - 1, rnd() * 2 - 1]);
+    const { face, s: u, t: v } = faceCoordinates(d);
+    const px = u * s - 0.5, py = v * s - 0.5;
+    const x0 = Math.floor(px), y0 = Math.floor(py);
+    if (x0 < 0 || y0 < 0 || x0 + 1 >= s || y0 + 1 >= s) continue;
+    const fx = px - x0, fy = py - y0;
+    const w = [[x0, y0, (1 - fx) * (1 - fy)], [x0 + 1, y0, fx * (1 - fy)], [x0, y0 + 1, (1 - fx) * fy], [x0 + 1, y0 + 1, fx * fy]];
+    const rgb = [0, 0, 0], mag = [0, 0, 0];
+    for (const [x, y, wt] of w)
+      for (let c = 0; c < 3; ++c) {
+        rgb[c] += wt * refLocal.data[((face * s + y) * s + x) * 4 + c];
+        mag[c] += wt * magnitude(shrmLocal, face, x, y, c);
+      }
+    dirs.push(d);
+    want.push(rgb);
+    scale.push(mag);
+  }
+  r = await run({ ...common(shrmLocal), view: refLocal.view, dirs });
+  if (r.error) {
+    fail(`local random: ${r.error}`);
+  } else {
+    let worst = 0, over = 0;
+    dirs.forEach((_, i) => {
+      for (let c = 0; c < 3; ++c) {
+        const e = Math.abs(r.local[i * 4 + c] - want[i][c]) / (scale[i][c] + 1e-30);
+        worst = Math.max(worst, e);
+        if (e > LOCAL_REL) ++over;
+      }
+    });
+    check(over === 0, `local: shrm_local at ${dirs.length} random directions = bilinear of the CPU's texel ` +
+      `values: worst error ${worst.toExponential(2)} of sum|c_k| (limit ${LOCAL_REL})`);
+    check(r.errors.length === 0, `local: no WebGPU errors ${r.errors.join('; ')}`);
+  }
+  const pageErrors = log.filter((l) => l.startsWith('pageerror') || l.startsWith('error'));
+  check(pageErrors.length === 0, `page: no errors ${pageErrors.join('; ')}`);
+} finally {
+  await browser.close();
+  server.close();
+}
+console.log(`run_shaders: ${failures()} failure(s)`);
+process.exit(failures() ? 1 : 0);

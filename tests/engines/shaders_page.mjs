@@ -1,0 +1,110 @@
+// The page side of run_shaders.mjs: runs shaders/wgsl/shrm.wgsl in WebGPU (Chromium's, on
+// SwiftShader) on an SHRM's coefficient layers as the KTX2 file stores them, and returns what it
+// computed. window.runShrm(args) -> { global: Float32Array-like [6][S][S][4] } or
+// { local: [n][4] } (plain arrays, for playwright).
+async function device() {
+  if (!navigator.gpu) throw new Error('no navigator.gpu (WebGPU disabled?)');
+  const adapter = await navigator.gpu.requestAdapter();
+  if (!adapter) throw new Error('no WebGPU adapter');
+  return adapter.requestDevice();
+}
+
+// Reads a texture_2d_array (rgba32float, S x S x layers) back as [layer][y][x][4].
+async function readTexture(dev, tex, size, layers) {
+  const row = size * 16;
+  const paddedRow = Math.ceil(row / 256) * 256;
+  const buf = dev.createBuffer({ size: paddedRow * size * layers, usage: GPUBufferUsage.COPY_DST | GPUBufferUsage.MAP_READ });
+  const enc = dev.createCommandEncoder();
+  enc.copyTextureToBuffer({ texture: tex }, { buffer: buf, bytesPerRow: paddedRow, rowsPerImage: size }, [size, size, layers]);
+  dev.queue.submit([enc.finish()]);
+  await buf.mapAsync(GPUMapMode.READ);
+  const src = new Float32Array(buf.getMappedRange());
+  const out = new Float32Array(size * size * layers * 4);
+  for (let l = 0; l < layers; ++l)
+    for (let y = 0; y < size; ++y)
+      out.set(src.subarray(((l * size + y) * paddedRow) / 4, ((l * size + y) * paddedRow) / 4 + size * 4),
+        ((l * size + y) * size) * 4);
+  buf.unmap();
+  return out;
+}
+
+// args: { code (WGSL), pmax, size, layers (the KTX2 level as float RGBA, [k][face][y][x][4]),
+//         view [x, y, z], dirs (optional: index directions for shrm_local, [n][3]) }
+window.runShrm = async (args) => {
+  const dev = await device();
+  const errors = [];
+  dev.addEventListener('uncapturederror', (e) => errors.push(e.error.message));
+  const { size, pmax } = args;
+  const count = (pmax + 1) * (pmax + 1);
+  const prelude = `const SHRM_PMAX: i32 = ${pmax};\n`;
+  const test = `
+@group(0) @binding(3) var<storage, read> test_dirs: array<vec4f>;
+@group(0) @binding(4) var<storage, read_write> test_out: array<vec4f>;
+@compute @workgroup_size(64)
+fn test_local(@builtin(global_invocation_id) id: vec3u) {
+  if (id.x >= arrayLength(&test_dirs)) {
+    return;
+  }
+  test_out[id.x] = vec4f(shrm_local(test_dirs[id.x].xyz, normalize(shrm.view)), 1.0);
+}
+`;
+  const module = dev.createShaderModule({ code: prelude + args.code + test });
+  const info = await module.getCompilationInfo();
+  const messages = info.messages.filter((m) => m.type === 'error').map((m) => `${m.lineNum}:${m.linePos} ${m.message}`);
+  if (messages.length) return { error: `WGSL does not compile: ${messages.join('; ')}` };
+
+  const coeffs = dev.createTexture({ size: [size, size, 6 * count], format: 'rgba32float',
+    usage: GPUTextureUsage.TEXTURE_BINDING | GPUTextureUsage.COPY_DST });
+  dev.queue.writeTexture({ texture: coeffs }, new Float32Array(args.layers),
+    { bytesPerRow: size * 16, rowsPerImage: size }, [size, size, 6 * count]);
+  const params = new ArrayBuffer(16);
+  new Float32Array(params, 0, 3).set(args.view);
+  new Int32Array(params, 12, 1)[0] = size;
+  const uniform = dev.createBuffer({ size: 16, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
+  dev.queue.writeBuffer(uniform, 0, params);
+  const coeffView = coeffs.createView({ dimension: '2d-array' });
+
+  if (!args.dirs) {
+    // Eq. 5.35: the per-frame pass into an S x S x 6 storage texture.
+    const out = dev.createTexture({ size: [size, size, 6], format: 'rgba32float',
+      usage: GPUTextureUsage.STORAGE_BINDING | GPUTextureUsage.COPY_SRC });
+    const pipeline = dev.createComputePipeline({ layout: 'auto', compute: { module, entryPoint: 'shrm_global_pass' } });
+    const group = dev.createBindGroup({ layout: pipeline.getBindGroupLayout(0), entries: [
+      { binding: 0, resource: coeffView }, { binding: 1, resource: { buffer: uniform } },
+      { binding: 2, resource: out.createView({ dimension: '2d-array' }) }] });
+    const enc = dev.createCommandEncoder();
+    const pass = enc.beginComputePass();
+    pass.setPipeline(pipeline);
+    pass.setBindGroup(0, group);
+    pass.dispatchWorkgroups(Math.ceil(size / 8), Math.ceil(size / 8), 6);
+    pass.end();
+    dev.queue.submit([enc.finish()]);
+    const data = await readTexture(dev, out, size, 6);
+    return { global: Array.from(data), errors };
+  }
+  // Eq. 5.10 at the given index directions (shrm_local).
+  const n = args.dirs.length;
+  const dirs = new Float32Array(n * 4);
+  args.dirs.forEach((d, i) => dirs.set([d[0], d[1], d[2], 0], i * 4));
+  const dirBuf = dev.createBuffer({ size: dirs.byteLength, usage: GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_DST });
+  dev.queue.writeBuffer(dirBuf, 0, dirs);
+  const outBuf = dev.createBuffer({ size: dirs.byteLength, usage: GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_SRC });
+  const readBuf = dev.createBuffer({ size: dirs.byteLength, usage: GPUBufferUsage.COPY_DST | GPUBufferUsage.MAP_READ });
+  const pipeline = dev.createComputePipeline({ layout: 'auto', compute: { module, entryPoint: 'test_local' } });
+  const group = dev.createBindGroup({ layout: pipeline.getBindGroupLayout(0), entries: [
+    { binding: 0, resource: coeffView }, { binding: 1, resource: { buffer: uniform } },
+    { binding: 3, resource: { buffer: dirBuf } }, { binding: 4, resource: { buffer: outBuf } }] });
+  const enc = dev.createCommandEncoder();
+  const pass = enc.beginComputePass();
+  pass.setPipeline(pipeline);
+  pass.setBindGroup(0, group);
+  pass.dispatchWorkgroups(Math.ceil(n / 64));
+  pass.end();
+  enc.copyBufferToBuffer(outBuf, 0, readBuf, 0, dirs.byteLength);
+  dev.queue.submit([enc.finish()]);
+  await readBuf.mapAsync(GPUMapMode.READ);
+  const res = Array.from(new Float32Array(readBuf.getMappedRange()));
+  readBuf.unmap();
+  return { local: res, errors };
+};
+window.shrmReady = true;

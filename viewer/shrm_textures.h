@@ -1,0 +1,23 @@
+// The SHRM's coefficients on the GPU as the shipped shaders bind them (docs/shaders.md): the KTX2
+// SHRM's level 0 as it is (core/export/shrm_ktx2.h), a 2D array texture of 6 (P + 1)^2 layers,
+// layer 6 k + face = coefficient k, RGBA32F, nearest filtering (texelFetch).
+#ifndef SHRM_VIEWER_SHRM_TEXTURES_H_
+#define SHRM_VIEWER_SHRM_TEXTURES_H_
+
+#include <vector>
+
+#include "absl/status/status.h"
+#include "core/shrm/shrm_map.h"
+#include "viewer/gl_util.h"
+
+namespace shrm::viewer {
+
+// Uploads `cube` into *texture (generated on first use) and returns the uploaded layers in
+// *layers (for another upload of the same data, e.g. as a cube-map array). ResourceExhausted
+// when 6 (P + 1)^2 exceeds GL_MAX_ARRAY_TEXTURE_LAYERS.
+[[nodiscard]] absl::Status UploadShrmCoefficients(const ShrmCube& cube, GlTexture* texture,
+                                                  std::vector<float>* layers);
+
+}  // namespace shrm::viewer
+
+#endif  // SHRM_VIEWER_SHRM_TEXTURES_H_
