@@ -44,7 +44,7 @@ manifest() {  # manifest FILE EPSILON
   cat >"$1" <<JSON
 {"maps": ["maps/courtyard.exr", "maps/city.exr"],
  "brdfs": ["phong:s=32", "microfacet:sigma=0.2"],
- "options": {"epsilon": $2, "size": 16, "kind": "global"},
+ "options": {"epsilon": $2, "size": 16, "kind": "global", "ktx2": true},
  "output": "out/{map}_{brdf}.shrm.exr"}
 JSON
 }
@@ -63,8 +63,10 @@ for m in courtyard city; do
     ref="single/${m}_${NAMES[$i]}.shrm.exr"
     [ -f "$out" ] || { fail "missing $out"; continue; }
     "$SHRM" prefilter --env "maps/$m.exr" --brdf "${BRDFS[$i]}" --epsilon 0.1 --size 16 \
-      -o "$ref" >/dev/null 2>&1 || fail "prefilter $m ${BRDFS[$i]} failed"
+      -o "$ref" --ktx2 "${ref%.exr}.ktx2" >/dev/null 2>&1 || fail "prefilter $m ${BRDFS[$i]} failed"
     cmp -s "$out" "$ref" || fail "$out differs from the single prefilter output"
+    # "ktx2": true in the manifest: <stem>.shrm.ktx2 next to each output (docs/formats.md).
+    cmp -s "${out%.exr}.ktx2" "${ref%.exr}.ktx2" || fail "${out%.exr}.ktx2 differs from --ktx2's"
   done
 done
 ls out/*.tmp-* >/dev/null 2>&1 && fail "temporaries left in out/"
@@ -165,7 +167,7 @@ if [ -x "$SHRMD" ]; then
     "$SHRM" batch remote.json --jobs 2 --server "127.0.0.1:$PORT" --json >remote.out 2>remote.err ||
       fail "--server batch exit $?: $(cat remote.err)"
     [ "$(count ok remote.out)" -eq 4 ] || fail "--server: expected 4 ok: $(cat remote.out)"
-    for f in single/*.shrm.exr; do
+    for f in single/*.shrm.exr single/*.shrm.ktx2; do
       cmp -s "$f" "remote/$(basename "$f")" || fail "--server: remote/$(basename "$f") differs"
     done
     [ "$(grep -c '"call":"UploadBlob"' shrmd.log)" -le 2 ] || fail "--server: a map uploaded twice"
