@@ -29,6 +29,8 @@ PACKAGES=(
   # installation and packaging (docs/install.md, tests/install_test.sh): man pages from --help,
   # the Debian packages' dependencies (dpkg-shlibdeps), their checks, bash completion
   help2man dpkg-dev lintian bash-completion
+  # plots of the measurements in docs/results.md (scripts/plots.py)
+  python3-matplotlib
 )
 # The deployment test renders and validates deploy/k8s with node (npm packages pinned in
 # tests/deploy/k8s/package-lock.json). Debian's nodejs + npm unless a node is there already

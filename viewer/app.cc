@@ -434,6 +434,8 @@ class Viewer {
         Log(absl::StrCat("mode ", m, " (", info->name, ") has no data yet",
                          !why.ok() ? absl::StrCat(": ", why.message())
                          : m == 5  ? ": the ground truth needs --env and a BRDF"
+                         : m == 6  ? ": the split-sum needs --env and a GGX BRDF "
+                                     "(--brdf ggx:alpha=A[,f0=F])"
                                    : ""));
       } else {
         settings_.mode = m;

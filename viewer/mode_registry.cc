@@ -5,6 +5,7 @@
 #include "viewer/mode_local_shrm.h"
 #include "viewer/mode_reference.h"
 #include "viewer/mode_sh_lighting.h"
+#include "viewer/mode_split_sum.h"
 #include "viewer/render_mode.h"
 
 namespace shrm::viewer {
@@ -16,6 +17,8 @@ const ModeInfo kModes[] = {
     {3, "sh-lighting", "SH lighting, per-pixel BRDF coefficients (keys S N T)", MakeShLightingMode},
     {4, "irradiance", "irradiance normal mapping, H-basis (keys S N)", MakeIrradianceMode},
     {5, "reference", "ground truth: brute-force integration, progressive", MakeReferenceMode},
+    {6, "split-sum", "split-sum IBL of a GGX BRDF (shrm ibl's chain x DFG), as engines shade",
+     MakeSplitSumMode},
 };
 
 }  // namespace

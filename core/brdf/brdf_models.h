@@ -124,6 +124,8 @@ class GgxBrdf final : public Brdf {
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
   // f_r itself (no cosine), for MERL generation and tests.
   double Evaluate(const Vec3& n, const Vec3& v, const Vec3& w) const;
+  double alpha() const { return alpha_; }
+  double f0() const { return f0_; }
 
  private:
   double alpha_, f0_;
