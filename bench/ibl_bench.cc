@@ -89,6 +89,21 @@ void BM_GgxChainFromLighting(benchmark::State& state) {
 }
 BENCHMARK(BM_GgxChainFromLighting)->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
 
+// The job's irradiance cube (jobs/ibl_job.cc): one Lambert level of 32 x 32 from the lighting.
+void BM_IrradianceCubeFromLighting(benchmark::State& state) {
+  auto light = ComputeSpecularLight(Map(), Mat3::Identity(), 0, 1);
+  if (!light.ok()) std::abort();
+  SpecularOptions opt = Options();
+  opt.lobe = SpecularLobe::kLambert;
+  const double one[] = {1.0};
+  opt.chain = *MakeMipChain(RoughnessPreset::kExplicit, 32, 1, one);
+  for (auto _ : state) {
+    auto c = PrefilterSpecular(Map(), opt, &*light);
+    benchmark::DoNotOptimize(c);
+  }
+}
+BENCHMARK(BM_IrradianceCubeFromLighting)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
+
 void BM_ImportanceSampled1024(benchmark::State& state) {
   const EnvMap& map = Map();
   const MipChain mc = Options().chain;

@@ -397,6 +397,7 @@ absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
   run.timings.push_back({"irradiance", MsSince(t0)});
 
   if (const std::optional<ibl::DfgConsumer> consumer = ResolvedDfg(job)) {
+    SHRM_RETURN_IF_ERROR(stage("dfg"));
     t0 = std::chrono::steady_clock::now();
     SHRM_ASSIGN_OR_RETURN(run.dfg, ibl::ComputeDfgLut(job.dfg_size, *consumer, threads));
     run.timings.push_back({"dfg", MsSince(t0)});
