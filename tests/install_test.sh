@@ -81,6 +81,7 @@ for f in bin/shrm sbin/shrmd bin/shrm-view \
   share/man/man8/shrmd.8.gz share/bash-completion/completions/shrm \
   share/bash-completion/completions/shrmd share/bash-completion/completions/shrm-view \
   share/shrm/envmaps/$MAP share/shrm/ocio/config.ocio share/doc/shrm/README.md \
+  share/shrm/shaders/glsl/shrm_common.glsl share/shrm/shaders/wgsl/shrm.wgsl \
   share/doc/shrm/docs/install.md share/doc/shrm/LICENSE; do
   [ -e "$P/$f" ] || fail "install: $f missing"
 done
