@@ -133,7 +133,10 @@ constexpr char kRotateError[] = "must be [yaw, pitch, roll] in degrees (three fi
 void ParseIblOptions(const nlohmann::json& o, jobs::IblJob* job,
                      const std::function<void(const std::string&, const std::string&)>& err) {
   bool preset_given = false, typed = true;
-  for (const auto& [key, v] : o.items()) {
+  for (const auto& item : o.items()) {
+    // Named references, not a structured binding: clang 14 cannot capture one in a lambda.
+    const std::string& key = item.key();
+    const nlohmann::json& v = item.value();
     const std::string path = "$.options." + key;
     auto fail = [&](const std::string& what) {
       err(path, what);
