@@ -3,7 +3,8 @@
 # (docs/fuzzing.md).
 #
 #   scripts/fuzz.sh --runs N        N inputs per harness (the test command's bounded pass); new
-#                                   inputs go to a scratch folder, the corpora stay as they are
+#                                   inputs go to a scratch folder, the corpora stay as they are;
+#                                   --max-time S stops a slow harness after S seconds
 #   scripts/fuzz.sh --time SECONDS  SECONDS per harness, then the new inputs that add coverage
 #                                   are merged into fuzz/corpus/<harness> (-merge=1)
 #   --only a,b     these harnesses only        --no-build   use the existing build-fuzz
@@ -23,6 +24,7 @@ HARNESSES=(image brdf_spec brdf_table merl shrm_file batch_manifest config_file 
            ktx_roundtrip)
 RUNS=""
 TIME=""
+MAX_TIME=""
 ONLY=""
 BUILD=1
 BUILD_ONLY=0
@@ -31,11 +33,12 @@ while [ $# -gt 0 ]; do
   case "$1" in
     --runs) RUNS=$2; shift 2 ;;
     --time) TIME=$2; shift 2 ;;
+    --max-time) MAX_TIME=$2; shift 2 ;;
     --only) ONLY=$2; shift 2 ;;
     --no-build) BUILD=0; shift ;;
     --build-only) BUILD_ONLY=1; shift ;;
     --summary) SUMMARY=$2; shift 2 ;;
-    -h|--help) sed -n '2,19p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
     *) echo "fuzz.sh: unknown argument $1" >&2; exit 2 ;;
   esac
 done
@@ -88,7 +91,10 @@ for h in "${HARNESSES[@]}"; do
   # 2. Fuzzing, from the corpus; new inputs go to the scratch folder.
   if [ "$status" -eq 0 ]; then
     if [ -n "$TIME" ]; then run=(-max_total_time="$TIME"); else run=(-runs="$RUNS"); fi
-    "$bin" "${opts[@]}" "${run[@]}" "$SCRATCH/$h/new" "$corpus" >"$log" 2>&1 || status=$?
+    [ -n "$MAX_TIME" ] && [ -z "$TIME" ] && run+=(-max_total_time="$MAX_TIME")
+    dirs=("$SCRATCH/$h/new" "$corpus")
+    [ -d "$regressions" ] && dirs+=("$regressions")  # the found inputs seed the search too
+    "$bin" "${opts[@]}" "${run[@]}" "${dirs[@]}" >"$log" 2>&1 || status=$?
   fi
   # 3. Crashes, leaks, timeouts and OOMs become regression inputs.
   crashes=0
