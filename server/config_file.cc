@@ -31,6 +31,11 @@ absl::StatusOr<std::vector<ConfigEntry>> ParseConfigText(std::string_view text) 
     ++line_no;
     const std::string_view line = Trim(raw);
     if (line.empty() || line.front() == '#') continue;
+    // Values become command-line arguments (C strings): a NUL would cut one short silently.
+    if (line.find('\0') != std::string_view::npos) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("config line ", line_no, ": contains a NUL byte (the file must be text)"));
+    }
     const size_t eq = line.find('=');
     if (eq == std::string_view::npos) {
       return absl::InvalidArgumentError(

@@ -24,7 +24,7 @@ struct ConfigEntry {
 };
 
 // Parses the text of a config file. InvalidArgument (naming the line) for a line without '=',
-// an empty key, a key starting with '-', a key given twice, or an unterminated quote.
+// an empty key, a key starting with '-', a key given twice, an unterminated quote, or a NUL byte.
 absl::StatusOr<std::vector<ConfigEntry>> ParseConfigText(std::string_view text);
 
 // Reads and parses `path` (NotFound when it cannot be read; messages do not repeat the path).

@@ -341,6 +341,11 @@ TEST(ConfigFileTest, ParsesKeyValueLinesAndCommandLineWins) {
     EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument) << bad;
     EXPECT_NE(r.status().message().find("line"), std::string::npos) << r.status();
   }
+  // Found by fuzzing (docs/fuzzing.md): a NUL inside a value cut the argument shrmd parsed short.
+  auto nul = server::ParseConfigText(std::string("max-jobs = 2\ntls-key = /etc/k\0ey\n", 33));
+  EXPECT_EQ(nul.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(nul.status().message().find("line 2: contains a NUL byte"), std::string::npos)
+      << nul.status();
   auto unknown = server::ParseConfigText("\nnosuch = 1\n");
   ASSERT_TRUE(unknown.ok());
   absl::Status s = server::ConfigToArgs(*unknown, {}, known, given).status();
