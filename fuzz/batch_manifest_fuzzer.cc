@@ -1,6 +1,6 @@
-// `shrm batch` manifests (cli/batch_manifest.h, docs/cli.md "batch"): the JSON text parsed as
-// RunBatch parses it (a parse error is the user's error), then ParseManifest: kinds, maps,
-// BRDFs, every option with its range, output naming, IBL options. Maps named "map.exr",
+// `shrm batch` manifests (cli/batch_manifest.h, docs/cli.md "batch"): ParseManifestText (the JSON
+// text as `shrm batch` parses it; a parse error is the user's error), then ParseManifest: kinds,
+// maps, BRDFs, every option with its range, output naming, IBL options. Maps named "map.exr",
 // "sky.hdr" and "faces/px.exr" exist in the manifest's folder, so jobs get made.
 //
 // Input: the whole input is the manifest. Besides sanitizer reports, an exception escaping
@@ -30,16 +30,13 @@ const std::filesystem::path& ManifestDir() {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  nlohmann::json manifest;
-  try {
-    manifest = nlohmann::json::parse(shrm::fuzz::AsView(data, size));
-  } catch (const nlohmann::json::parse_error&) {
-    return 0;
-  }
+  absl::StatusOr<nlohmann::json> manifest =
+      shrm::cli::ParseManifestText(shrm::fuzz::AsView(data, size));
+  if (!manifest.ok()) return 0;
   shrm::cli::BatchOptions options;
   std::vector<shrm::cli::BatchJob> jobs;
   std::vector<std::string> errors;
-  shrm::cli::ParseManifest(manifest, ManifestDir(), &options, &jobs, &errors);
+  shrm::cli::ParseManifest(*manifest, ManifestDir(), &options, &jobs, &errors);
   shrm::fuzz::Check(errors.empty() || jobs.empty(), "no job is made from a manifest with errors");
   return 0;
 }
