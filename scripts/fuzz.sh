@@ -14,7 +14,8 @@
 # Before fuzzing, every input saved under fuzz/regressions/<harness>/ is replayed. Any crash, leak,
 # timeout, out-of-memory or sanitizer report fails the script; the input that caused it is saved
 # under fuzz/regressions/<harness>/ (commit it with the fix). One summary line per harness (inputs
-# executed, crashes, slowest input, coverage cov/ft) goes to stdout and to the summary file.
+# executed, crashes, slowest input, coverage cov/ft) goes to stdout and to the summary file; inputs
+# slower than 10 s are kept under build-fuzz/fuzz-slow/<harness>/ for a look.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
@@ -104,7 +105,9 @@ for h in "${HARNESSES[@]}"; do
   crashes=0
   for a in "$SCRATCH/$h/artifacts"/*; do
     [ -e "$a" ] || continue
-    case "$(basename "$a")" in slow-unit-*) continue ;; esac
+    case "$(basename "$a")" in
+      slow-unit-*) mkdir -p "$BUILD_DIR/fuzz-slow/$h"; cp "$a" "$BUILD_DIR/fuzz-slow/$h/"; continue ;;
+    esac
     mkdir -p "$regressions"
     cp "$a" "$regressions/"
     crashes=$((crashes + 1))

@@ -76,6 +76,12 @@ absl::StatusOr<std::vector<std::string>> ConfigToArgs(
     const std::function<bool(const std::string&)>& given) {
   std::vector<std::string> args;
   for (const ConfigEntry& e : entries) {
+    // Actions, not settings: "--help" or "--version" from the file would make the daemon print
+    // and exit at startup instead of serving, "--config" would read another file.
+    if (e.key == "help" || e.key == "version" || e.key == "config") {
+      return absl::InvalidArgumentError(
+          absl::StrCat("config line ", e.line, ": '", e.key, "' is not a setting"));
+    }
     if (!known(e.key)) {
       return absl::InvalidArgumentError(
           absl::StrCat("config line ", e.line, ": unknown key '", e.key, "'"));
