@@ -7,8 +7,10 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <string_view>
 #include <vector>
 
+#include "absl/status/statusor.h"
 #include "jobs/ibl_job.h"
 #include "jobs/prefilter_job.h"
 
@@ -41,6 +43,10 @@ struct BatchJob {
   int retries = 0;  // remote: attempts beyond the first
   std::string message;
 };
+
+// The manifest's JSON text parsed (`shrm batch` reads the file, then this): InvalidArgument
+// "not JSON: ..." for any parse failure, including numbers out of range (1e400).
+absl::StatusOr<nlohmann::json> ParseManifestText(std::string_view text);
 
 // Reads and validates a manifest whose relative paths are relative to `dir`; every problem is
 // appended to *errors with its JSON path ("$.options.epsilon: ..."), and no job is made then.

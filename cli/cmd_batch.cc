@@ -134,7 +134,10 @@ constexpr char kRotateError[] = "must be [yaw, pitch, roll] in degrees (three fi
 void ParseIblOptions(const nlohmann::json& o, jobs::IblJob* job,
                      const std::function<void(const std::string&, const std::string&)>& err) {
   bool preset_given = false, typed = true;
-  for (const auto& [key, v] : o.items()) {
+  for (const auto& item : o.items()) {
+    // Named references, not a structured binding: clang 14 cannot capture one in a lambda.
+    const std::string& key = item.key();
+    const nlohmann::json& v = item.value();
     const std::string path = "$.options." + key;
     auto fail = [&](const std::string& what) {
       err(path, what);
@@ -223,6 +226,14 @@ void ParseIblOptions(const nlohmann::json& o, jobs::IblJob* job,
 }
 
 }  // namespace
+
+absl::StatusOr<nlohmann::json> ParseManifestText(std::string_view text) {
+  try {
+    return nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {  // parse_error, and out_of_range for 1e400
+    return absl::InvalidArgumentError(absl::StrCat("not JSON: ", e.what()));
+  }
+}
 
 void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* opt,
                    std::vector<BatchJob>* jobs, std::vector<std::string>* errors) {
@@ -432,12 +443,11 @@ absl::Status RunBatch(const BatchArgs& args) {
   if (!in) return absl::NotFoundError(absl::StrCat(args.manifest, ": cannot open the manifest"));
   std::stringstream text;
   text << in.rdbuf();
-  nlohmann::json manifest;
-  try {
-    manifest = nlohmann::json::parse(text.str());
-  } catch (const nlohmann::json::parse_error& e) {
-    return absl::InvalidArgumentError(absl::StrCat(args.manifest, ": not JSON: ", e.what()));
+  absl::StatusOr<nlohmann::json> parsed = ParseManifestText(text.str());
+  if (!parsed.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat(args.manifest, ": ", parsed.status().message()));
   }
+  const nlohmann::json& manifest = *parsed;
   BatchOptions opt;
   std::vector<BatchJob> jobs;
   std::vector<std::string> errors;

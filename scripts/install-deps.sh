@@ -14,6 +14,8 @@ PACKAGES=(
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libabsl-dev libssl-dev
   # tests and benchmarks (libsharp: benchmark-only reference, GPL, never linked into shipped binaries)
   libgtest-dev libgmock-dev libbenchmark-dev libsharp-dev
+  # fuzzing (scripts/fuzz.sh, docs/fuzzing.md): clang 14 with libFuzzer and the sanitizer runtimes
+  clang libclang-rt-14-dev
   # the openssl CLI: tests/service_ops_test.cc makes its TLS certificates with it
   openssl
   # CLI and logging

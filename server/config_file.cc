@@ -31,6 +31,11 @@ absl::StatusOr<std::vector<ConfigEntry>> ParseConfigText(std::string_view text) 
     ++line_no;
     const std::string_view line = Trim(raw);
     if (line.empty() || line.front() == '#') continue;
+    // Values become command-line arguments (C strings): a NUL would cut one short silently.
+    if (line.find('\0') != std::string_view::npos) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("config line ", line_no, ": contains a NUL byte (the file must be text)"));
+    }
     const size_t eq = line.find('=');
     if (eq == std::string_view::npos) {
       return absl::InvalidArgumentError(
@@ -71,6 +76,12 @@ absl::StatusOr<std::vector<std::string>> ConfigToArgs(
     const std::function<bool(const std::string&)>& given) {
   std::vector<std::string> args;
   for (const ConfigEntry& e : entries) {
+    // Actions, not settings: "--help" or "--version" from the file would make the daemon print
+    // and exit at startup instead of serving, "--config" would read another file.
+    if (e.key == "help" || e.key == "version" || e.key == "config") {
+      return absl::InvalidArgumentError(
+          absl::StrCat("config line ", e.line, ": '", e.key, "' is not a setting"));
+    }
     if (!known(e.key)) {
       return absl::InvalidArgumentError(
           absl::StrCat("config line ", e.line, ": unknown key '", e.key, "'"));

@@ -24,7 +24,7 @@ struct ConfigEntry {
 };
 
 // Parses the text of a config file. InvalidArgument (naming the line) for a line without '=',
-// an empty key, a key starting with '-', a key given twice, or an unterminated quote.
+// an empty key, a key starting with '-', a key given twice, an unterminated quote, or a NUL byte.
 absl::StatusOr<std::vector<ConfigEntry>> ParseConfigText(std::string_view text);
 
 // Reads and parses `path` (NotFound when it cannot be read; messages do not repeat the path).
@@ -33,7 +33,8 @@ absl::StatusOr<std::vector<ConfigEntry>> ReadConfigFile(const std::string& path)
 // Command-line arguments equivalent to `entries`, skipping keys for which `given(key)` is true
 // (flags already on the command line win). Keys in `bool_flags` become "--key" for true and
 // nothing for false (InvalidArgument for another value); others become "--key", "value".
-// InvalidArgument for a key `known(key)` rejects.
+// InvalidArgument for a key `known(key)` rejects, and for help, version and config (actions of
+// the command line, not settings).
 absl::StatusOr<std::vector<std::string>> ConfigToArgs(
     const std::vector<ConfigEntry>& entries, const std::set<std::string>& bool_flags,
     const std::function<bool(const std::string&)>& known,

@@ -110,6 +110,71 @@ TEST(ImageTest, AbsurdHeaderIsRejectedBeforeDecoding) {
   fs::remove(path);
 }
 
+// A small valid EXR (EncodeImage) with the little-endian int32 `after` bytes past the end of
+// `marker` set to `value`.
+std::string PatchedExr(const std::string& marker, size_t after, uint32_t value) {
+  Image img;
+  img.width = 4;
+  img.height = 2;
+  img.channels = 3;
+  img.pixels.assign(4 * 2 * 3, 0.5f);
+  std::string bytes = *EncodeImage(img, ImageEncoding::kExrFloat);
+  const size_t at = bytes.find(marker);
+  EXPECT_NE(at, std::string::npos) << marker;
+  if (at == std::string::npos) return bytes;
+  for (int i = 0; i < 4; ++i)
+    bytes[at + marker.size() + after + i] = char((value >> (8 * i)) & 255);
+  return bytes;
+}
+
+absl::Status CheckPatchedExr(const std::string& name, const std::string& bytes) {
+  const std::string path = TempPath(name);
+  WriteBytes(path, bytes);
+  const absl::Status probe = ProbeImage(path).status();
+  EXPECT_EQ(CheckExrHeader(path, {}).code(), probe.code()) << probe;
+  fs::remove(path);
+  return probe;
+}
+
+TEST(ImageTest, ExrHeaderCheckPassesValidFiles) {
+  EXPECT_TRUE(CheckExrHeader(MapPath("courtyard.exr"), {}).ok());
+  const std::string path = TempPath("valid.exr");
+  Image img;
+  img.width = img.height = img.channels = 3;
+  img.pixels.assign(27, 1.0f);
+  WriteBytes(path, *EncodeImage(img, ImageEncoding::kExrFloat));
+  EXPECT_TRUE(CheckExrHeader(path, {}).ok());
+  fs::remove(path);
+}
+
+// Found by fuzzing (docs/fuzzing.md): OpenEXR 3.1.5 allocates a string attribute's declared size
+// before reading it; a 7 KB file claiming 1.8 GB took the process past its memory limit.
+TEST(ImageTest, ExrAttributeLargerThanTheFileIsRejectedBeforeOpenExr) {
+  const absl::Status s =
+      CheckPatchedExr("attr.exr", PatchedExr(std::string("capDate\0string\0", 15), 0, 0x6d000000));
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << s;
+  EXPECT_NE(s.message().find("attribute 'capDate' claims 1828716544 bytes"), std::string::npos)
+      << s;
+}
+
+TEST(ImageTest, ExrDataWindowBeyondTheLimitsIsRejectedBeforeOpenExr) {
+  // dataWindow = (xMin, yMin, xMax, yMax): xMax = 2^30.
+  const absl::Status s = CheckPatchedExr(
+      "window.exr", PatchedExr(std::string("dataWindow\0box2i\0", 17), 12, 1 << 30));
+  EXPECT_EQ(s.code(), absl::StatusCode::kResourceExhausted) << s;
+  EXPECT_NE(s.message().find("1073741825 x 2"), std::string::npos) << s;
+  const absl::Status inverted = CheckPatchedExr(
+      "inverted.exr", PatchedExr(std::string("dataWindow\0box2i\0", 17), 16, 0xFFFFFFF0u));
+  EXPECT_EQ(inverted.code(), absl::StatusCode::kInvalidArgument) << inverted;
+}
+
+TEST(ImageTest, ExrDeepFlagIsRejectedBeforeOpenExr) {
+  // The version field's flags (bytes 4-7): bit 11 marks deep (non-image) parts.
+  const absl::Status s = CheckPatchedExr("deep.exr", PatchedExr("\x76\x2f\x31\x01", 0, 2 | 0x800));
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << s;
+  EXPECT_NE(s.message().find("deep images are not supported"), std::string::npos) << s;
+}
+
 TEST(ImageTest, LimitsAreConfigurable) {
   ImageLimits limits;
   limits.max_width = 512;

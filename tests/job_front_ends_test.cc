@@ -294,5 +294,19 @@ TEST(JobFrontEnds, WireHasNoFieldWithoutAnOption) {
   CheckWireFields(jobs::IblJobOptions(), IblBaseJob());
 }
 
+// Found by fuzzing (docs/fuzzing.md): nlohmann's parser throws out_of_range, not parse_error, for a
+// number beyond double ("1e400"); `shrm batch` caught only parse_error and terminated.
+TEST(BatchManifest, NumberOutOfRangeIsNotJsonRatherThanACrash) {
+  absl::StatusOr<nlohmann::json> m =
+      cli::ParseManifestText(R"({"maps": ["map.exr"], "brdfs": ["lambert"], "output": 1e400})");
+  EXPECT_EQ(m.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(m.status().message().find("not JSON"), std::string::npos) << m.status();
+  EXPECT_EQ(cli::ParseManifestText("{\"maps\": [").status().code(),
+            absl::StatusCode::kInvalidArgument);
+  absl::StatusOr<nlohmann::json> ok = cli::ParseManifestText(R"({"maps": ["map.exr"]})");
+  ASSERT_TRUE(ok.ok()) << ok.status();
+  EXPECT_EQ((*ok)["maps"][0], "map.exr");
+}
+
 }  // namespace
 }  // namespace shrm

@@ -341,6 +341,23 @@ TEST(ConfigFileTest, ParsesKeyValueLinesAndCommandLineWins) {
     EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument) << bad;
     EXPECT_NE(r.status().message().find("line"), std::string::npos) << r.status();
   }
+  // Found by fuzzing (docs/fuzzing.md): "help = x" passed CLI11's own --help to shrmd, which then
+  // printed its help and exited at startup; help, version and config are not settings.
+  for (const char* action : {"help = x\n", "version = 1\n", "config = /etc/other.conf\n"}) {
+    auto entries_of_action = server::ParseConfigText(action);
+    ASSERT_TRUE(entries_of_action.ok());
+    const absl::Status refused =
+        server::ConfigToArgs(
+            *entries_of_action, {}, [](const std::string&) { return true; }, given)
+            .status();
+    EXPECT_EQ(refused.code(), absl::StatusCode::kInvalidArgument) << action;
+    EXPECT_NE(refused.message().find("is not a setting"), std::string::npos) << refused;
+  }
+  // Found by fuzzing (docs/fuzzing.md): a NUL inside a value cut the argument shrmd parsed short.
+  auto nul = server::ParseConfigText(std::string("max-jobs = 2\ntls-key = /etc/k\0ey\n", 33));
+  EXPECT_EQ(nul.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(nul.status().message().find("line 2: contains a NUL byte"), std::string::npos)
+      << nul.status();
   auto unknown = server::ParseConfigText("\nnosuch = 1\n");
   ASSERT_TRUE(unknown.ok());
   absl::Status s = server::ConfigToArgs(*unknown, {}, known, given).status();

@@ -203,6 +203,7 @@ absl::StatusOr<CubeExr> ReadCubeExr(const std::string& path, const ImageLimits& 
     return absl::ResourceExhaustedError(
         absl::StrCat(path, ": file is ", bytes, " bytes, above the limit"));
   }
+  SHRM_RETURN_IF_ERROR(CheckExrHeader(path, limits));
   auto in = OIIO::ImageInput::create("openexr");
   if (!in) return absl::InternalError("no OpenImageIO reader for openexr");
   OIIO::ImageSpec spec;

@@ -51,6 +51,168 @@ absl::StatusOr<std::string> DetectImageFormat(const std::string& path) {
 
 namespace {
 
+// OpenEXR header walking (CheckExrHeader): the file layout of "OpenEXR File Layout" (magic,
+// version and flags, then per part a list of attributes name\0 type\0 int32 size value,
+// ended by an empty name; multi-part files end the list of headers with an empty header).
+constexpr uint32_t kExrTiledFlag = 0x200;
+constexpr uint32_t kExrLongNamesFlag = 0x400;
+constexpr uint32_t kExrNonImageFlag = 0x800;  // deep data
+constexpr uint32_t kExrMultiPartFlag = 0x1000;
+constexpr int kExrMaxParts = 1024;
+
+class ExrHeaderWalker {
+ public:
+  ExrHeaderWalker(const std::string& path, const ImageLimits& limits)
+      : path_(path), limits_(limits) {}
+
+  absl::Status Walk() {
+    std::error_code ec;
+    file_bytes_ = static_cast<int64_t>(std::filesystem::file_size(path_, ec));
+    if (ec) return absl::NotFoundError(absl::StrCat(path_, ": ", ec.message()));
+    in_.open(path_, std::ios::binary);
+    if (!in_) return absl::NotFoundError(absl::StrCat(path_, ": cannot open file"));
+    uint32_t magic = 0, version = 0;
+    if (!ReadU32(&magic) || !ReadU32(&version)) return Bad("shorter than its 8-byte preamble");
+    if (version & kExrNonImageFlag) {
+      return absl::InvalidArgumentError(absl::StrCat(path_, ": deep images are not supported"));
+    }
+    max_name_ = (version & kExrLongNamesFlag) ? 255 : 31;
+    tiled_ = version & kExrTiledFlag;
+    for (int part = 0;; ++part) {
+      if (part >= kExrMaxParts) return Bad(absl::StrCat("more than ", kExrMaxParts, " parts"));
+      SHRM_RETURN_IF_ERROR(WalkPart());
+      if (!(version & kExrMultiPartFlag)) return absl::OkStatus();
+      if (in_.peek() == 0) return absl::OkStatus();  // the empty header ends the list
+      if (in_.peek() == std::char_traits<char>::eof()) return Bad("unterminated list of parts");
+    }
+  }
+
+ private:
+  absl::Status Bad(absl::string_view what) const {
+    return absl::InvalidArgumentError(absl::StrCat(path_, ": malformed OpenEXR header: ", what));
+  }
+  bool ReadU32(uint32_t* v) {
+    unsigned char b[4];
+    if (!in_.read(reinterpret_cast<char*>(b), 4)) return false;
+    *v = b[0] | (b[1] << 8) | (b[2] << 16) | (uint32_t{b[3]} << 24);
+    return true;
+  }
+  bool ReadI32(int32_t* v) {
+    uint32_t u = 0;
+    if (!ReadU32(&u)) return false;
+    *v = static_cast<int32_t>(u);
+    return true;
+  }
+  // A NUL-terminated name of at most max_name_ characters.
+  bool ReadName(std::string* out) {
+    out->clear();
+    for (char c; in_.get(c);) {
+      if (c == '\0') return true;
+      if (out->size() >= max_name_) return false;
+      out->push_back(c);
+    }
+    return false;
+  }
+  int64_t Remaining() { return file_bytes_ - static_cast<int64_t>(in_.tellg()); }
+
+  absl::Status WalkPart() {
+    bool deep_type = false, has_window = false;
+    int64_t width = 0, height = 0;
+    uint32_t tile_x = 0, tile_y = 0;
+    bool has_tiles = false;
+    std::string name, type;
+    while (true) {
+      if (!ReadName(&name)) return Bad("unterminated or over-long attribute name");
+      if (name.empty()) break;
+      if (!ReadName(&type)) return Bad(absl::StrCat("attribute '", name, "': bad type name"));
+      int32_t size = 0;
+      if (!ReadI32(&size)) return Bad(absl::StrCat("attribute '", name, "': no size"));
+      const int64_t remaining = Remaining();
+      if (size < 0 || size > remaining) {
+        return Bad(absl::StrCat("attribute '", name, "' claims ", size, " bytes, the file has ",
+                                remaining, " left"));
+      }
+      const std::streampos value_start = in_.tellg();
+      if (name == "dataWindow" && type == "box2i" && size == 16) {
+        int32_t x0, y0, x1, y1;
+        if (!ReadI32(&x0) || !ReadI32(&y0) || !ReadI32(&x1) || !ReadI32(&y1))
+          return Bad("dataWindow");
+        width = int64_t{x1} - x0 + 1;
+        height = int64_t{y1} - y0 + 1;
+        has_window = true;
+      } else if (type == "preview" && size >= 8) {
+        uint32_t w = 0, h = 0;
+        if (!ReadU32(&w) || !ReadU32(&h)) return Bad("preview");
+        if (8 + 4 * uint64_t{w} * h != static_cast<uint64_t>(size)) {
+          return Bad(absl::StrCat("preview ", w, " x ", h, " does not fit its ", size, " bytes"));
+        }
+      } else if (type == "stringvector") {
+        for (int64_t left = size; left > 0;) {
+          int32_t n = 0;
+          if (left < 4 || !ReadI32(&n) || n < 0 || n > left - 4) {
+            return Bad(absl::StrCat("attribute '", name, "': a string longer than the attribute"));
+          }
+          in_.seekg(n, std::ios::cur);
+          left -= 4 + int64_t{n};
+        }
+      } else if (name == "tiles" && type == "tiledesc" && size == 9) {
+        if (!ReadU32(&tile_x) || !ReadU32(&tile_y)) return Bad("tiles");
+        has_tiles = true;
+      } else if (name == "chunkCount" && type == "int" && size == 4) {
+        int32_t chunks = 0;
+        if (!ReadI32(&chunks) || chunks < 0 || int64_t{chunks} * 8 > file_bytes_) {
+          return Bad(absl::StrCat("chunkCount ", chunks, " does not fit the file"));
+        }
+      } else if (name == "type" && type == "string" && size < 64) {
+        std::string value(static_cast<size_t>(size), '\0');
+        in_.read(value.data(), size);
+        deep_type = value.rfind("deep", 0) == 0;
+      }
+      in_.clear();
+      in_.seekg(value_start + static_cast<std::streamoff>(size));
+      if (!in_) return Bad(absl::StrCat("attribute '", name, "' runs past the end"));
+    }
+    if (deep_type) {
+      return absl::InvalidArgumentError(absl::StrCat(path_, ": deep images are not supported"));
+    }
+    if (!has_window) return absl::OkStatus();  // OpenEXR refuses a header without one
+    if (width < 1 || height < 1) {
+      return Bad(absl::StrCat("empty or inverted dataWindow (", width, " x ", height, ")"));
+    }
+    if (width > limits_.max_width || height > limits_.max_height ||
+        width * height > limits_.max_pixels) {
+      return absl::ResourceExhaustedError(absl::StrCat(
+          path_, ": image is ", width, " x ", height, ", above the limits of ", limits_.max_width,
+          " x ", limits_.max_height, " and ", limits_.max_pixels, " pixels"));
+    }
+    if (tiled_ || has_tiles) {
+      // Level 0's tile offsets alone (8 bytes each) must fit in the file.
+      if (tile_x < 1 || tile_y < 1) return Bad("tiles of zero size");
+      const int64_t tiles = ((width + tile_x - 1) / tile_x) * ((height + tile_y - 1) / tile_y);
+      if (tiles * 8 > file_bytes_) {
+        return Bad(
+            absl::StrCat(tiles, " tiles of ", tile_x, " x ", tile_y, " do not fit the file"));
+      }
+    }
+    return absl::OkStatus();
+  }
+
+  const std::string& path_;
+  const ImageLimits& limits_;
+  std::ifstream in_;
+  int64_t file_bytes_ = 0;
+  size_t max_name_ = 31;
+  bool tiled_ = false;
+};
+
+}  // namespace
+
+absl::Status CheckExrHeader(const std::string& path, const ImageLimits& limits) {
+  return ExrHeaderWalker(path, limits).Walk();
+}
+
+namespace {
+
 absl::StatusOr<std::unique_ptr<OIIO::ImageInput>> OpenChecked(const std::string& path,
                                                               const ImageLimits& limits,
                                                               ImageHeader* header) {
@@ -64,6 +226,7 @@ absl::StatusOr<std::unique_ptr<OIIO::ImageInput>> OpenChecked(const std::string&
                                                      " bytes, above the limit of ",
                                                      limits.max_file_bytes));
   }
+  if (header->format == "openexr") SHRM_RETURN_IF_ERROR(CheckExrHeader(path, limits));
   auto in = OIIO::ImageInput::create(header->format);
   if (!in) {
     return absl::InternalError(

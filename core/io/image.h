@@ -57,6 +57,16 @@ struct Image {
 // InvalidArgument error naming the unrecognized signature.
 absl::StatusOr<std::string> DetectImageFormat(const std::string& path);
 
+// Walks an OpenEXR file's header(s) (every part of a multi-part file) before OpenEXR parses them,
+// and refuses what Debian's OpenEXR 3.1.5 would turn into a huge allocation or an unsafe read
+// (found by fuzzing, docs/fuzzing.md): an attribute whose declared size exceeds the bytes left in
+// the file, a preview or string vector whose contents disagree with that size, an unterminated or
+// over-long name, a chunk count or tile offset table larger than the file could hold, a
+// dataWindow that is empty, inverted or beyond `limits` (ResourceExhausted), and deep data
+// (CVE-2023-5841). Everything else is left to OpenEXR. Called by ProbeImage/ReadImageRgb and by
+// ReadCubeExr for "openexr" files.
+absl::Status CheckExrHeader(const std::string& path, const ImageLimits& limits);
+
 // Opens the file and validates its header against `limits` without decoding pixels.
 absl::StatusOr<ImageHeader> ProbeImage(const std::string& path, const ImageLimits& limits = {});
 
