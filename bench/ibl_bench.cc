@@ -102,7 +102,10 @@ void BM_IrradianceCubeFromLighting(benchmark::State& state) {
     benchmark::DoNotOptimize(c);
   }
 }
-BENCHMARK(BM_IrradianceCubeFromLighting)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
+BENCHMARK(BM_IrradianceCubeFromLighting)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3)
+    ->UseRealTime();
 
 void BM_ImportanceSampled1024(benchmark::State& state) {
   const EnvMap& map = Map();

@@ -151,8 +151,8 @@ struct IblRun {
 // The embedded run: decode and hash the map, the chains, the irradiance; negatives clamped to 0
 // and every value rounded as job.format stores it (ktx2::RoundTrip), then each level measured at
 // job.verify seeded texel centres against the brute-force pixel sum. `progress` (optional) is
-// called at the start of each stage: lighting, specular, [sheen], irradiance, [dfg], [verify]; an error
-// it returns stops the job (the service's cancellation).
+// called at the start of each stage: lighting, specular, [sheen], irradiance, [dfg], [verify]; an
+// error it returns stops the job (the service's cancellation).
 absl::StatusOr<IblRun> RunIblJob(const IblJob& job, int threads,
                                  const PrefilterProgress& progress = nullptr);
 
