@@ -157,6 +157,20 @@ TEST(ImageTest, ExrAttributeLargerThanTheFileIsRejectedBeforeOpenExr) {
       << s;
 }
 
+// Found by fuzzing: OpenEXR reads a channel list (and the fixed-size types) up to its own end,
+// whatever the attribute's size says, then reads the next attribute out of step (a string size
+// of 1.7 GB taken from text). The walker checks that such values fill exactly their size.
+TEST(ImageTest, ExrValueDisagreeingWithItsSizeIsRejectedBeforeOpenExr) {
+  const absl::Status chlist =
+      CheckPatchedExr("chlist.exr", PatchedExr(std::string("channels\0chlist\0", 16), 0, 37));
+  EXPECT_EQ(chlist.code(), absl::StatusCode::kInvalidArgument) << chlist;
+  EXPECT_NE(chlist.message().find("attribute 'channels'"), std::string::npos) << chlist;
+  const absl::Status fixed = CheckPatchedExr(
+      "compression.exr", PatchedExr(std::string("compression\0compression\0", 24), 0, 5));
+  EXPECT_EQ(fixed.code(), absl::StatusCode::kInvalidArgument) << fixed;
+  EXPECT_NE(fixed.message().find("has 5 bytes, not 1"), std::string::npos) << fixed;
+}
+
 TEST(ImageTest, ExrDataWindowBeyondTheLimitsIsRejectedBeforeOpenExr) {
   // dataWindow = (xMin, yMin, xMax, yMax): xMax = 2^30.
   const absl::Status s = CheckPatchedExr(

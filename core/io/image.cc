@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <mutex>
 
@@ -115,6 +116,40 @@ class ExrHeaderWalker {
   }
   int64_t Remaining() { return file_bytes_ - static_cast<int64_t>(in_.tellg()); }
 
+  static int FixedSize(const std::string& type) {
+    static const std::map<std::string, int> kSizes = {
+        {"box2i", 16},    {"box2f", 16},   {"v2i", 8},      {"v2f", 8},
+        {"v2d", 16},      {"v3i", 12},     {"v3f", 12},     {"v3d", 24},
+        {"int", 4},       {"float", 4},    {"double", 8},   {"compression", 1},
+        {"lineOrder", 1}, {"envmap", 1},   {"tiledesc", 9}, {"chromaticities", 32},
+        {"m33f", 36},     {"m44f", 64},    {"m33d", 72},    {"m44d", 128},
+        {"rational", 8},  {"timecode", 8}, {"keycode", 28}, {"deepImageState", 1}};
+    const auto it = kSizes.find(type);
+    return it == kSizes.end() ? 0 : it->second;
+  }
+
+  // A channel list: entries name\0 + 16 bytes, then an empty name, exactly `size` bytes (OpenEXR
+  // reads up to the empty name whatever the size says).
+  absl::Status CheckChannelList(const std::string& attr, int32_t size) {
+    const int64_t end = static_cast<int64_t>(in_.tellg()) + size;
+    std::string channel;
+    while (true) {
+      if (!ReadName(&channel) || static_cast<int64_t>(in_.tellg()) > end) {
+        return Bad(absl::StrCat("attribute '", attr, "': a channel name runs past its size"));
+      }
+      if (channel.empty()) break;
+      in_.seekg(16, std::ios::cur);
+      if (static_cast<int64_t>(in_.tellg()) > end) {
+        return Bad(
+            absl::StrCat("attribute '", attr, "': channel '", channel, "' runs past its size"));
+      }
+    }
+    if (static_cast<int64_t>(in_.tellg()) != end) {
+      return Bad(absl::StrCat("attribute '", attr, "': the channel list ends before its size"));
+    }
+    return absl::OkStatus();
+  }
+
   absl::Status WalkPart() {
     bool deep_type = false, has_window = false;
     int64_t width = 0, height = 0;
@@ -133,6 +168,15 @@ class ExrHeaderWalker {
                                 remaining, " left"));
       }
       const std::streampos value_start = in_.tellg();
+      // OpenEXR reads these types without looking at the size: another size puts it out of step
+      // with the file (it then reads text as the next attribute's size).
+      if (const int fixed = FixedSize(type); fixed > 0 && size != fixed) {
+        return Bad(absl::StrCat("attribute '", name, "' of type ", type, " has ", size,
+                                " bytes, not ", fixed));
+      }
+      if (type == "chlist") SHRM_RETURN_IF_ERROR(CheckChannelList(name, size));
+      in_.clear();
+      in_.seekg(value_start);
       if (name == "dataWindow" && type == "box2i" && size == 16) {
         int32_t x0, y0, x1, y1;
         if (!ReadI32(&x0) || !ReadI32(&y0) || !ReadI32(&x1) || !ReadI32(&y1))
