@@ -198,6 +198,14 @@ TEST(ShrmKtx2Test, DamagedFilesAreRefusedWithTheField) {
     expect_error(b, "layerCount 4 does not match shrm:pmax 7");
   }
   {
+    // A value that is not UTF-8 (found by fuzz/shrm_ktx2_fuzzer.cc: read, it could not be written
+    // again).
+    std::string b = good;
+    const size_t at = b.find("shrm-cube/1");
+    b[at + 5] = static_cast<char>(0xFF);
+    expect_error(b, "is not NUL-free UTF-8");
+  }
+  {
     ImageLimits small;
     small.max_width = 1;
     absl::StatusOr<ShrmFile> r = DecodeShrmKtx2("f.ktx2", good, small);

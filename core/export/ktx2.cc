@@ -326,6 +326,8 @@ int MaxLevelCount(int width, int height) {
   return n;
 }
 
+bool IsValidUtf8(std::string_view s) { return ValidUtf8(s); }
+
 uint16_t FloatToHalf(float value) {
   const uint16_t sign = std::signbit(value) ? 0x8000 : 0;
   return static_cast<uint16_t>(sign | EncodeUnsignedSmallFloat(std::fabs(value), 10));

@@ -122,6 +122,10 @@ struct EncodeOptions {
 // bytes with core/io's WriteFileAtomically.
 absl::StatusOr<std::string> EncodeKtx2(const Ktx2Image& image, const EncodeOptions& options = {});
 
+// True when `s` is valid UTF-8 (the rule EncodeKtx2 applies to keys and values; readers apply it
+// to what they accept, so that what they read can be written again).
+bool IsValidUtf8(std::string_view s);
+
 // The value conversions used by EncodeKtx2 (inputs must be finite; see the rules above).
 uint16_t FloatToHalf(float value);                  // saturating at +-65504
 uint32_t PackB10G11R11(float r, float g, float b);  // negatives become 0

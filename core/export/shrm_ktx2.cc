@@ -148,7 +148,13 @@ absl::StatusOr<ShrmFile> DecodeShrmKtx2(const std::string& label, std::string_vi
     std::string_view value = entry.substr(nul + 1);
     if (!value.empty() && value.back() == '\0') value.remove_suffix(1);
     const std::string key(entry.substr(0, nul));
-    if (absl::StartsWith(key, "shrm:")) attributes[key] = std::string(value);
+    if (absl::StartsWith(key, "shrm:")) {
+      // The KTX 2.0 rule for Key/Value Data (UTF-8, NUL-terminated): what is read can be written.
+      if (value.find('\0') != std::string_view::npos || !ktx2::IsValidUtf8(key) ||
+          !ktx2::IsValidUtf8(value))
+        return bad("Key/Value entry ", key, " at byte ", at, " is not NUL-free UTF-8");
+      attributes[key] = std::string(value);
+    }
     at += 4 + (uint64_t{len} + 3) / 4 * 4;
   }
   ShrmFile file;
