@@ -6,7 +6,9 @@
 //   - sustained throughput with 8 client threads,
 //   - the service's overhead over the embedded run (core Prefilter + WriteShrmFile in process),
 //     measured against a server with the caches disabled (--cache-mib 0) so both do the same
-//     work.
+//     work,
+//   - the query-of-death check (server/decoder_sandbox.h): decoding the map in an isolated child
+//     against decoding it in this process (the cost a new blob pays once per replica).
 // A plain main (not Google Benchmark's runner): the figures are distributions over requests.
 // Usage: service_bench [requests=50] [throughput_seconds=5]
 #include <unistd.h>
@@ -29,6 +31,7 @@
 #include "core/envmap/envmap.h"
 #include "core/shrm/prefilter.h"
 #include "core/shrm/shrm_file.h"
+#include "server/decoder_sandbox.h"
 #include "server/server.h"
 
 namespace {
@@ -110,6 +113,9 @@ int main(int argc, char** argv) {
   const double tput_s = argc > 2 ? std::max(1.0, std::atof(argv[2])) : 5.0;
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const std::string map = absl::StrCat(SHRM_SOURCE_DIR, "/data/envmaps/", kMap);
+  // Forked before any thread exists, as shrmd does.
+  auto sandbox = shrm::server::DecoderSandbox::Start();
+  if (!sandbox.ok()) Die(sandbox.status(), "decoder sandbox");
 
   Server srv = StartServer(512ull << 20, cores, "warm");
   auto c = Connect(srv.target);
@@ -192,6 +198,18 @@ int main(int argc, char** argv) {
     embedded.push_back(Ms(Clock::now() - e0));
   }
   std::filesystem::remove(out);
+  std::vector<double> isolated, in_process;
+  for (int i = 0; i < overhead_runs; ++i) {
+    const auto s0 = Clock::now();
+    const absl::Status s = (*sandbox)->Check(map, {});
+    if (!s.ok()) Die(s, "isolated decode");
+    isolated.push_back(Ms(Clock::now() - s0));
+    const auto d0 = Clock::now();
+    auto header = shrm::ProbeImage(map);
+    auto image = shrm::ReadImageRgb(map);
+    if (!header.ok() || !image.ok()) Die(absl::InternalError("decode"), "in-process decode");
+    in_process.push_back(Ms(Clock::now() - d0));
+  }
 
   std::printf(
       "service_bench: %s (1024 x 512 EXR), %s, epsilon %.2f -> F_B=%d P_B=%d, face %d; "
@@ -216,6 +234,12 @@ int main(int argc, char** argv) {
               Percentile(embedded, 0.5));
   std::printf("| service overhead (uncached service - embedded, p50) | %.1f ms | |\n",
               Percentile(remote_uncached, 0.5) - Percentile(embedded, 0.5));
+  std::printf(
+      "| decode in an isolated child (query-of-death check, once per new blob) p50 | "
+      "%.1f ms | |\n",
+      Percentile(isolated, 0.5));
+  std::printf("| decode in process (ProbeImage + ReadImageRgb) p50 | %.1f ms | |\n",
+              Percentile(in_process, 0.5));
 
   cold.server->Shutdown(absl::Seconds(1));
   srv.server->Shutdown(absl::Seconds(1));

@@ -145,6 +145,10 @@ bool IsTransient(const absl::Status& status) {
   return (absl::IsInternal(status) || absl::IsUnknown(status)) && !wire::FromShrmServer(status);
 }
 
+bool IsDroppedCall(const absl::Status& status) {
+  return absl::IsCancelled(status) && !wire::FromShrmServer(status);
+}
+
 bool IsMissingBlob(const absl::Status& status) {
   return absl::IsNotFound(status) && wire::ErrorReason(status) == wire::kReasonBlobNotFound;
 }
@@ -226,7 +230,8 @@ absl::Status ShrmClient::WithRetries(
     SetDeadline(&context, std::min(deadline, options_.call_timeout));
     Authorize(&context);
     status = Received(attempt(&context));
-    if (!IsTransient(status)) break;
+    // These calls never cancel themselves, so a CANCELLED without ErrorInfo was dropped.
+    if (!IsTransient(status) && !IsDroppedCall(status)) break;
   }
   return status;
 }
@@ -331,8 +336,10 @@ absl::StatusOr<Outcome> ShrmClient::SendUntilAnswered(OnceCall<Request, Outcome>
     bool answered = false;
     r = (this->*once)(request, progress, deadline, cancel, &answered);
     // Sent again only when it failed in the transport before any answer of a server (a fresh
-    // connection dropped on a loaded machine); everything else is the caller's to decide.
-    if (r.ok() || answered || wire::FromShrmServer(r.status()) || !IsTransient(r.status()) ||
+    // connection dropped on a loaded machine, a call a shutting-down server dropped unstarted);
+    // everything else is the caller's to decide.
+    if (r.ok() || answered || wire::FromShrmServer(r.status()) ||
+        !(IsTransient(r.status()) || IsDroppedCall(r.status())) ||
         (cancel != nullptr && cancel->load())) {
       break;
     }

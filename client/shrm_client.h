@@ -200,6 +200,12 @@ absl::StatusOr<RemoteBrdf> ResolveRemoteBrdf(const std::string& spec, ShrmClient
 // server (no ErrorInfo: the transport or a proxy failed, e.g. a replica died mid-call). Never
 // DEADLINE_EXCEEDED, CANCELLED or an answer about the request itself.
 bool IsTransient(const absl::Status& status);
+// CANCELLED without an shrm ErrorInfo on a call this client did not cancel: a server that shut
+// down with the call received but not yet taken by a handler (gRPC cancels those), or a proxy,
+// dropped it before any answer. Sent again like a transient error by the calls that never cancel
+// themselves (unary calls, uploads) and by the streaming calls when no answer came and the
+// caller's cancel flag is not set. A CANCELLED the server sent (ErrorInfo) is final.
+bool IsDroppedCall(const absl::Status& status);
 // NOT_FOUND with reason BLOB_NOT_FOUND: the server lacks an input blob (upload it again).
 bool IsMissingBlob(const absl::Status& status);
 // How long a RESOURCE_EXHAUSTED answer asks to wait (RetryInfo; zero: none, e.g. a too large

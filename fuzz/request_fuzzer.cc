@@ -199,8 +199,9 @@ void CheckSent(const absl::Status& s, const shrm::server::PinnedEnv* env) {
 }
 
 absl::StatusOr<shrm::server::PinnedEnv> Pin(const wire::WireEnvironment& env) {
+  static shrm::server::DecodeGuard no_isolation(nullptr, {});  // maps are not decoded here
   absl::StatusOr<shrm::server::PinnedEnv> pinned =
-      shrm::server::PinEnvironment(env, TheStore().blobs.get());
+      shrm::server::PinEnvironment(env, TheStore().blobs.get(), &no_isolation);
   CheckSent(pinned.status(), nullptr);
   if (pinned.ok()) {
     for (const auto& lease : pinned->leases)

@@ -23,6 +23,10 @@ inline constexpr char kErrorDomain[] = "shrm.v1";
 inline constexpr char kReasonBlobNotFound[] = "BLOB_NOT_FOUND";  // metadata "sha256"
 inline constexpr char kReasonServerBusy[] = "SERVER_BUSY";       // with a RetryInfo
 inline constexpr char kReasonDraining[] = "DRAINING";
+// The spool's disk is full (or a file-size limit hit): RESOURCE_EXHAUSTED with a RetryInfo.
+inline constexpr char kReasonSpoolFull[] = "SPOOL_FULL";
+// An input killed the isolated decoder (server/decoder_sandbox.h): final, never sent again.
+inline constexpr char kReasonDecoderCrashed[] = "DECODER_CRASHED";  // metadata "sha256"
 
 // `status` with an ErrorInfo of kErrorDomain (`metadata_key`: `metadata_value` when given).
 absl::Status WithErrorReason(absl::Status status, absl::string_view reason,

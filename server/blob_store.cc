@@ -1,6 +1,7 @@
 #include "server/blob_store.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -10,11 +11,23 @@
 #include <system_error>
 
 #include "absl/strings/str_cat.h"
+#include "absl/time/time.h"
 #include "core/io/sha256.h"
 #include "proto/status_details.h"
 
 namespace shrm::server {
 namespace fs = std::filesystem;
+namespace {
+
+// How long a client is asked to wait after a full spool (space comes back as jobs release blobs
+// and uploads finish or fail).
+constexpr absl::Duration kSpoolFullRetryAfter = absl::Seconds(2);
+
+int64_t MtimeNs(const struct stat& st) {
+  return int64_t{st.st_mtim.tv_sec} * 1000000000 + st.st_mtim.tv_nsec;
+}
+
+}  // namespace
 
 BlobStore::Lease::Lease(BlobStore* store, std::string sha256, std::string path)
     : store_(store), sha256_(std::move(sha256)), path_(std::move(path)) {}
@@ -33,6 +46,15 @@ absl::Status BlobStore::Upload::Append(std::string_view bytes) {
     const ssize_t n = ::write(fd_, p, left);
     if (n < 0) {
       if (errno == EINTR) continue;
+      if (errno == ENOSPC || errno == EDQUOT || errno == EFBIG) {
+        // Another replica may have room, or this one once jobs release their blobs.
+        return wire::WithRetryDelay(
+            wire::WithErrorReason(absl::ResourceExhaustedError(absl::StrCat(
+                                      "spool full: cannot store the upload (", std::strerror(errno),
+                                      " after ", size_, " bytes); nothing was kept")),
+                                  wire::kReasonSpoolFull),
+            kSpoolFullRetryAfter);
+      }
       return absl::UnavailableError(absl::StrCat("spool write failed: ", std::strerror(errno)));
     }
     p += n;
@@ -83,16 +105,49 @@ std::optional<uint64_t> BlobStore::Size(const std::string& sha256) {
 }
 
 absl::StatusOr<std::unique_ptr<BlobStore::Lease>> BlobStore::Pin(const std::string& sha256) {
+  auto missing = [&](const char* why) {
+    return wire::WithErrorReason(absl::NotFoundError(absl::StrCat("blob ", sha256, why)),
+                                 wire::kReasonBlobNotFound, "sha256", sha256);
+  };
+  struct stat st {};
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    auto it = blobs_.find(sha256);
+    if (it == blobs_.end()) return missing(" is not on the server (upload it first)");
+    if (::stat(PathOf(sha256).c_str(), &st) != 0) {
+      DropLocked(sha256);
+      return missing(" is no longer on the server's disk (upload it again)");
+    }
+    ++it->second.pins;
+    lru_.splice(lru_.begin(), lru_, it->second.lru);
+    const Entry& e = it->second;
+    if (e.verified && static_cast<uint64_t>(st.st_size) == e.size && MtimeNs(st) == e.mtime_ns) {
+      return std::make_unique<Lease>(this, sha256, PathOf(sha256));
+    }
+  }
+  // Hashed outside the lock (other calls go on); the pin keeps it from eviction meanwhile.
+  auto lease = std::make_unique<Lease>(this, sha256, PathOf(sha256));
+  const absl::StatusOr<std::string> hash = Sha256OfFile(PathOf(sha256));
   std::lock_guard<std::mutex> lock(mu_);
   auto it = blobs_.find(sha256);
-  if (it == blobs_.end()) {
-    return wire::WithErrorReason(absl::NotFoundError(absl::StrCat(
-                                     "blob ", sha256, " is not on the server (upload it first)")),
-                                 wire::kReasonBlobNotFound, "sha256", sha256);
+  if (it == blobs_.end() || !hash.ok() || *hash != sha256) {
+    if (it != blobs_.end()) DropLocked(sha256);
+    return missing(
+        ": its bytes on the server no longer match its SHA-256; dropped (upload it again)");
   }
-  ++it->second.pins;
-  lru_.splice(lru_.begin(), lru_, it->second.lru);
-  return std::make_unique<Lease>(this, sha256, PathOf(sha256));
+  it->second.verified = true;
+  it->second.size = static_cast<uint64_t>(st.st_size);
+  it->second.mtime_ns = MtimeNs(st);
+  return lease;
+}
+
+void BlobStore::DropLocked(const std::string& sha256) {
+  auto it = blobs_.find(sha256);
+  if (it == blobs_.end()) return;
+  ::unlink(PathOf(sha256).c_str());
+  total_ -= it->second.size;
+  lru_.erase(it->second.lru);
+  blobs_.erase(it);
 }
 
 void BlobStore::Unpin(const std::string& sha256) {
@@ -135,17 +190,22 @@ absl::StatusOr<std::string> BlobStore::Commit(Upload* upload, const std::string&
     return absl::UnavailableError("spool: cannot move the upload into place");
   }
   upload->committed_ = true;
+  struct stat st {};
+  const bool have_stat = ::stat(PathOf(*hash).c_str(), &st) == 0;
   auto it = blobs_.find(*hash);
   if (it == blobs_.end()) {
     lru_.push_front(*hash);
     Entry e;
     e.size = upload->size_;
     e.lru = lru_.begin();
-    blobs_[*hash] = e;
+    it = blobs_.emplace(*hash, e).first;
     total_ += upload->size_;
   } else {
     lru_.splice(lru_.begin(), lru_, it->second.lru);
   }
+  // The bytes just hashed are the file now in place.
+  it->second.verified = have_stat;
+  it->second.mtime_ns = have_stat ? MtimeNs(st) : 0;
   EvictLocked();
   return *hash;
 }

@@ -2,6 +2,13 @@
 // hex), so that core's EnvMap::Load reads them by path. Uploads go to `<dir>/incoming/` and are
 // renamed into place only after their hash is verified. The total size is bounded: least recently
 // used blobs are evicted, except those pinned by a running job (BlobStore::Pin).
+//
+// Disk trouble (docs/server.md, "Disk"): a write that finds the disk full (ENOSPC, EDQUOT) or a
+// file-size limit (EFBIG) fails the upload with RESOURCE_EXHAUSTED (reason SPOOL_FULL, with a
+// RetryInfo) and leaves nothing behind. A stored blob is hashed again before it is served when
+// it has not been verified by this process (found at startup) or its size or modification time
+// changed since; one whose bytes no longer match its name is deleted and reported missing
+// (NOT_FOUND, reason BLOB_NOT_FOUND: clients upload it again).
 #ifndef SHRM_SERVER_BLOB_STORE_H_
 #define SHRM_SERVER_BLOB_STORE_H_
 
@@ -60,7 +67,8 @@ class BlobStore {
 
   // Size of a stored blob, or nullopt.
   std::optional<uint64_t> Size(const std::string& sha256);
-  // Pins a stored blob; NotFound naming the hash when absent.
+  // Pins a stored blob, verifying it first when needed (see above); NotFound (BLOB_NOT_FOUND)
+  // naming the hash when absent or dropped as corrupt.
   absl::StatusOr<std::unique_ptr<Lease>> Pin(const std::string& sha256);
 
   absl::StatusOr<std::unique_ptr<Upload>> BeginUpload();
@@ -79,12 +87,16 @@ class BlobStore {
     uint64_t size = 0;
     int pins = 0;
     std::list<std::string>::iterator lru;
+    bool verified = false;  // hashed by this process (at upload or at a pin)
+    int64_t mtime_ns = 0;   // of the file when verified
   };
   BlobStore(std::string dir, uint64_t max_total_bytes)
       : dir_(std::move(dir)), max_total_bytes_(max_total_bytes) {}
   std::string PathOf(const std::string& sha256) const { return dir_ + "/" + sha256; }
   void Unpin(const std::string& sha256);
   void EvictLocked();
+  // Removes a blob whose bytes do not match its name (file and entry).
+  void DropLocked(const std::string& sha256);
 
   const std::string dir_;
   const uint64_t max_total_bytes_;

@@ -97,7 +97,8 @@ absl::StatusOr<RequestBrdf> ResolveRequestBrdf(const wire::WireBrdf& in, BlobSto
   return out;
 }
 
-absl::StatusOr<PinnedEnv> PinEnvironment(const wire::WireEnvironment& env, BlobStore* blobs) {
+absl::StatusOr<PinnedEnv> PinEnvironment(const wire::WireEnvironment& env, BlobStore* blobs,
+                                         DecodeGuard* guard) {
   PinnedEnv p;
   std::vector<std::string> paths;
   for (const std::string& h : env.sha256) {
@@ -108,6 +109,10 @@ absl::StatusOr<PinnedEnv> PinEnvironment(const wire::WireEnvironment& env, BlobS
   p.spec = env.spec;
   p.options = jobs::EnvMapOptionsFor(env.spec, paths);
   p.options.colour_config.clear();  // the server's own config ($OCIO or built in)
+  for (const auto& lease : p.leases) {
+    SHRM_RETURN_IF_ERROR(
+        HideSpoolPaths(guard->Vet(lease->sha256(), lease->path(), p.options.limits), &p));
+  }
   p.source = {absl::StrJoin(env.spec.files, ","), jobs::CombinedSourceSha256(env.sha256)};
   const std::string rot_key =
       env.spec.rotate_ypr_deg

@@ -16,6 +16,7 @@
 #include "jobs/environment.h"
 #include "proto/job_codec.h"
 #include "server/blob_store.h"
+#include "server/decoder_sandbox.h"
 
 namespace shrm::server {
 
@@ -35,8 +36,11 @@ struct PinnedEnv {
   jobs::SourceIdentity source;
   std::string key;  // cache key of L_lm (without the degree)
 };
-// NOT_FOUND (reason BLOB_NOT_FOUND) for a blob the server does not hold.
-absl::StatusOr<PinnedEnv> PinEnvironment(const wire::WireEnvironment& env, BlobStore* blobs);
+// NOT_FOUND (reason BLOB_NOT_FOUND) for a blob the server does not hold; each blob vetted by
+// `guard` (decoded once in an isolated process, server/decoder_sandbox.h): its errors name the
+// blob.
+absl::StatusOr<PinnedEnv> PinEnvironment(const wire::WireEnvironment& env, BlobStore* blobs,
+                                         DecodeGuard* guard);
 
 // Core messages name the spool files; clients know blobs by hash (`env` may be null).
 absl::Status HideSpoolPaths(const absl::Status& status, const PinnedEnv* env);

@@ -39,6 +39,7 @@ absl::StatusOr<std::unique_ptr<ShrmServer>> ShrmServer::Start(const ServerOption
   LogEvent("listening", {{"address", options.listen},
                          {"port", std::to_string(s->port_)},
                          {"reflection", options.reflection ? "on" : "off"},
+                         {"decode_isolation", options.service.decoder_sandbox ? "process" : "off"},
                          {"tls", options.security.tls_cert_file.empty()   ? "off"
                                  : options.security.tls_client_ca.empty() ? "on"
                                                                           : "mutual"},

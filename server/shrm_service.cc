@@ -94,9 +94,10 @@ struct DecodedEnv {
   EnvMap map;
 };
 absl::StatusOr<DecodedEnv> PinAndDecode(grpc::ServerContext* context, const v1::Environment& env,
-                                        BlobStore* blobs, std::string_view next_stage) {
+                                        BlobStore* blobs, DecodeGuard* guard,
+                                        std::string_view next_stage) {
   SHRM_ASSIGN_OR_RETURN(wire::WireEnvironment wire_env, wire::DecodeEnvironment(env));
-  SHRM_ASSIGN_OR_RETURN(PinnedEnv pinned, PinEnvironment(wire_env, blobs));
+  SHRM_ASSIGN_OR_RETURN(PinnedEnv pinned, PinEnvironment(wire_env, blobs, guard));
   SHRM_RETURN_IF_ERROR(CheckStage(context, "decode"));
   absl::StatusOr<EnvMap> map = EnvMap::Load(pinned.options);
   if (!map.ok()) return HideSpoolPaths(map.status(), &pinned);
@@ -207,7 +208,10 @@ absl::StatusOr<std::unique_ptr<ShrmServiceImpl>> ShrmServiceImpl::Create(
 }
 
 ShrmServiceImpl::ShrmServiceImpl(const ServiceOptions& options, std::unique_ptr<BlobStore> blobs)
-    : options_(options), blobs_(std::move(blobs)), caches_(options.cache_bytes) {}
+    : options_(options),
+      blobs_(std::move(blobs)),
+      caches_(options.cache_bytes),
+      decode_guard_(options.decoder_sandbox, options.decode_limits) {}
 
 absl::StatusOr<std::unique_ptr<ShrmServiceImpl::JobSlot>> ShrmServiceImpl::Admit() {
   if (draining_) {
@@ -313,7 +317,7 @@ absl::Status ShrmServiceImpl::ParsePrefilterCall(const v1::PrefilterRequest& req
   SHRM_ASSIGN_OR_RETURN(call->request, wire::DecodePrefilterRequest(request));
   SHRM_ASSIGN_OR_RETURN(call->brdf, ResolveRequestBrdf(call->request.brdf, blobs_.get()));
   wire::WireEnvironment env{call->request.job.env, call->request.sha256};
-  SHRM_ASSIGN_OR_RETURN(call->env, PinEnvironment(env, blobs_.get()));
+  SHRM_ASSIGN_OR_RETURN(call->env, PinEnvironment(env, blobs_.get(), &decode_guard_));
   return absl::OkStatus();
 }
 
@@ -428,7 +432,7 @@ grpc::Status ShrmServiceImpl::Analyze(grpc::ServerContext* context,
   }
   absl::StatusOr<wire::WireEnvironment> wire_env = wire::DecodeEnvironment(request->environment());
   if (!wire_env.ok()) return fail(wire_env.status());
-  absl::StatusOr<PinnedEnv> pinned = PinEnvironment(*wire_env, blobs_.get());
+  absl::StatusOr<PinnedEnv> pinned = PinEnvironment(*wire_env, blobs_.get(), &decode_guard_);
   if (!pinned.ok()) return fail(pinned.status());
   env = std::move(*pinned);
   for (double e : epsilons) {
@@ -490,7 +494,7 @@ grpc::Status ShrmServiceImpl::Reference(grpc::ServerContext* context,
   absl::StatusOr<Vec3> view = RequestDirection(request->has_view(), request->view(), "view");
   if (!view.ok()) return fail(view.status());
   absl::StatusOr<DecodedEnv> env =
-      PinAndDecode(context, request->environment(), blobs_.get(), "reference");
+      PinAndDecode(context, request->environment(), blobs_.get(), &decode_guard_, "reference");
   if (!env.ok()) return fail(env.status());
   const std::array<double, 3> rgb = BrdfReferenceRadiance(
       env->map.samples(), *brdf->brdf, jobs::EnvironmentRotation(env->pinned.spec), *index, *view);
@@ -506,7 +510,7 @@ grpc::Status ShrmServiceImpl::Irradiance(grpc::ServerContext* context,
   absl::StatusOr<std::unique_ptr<JobSlot>> slot = Admit();
   if (!slot.ok()) return fail(slot.status());
   absl::StatusOr<DecodedEnv> env =
-      PinAndDecode(context, request->environment(), blobs_.get(), "lighting");
+      PinAndDecode(context, request->environment(), blobs_.get(), &decode_guard_, "lighting");
   if (!env.ok()) return fail(env.status());
   absl::StatusOr<std::vector<double>> e9 = jobs::IrradianceSh9(
       env->map, jobs::EnvironmentRotation(env->pinned.spec), options_.job_threads);
@@ -533,7 +537,7 @@ grpc::Status ShrmServiceImpl::Ibl(grpc::ServerContext* context, const v1::IblReq
 absl::Status ShrmServiceImpl::ParseIblCall(const v1::IblRequest& request, IblCall* call) {
   SHRM_ASSIGN_OR_RETURN(call->request, wire::DecodeIblRequest(request));
   wire::WireEnvironment env{call->request.job.env, call->request.sha256};
-  SHRM_ASSIGN_OR_RETURN(call->env, PinEnvironment(env, blobs_.get()));
+  SHRM_ASSIGN_OR_RETURN(call->env, PinEnvironment(env, blobs_.get(), &decode_guard_));
   return absl::OkStatus();
 }
 

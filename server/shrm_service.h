@@ -16,6 +16,7 @@
 #include "absl/time/time.h"
 #include "server/blob_store.h"
 #include "server/cached_prefilter.h"
+#include "server/decoder_sandbox.h"
 #include "server/request_log.h"
 #include "shrm/v1/shrm.grpc.pb.h"
 
@@ -28,6 +29,10 @@ struct ServiceOptions {
   int max_jobs = 1;                      // concurrent jobs (Prefilter, Analyze, ..., Ibl calls)
   int job_threads = 1;                   // worker threads of one job
   size_t cache_bytes = 512ull << 20;     // L_lm + rho_lpq caches together
+  // Isolated decoding of uploaded maps (server/decoder_sandbox.h; not owned, outlives the
+  // service); null: maps are decoded in the daemon only.
+  DecoderSandbox* decoder_sandbox = nullptr;
+  DecodeLimits decode_limits;  // of each isolated decode (its image limits: the job's)
   // Testing only: sleep this long at the start of every pipeline stage (makes jobs slow).
   absl::Duration test_stage_delay = absl::ZeroDuration();
   // Testing only: called at the start of every Prefilter and Ibl stage, after the delay (tests
@@ -95,6 +100,7 @@ class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
   const ServiceOptions options_;
   std::unique_ptr<BlobStore> blobs_;
   PrefilterCaches caches_;
+  DecodeGuard decode_guard_;
   std::atomic<int> running_jobs_{0};
   std::atomic<bool> draining_{false};
 };

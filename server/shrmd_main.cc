@@ -14,6 +14,7 @@
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
 #include "server/config_file.h"
+#include "server/decoder_sandbox.h"
 #include "server/request_log.h"
 #include "server/server.h"
 #include "shrm/version.h"
@@ -43,6 +44,9 @@ int main(int argc, char** argv) {
   uint64_t cache_mib = opt.service.cache_bytes / kMiB;
   int job_threads = 0;
   double grace_s = kDefaultGraceSeconds;
+  std::string decode_isolation = "process";
+  uint64_t decode_memory_mib = opt.service.decode_limits.memory_bytes / kMiB;
+  double decode_timeout_s = absl::ToDoubleSeconds(opt.service.decode_limits.timeout);
 
   CLI::App app{"shrmd: the shrm prefilter service (gRPC shrm.v1.Shrm; docs/server.md)", "shrmd"};
   app.set_version_flag("--version", shrm::VersionText("shrmd"),
@@ -73,6 +77,23 @@ int main(int argc, char** argv) {
                  "seconds running jobs get to finish after SIGTERM/SIGINT")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--decode-isolation", decode_isolation,
+                 "'process': every uploaded map is first decoded in an isolated child process, so "
+                 "an input that crashes the decoder costs that process, not the daemon; 'off': "
+                 "decode in the daemon only")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"process", "off"}));
+  app.add_option("--decode-memory-mib", decode_memory_mib,
+                 "address-space limit of an isolated decoding process, in MiB")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--decode-timeout", decode_timeout_s,
+                 "seconds an isolated decoding process may take (wall and CPU time)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  // Testing only (tests/deploy_test.sh): files starting with SHRM-TEST-POISON crash the isolated
+  // decoder, SHRM-TEST-HANG make it hang.
+  app.add_flag("--test-decoder-hooks", opt.service.decode_limits.test_hooks)->group("");
   app.add_flag("--reflection", opt.reflection, "enable gRPC server reflection");
   app.add_option("--metrics-port", opt.metrics_port,
                  "serve Prometheus metrics on GET /metrics at this port (-1: off, 0: any)")
@@ -132,6 +153,25 @@ int main(int argc, char** argv) {
   opt.service.cache_bytes = cache_mib * kMiB;
   opt.service.job_threads =
       job_threads > 0 ? job_threads : std::max(1, cores / opt.service.max_jobs);
+  opt.service.decode_limits.memory_bytes = decode_memory_mib * kMiB;
+  opt.service.decode_limits.timeout = absl::Seconds(decode_timeout_s);
+
+  // A file-size limit (RLIMIT_FSIZE) must fail a spool write with EFBIG (the upload gets
+  // RESOURCE_EXHAUSTED), not kill the daemon with SIGXFSZ.
+  signal(SIGXFSZ, SIG_IGN);
+
+  // The decoder sandbox's zygote is forked now, before this process starts any thread.
+  std::unique_ptr<shrm::server::DecoderSandbox> sandbox;
+  if (decode_isolation == "process") {
+    absl::StatusOr<std::unique_ptr<shrm::server::DecoderSandbox>> started =
+        shrm::server::DecoderSandbox::Start();
+    if (!started.ok()) {
+      std::fprintf(stderr, "shrmd: error: %s\n", std::string(started.status().message()).c_str());
+      return 1;
+    }
+    sandbox = *std::move(started);
+    opt.service.decoder_sandbox = sandbox.get();
+  }
 
   // Signals are taken by one thread with sigwait (blocked everywhere else, including the gRPC
   // threads created below).
