@@ -113,9 +113,10 @@ absl::StatusOr<Vec3> RequestDirection(bool present, const v1::Direction& d, cons
 
 // Streams `file` in chunks of at most kFileChunkBytes, the last with the file's SHA-256;
 // `chunk_of` gives the FileChunk of a new event (and fills the event's other fields).
+// `watch` gets the progress of every chunk written.
 template <typename Event, typename ChunkOf>
 absl::Status StreamFile(std::string_view file, grpc::ServerWriter<Event>* writer, RequestLog* log,
-                        const ChunkOf& chunk_of) {
+                        IdleWatchdog::Call* watch, const ChunkOf& chunk_of) {
   Sha256Stream sha;  // hashed chunk by chunk, while the client receives the previous one
   size_t offset = 0;
   do {
@@ -135,6 +136,7 @@ absl::Status StreamFile(std::string_view file, grpc::ServerWriter<Event>* writer
     if (!writer->Write(ev)) {
       return absl::UnavailableError("client went away during the file transfer");
     }
+    watch->Progress();
   } while (offset < file.size());
   return absl::OkStatus();
 }
@@ -211,6 +213,7 @@ ShrmServiceImpl::ShrmServiceImpl(const ServiceOptions& options, std::unique_ptr<
     : options_(options),
       blobs_(std::move(blobs)),
       caches_(options.cache_bytes),
+      idle_(options.idle_timeout),
       decode_guard_(options.decoder_sandbox, options.decode_limits) {}
 
 absl::StatusOr<std::unique_ptr<ShrmServiceImpl::JobSlot>> ShrmServiceImpl::Admit() {
@@ -234,6 +237,17 @@ absl::StatusOr<std::unique_ptr<ShrmServiceImpl::JobSlot>> ShrmServiceImpl::Admit
   }
   return std::make_unique<JobSlot>(&running_jobs_);
 }
+absl::Status ShrmServiceImpl::WhileWatched(
+    grpc::ServerContext* context, std::string_view what,
+    const std::function<absl::Status(IdleWatchdog::Call*)>& transfer) {
+  const std::unique_ptr<IdleWatchdog::Call> watch = idle_.Watch(context);
+  const absl::Status s = transfer(watch.get());
+  if (s.ok() || !watch->ended_idle()) return s;
+  return absl::DeadlineExceededError(absl::StrCat("the client made no progress ", std::string(what),
+                                                  " for ", absl::FormatDuration(idle_.timeout()),
+                                                  " (--idle-timeout); the call was ended"));
+}
+
 void ShrmServiceImpl::TestStageHooks(std::string_view stage) const {
   if (options_.test_stage_delay > absl::ZeroDuration()) absl::SleepFor(options_.test_stage_delay);
   if (options_.test_stage_hook) options_.test_stage_hook(stage);
@@ -257,11 +271,18 @@ grpc::Status ShrmServiceImpl::UploadBlob(grpc::ServerContext* context,
                                          grpc::ServerReader<v1::UploadBlobChunk>* reader,
                                          v1::UploadBlobResponse* response) {
   RequestLog log(context, "UploadBlob");
-  auto fail = [&](const absl::Status& s) { return log.Finish(wire::ToGrpcStatus(s)); };
+  const std::unique_ptr<IdleWatchdog::Call> watch = idle_.Watch(context);
+  auto fail = [&](const absl::Status& s) {
+    if (!watch->ended_idle()) return log.Finish(wire::ToGrpcStatus(s));
+    return log.Finish(wire::ToGrpcStatus(absl::DeadlineExceededError(
+        absl::StrCat("upload: no data for ", absl::FormatDuration(idle_.timeout()),
+                     " (--idle-timeout); the call was ended and nothing was kept"))));
+  };
   v1::UploadBlobChunk chunk;
   if (!reader->Read(&chunk)) {
     return fail(absl::InvalidArgumentError("upload: no chunks received"));
   }
+  watch->Progress();
   const std::string expected = chunk.sha256();
   const uint64_t declared = chunk.total_size();
   if (!IsSha256Hex(expected)) {
@@ -283,7 +304,7 @@ grpc::Status ShrmServiceImpl::UploadBlob(grpc::ServerContext* context,
     }
     log.AddBytesIn(chunk.data().size());
     if (absl::Status s = (*up)->Append(chunk.data()); !s.ok()) return fail(s);
-  } while (reader->Read(&chunk));
+  } while (reader->Read(&chunk) && (watch->Progress(), true));
   if (context->IsCancelled()) return fail(absl::CancelledError("upload cancelled"));
   if ((*up)->size() != declared) {
     return fail(absl::InvalidArgumentError(absl::StrCat(
@@ -308,7 +329,14 @@ grpc::Status ShrmServiceImpl::Prefilter(grpc::ServerContext* context,
   if (!slot.ok()) return fail(slot.status());
   if (absl::Status s = ParsePrefilterCall(*request, &call); !s.ok()) return fail(s);
   if (absl::Status s = RunPrefilterCall(context, writer, &call, &log); !s.ok()) return fail(s);
-  if (absl::Status s = SendPrefilterResult(context, writer, call, &log); !s.ok()) return fail(s);
+  if (absl::Status s = WhileWatched(context, "reading the result",
+                                    [&](IdleWatchdog::Call* watch) {
+                                      return SendPrefilterResult(context, writer, call, &log,
+                                                                 watch);
+                                    });
+      !s.ok()) {
+    return fail(s);
+  }
   return log.Finish(grpc::Status::OK);
 }
 
@@ -361,7 +389,8 @@ absl::Status ShrmServiceImpl::RunPrefilterCall(grpc::ServerContext* context,
 
 absl::Status ShrmServiceImpl::SendPrefilterResult(grpc::ServerContext* context,
                                                   grpc::ServerWriter<v1::PrefilterEvent>* writer,
-                                                  const PrefilterCall& call, RequestLog* log) {
+                                                  const PrefilterCall& call, RequestLog* log,
+                                                  IdleWatchdog::Call* watch) {
   const PrefilterResult& r = call.result.result;
   v1::PrefilterEvent ev;
   v1::PrefilterReport* rep = ev.mutable_report();
@@ -392,7 +421,7 @@ absl::Status ShrmServiceImpl::SendPrefilterResult(grpc::ServerContext* context,
   }
   SHRM_RETURN_IF_ERROR(WriteOrFail(context, writer, ev, log));
   if (!call.request.want_file) return absl::OkStatus();
-  return StreamFile(call.file, writer, log,
+  return StreamFile(call.file, writer, log, watch,
                     [](v1::PrefilterEvent* e) { return e->mutable_shrm_file(); });
 }
 
@@ -530,7 +559,13 @@ grpc::Status ShrmServiceImpl::Ibl(grpc::ServerContext* context, const v1::IblReq
   if (!slot.ok()) return fail(slot.status());
   if (absl::Status s = ParseIblCall(*request, &call); !s.ok()) return fail(s);
   if (absl::Status s = RunIblCall(context, writer, &call, &log); !s.ok()) return fail(s);
-  if (absl::Status s = SendIblResult(context, writer, call, &log); !s.ok()) return fail(s);
+  if (absl::Status s = WhileWatched(context, "reading the files",
+                                    [&](IdleWatchdog::Call* watch) {
+                                      return SendIblResult(context, writer, call, &log, watch);
+                                    });
+      !s.ok()) {
+    return fail(s);
+  }
   return log.Finish(grpc::Status::OK);
 }
 
@@ -579,7 +614,8 @@ absl::Status ShrmServiceImpl::RunIblCall(grpc::ServerContext* context,
 
 absl::Status ShrmServiceImpl::SendIblResult(grpc::ServerContext* context,
                                             grpc::ServerWriter<v1::IblEvent>* writer,
-                                            const IblCall& call, RequestLog* log) {
+                                            const IblCall& call, RequestLog* log,
+                                            IdleWatchdog::Call* watch) {
   v1::IblEvent ev;
   v1::IblReport* rep = ev.mutable_report();
   rep->set_report_json(call.report.dump(2));
@@ -597,7 +633,7 @@ absl::Status ShrmServiceImpl::SendIblResult(grpc::ServerContext* context,
   }
   SHRM_RETURN_IF_ERROR(WriteOrFail(context, writer, ev, log));
   for (const jobs::IblFile& f : call.files) {
-    SHRM_RETURN_IF_ERROR(StreamFile(f.bytes, writer, log, [&](v1::IblEvent* e) {
+    SHRM_RETURN_IF_ERROR(StreamFile(f.bytes, writer, log, watch, [&](v1::IblEvent* e) {
       e->mutable_file()->set_name(f.name);
       return e->mutable_file()->mutable_chunk();
     }));

@@ -17,6 +17,7 @@
 #include "server/blob_store.h"
 #include "server/cached_prefilter.h"
 #include "server/decoder_sandbox.h"
+#include "server/idle_watchdog.h"
 #include "server/request_log.h"
 #include "shrm/v1/shrm.grpc.pb.h"
 
@@ -33,6 +34,9 @@ struct ServiceOptions {
   // service); null: maps are decoded in the daemon only.
   DecoderSandbox* decoder_sandbox = nullptr;
   DecodeLimits decode_limits;  // of each isolated decode (its image limits: the job's)
+  // An upload without a chunk, or a result transfer without a chunk read, for this long is
+  // ended (server/idle_watchdog.h); <= 0: never.
+  absl::Duration idle_timeout = absl::Seconds(60);
   // Testing only: sleep this long at the start of every pipeline stage (makes jobs slow).
   absl::Duration test_stage_delay = absl::ZeroDuration();
   // Testing only: called at the start of every Prefilter and Ibl stage, after the delay (tests
@@ -46,6 +50,8 @@ class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
 
   // Refuse new jobs with UNAVAILABLE (graceful shutdown); running jobs continue.
   void BeginDrain() { draining_ = true; }
+  // Calls ended by the idle watchdog (ServiceOptions::idle_timeout).
+  int64_t idle_calls_ended() const { return idle_.ended(); }
 
   grpc::Status HasBlob(grpc::ServerContext* context, const shrm::v1::HasBlobRequest* request,
                        shrm::v1::HasBlobResponse* response) override;
@@ -83,7 +89,8 @@ class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
                                 PrefilterCall* call, RequestLog* log);
   absl::Status SendPrefilterResult(grpc::ServerContext* context,
                                    grpc::ServerWriter<shrm::v1::PrefilterEvent>* writer,
-                                   const PrefilterCall& call, RequestLog* log);
+                                   const PrefilterCall& call, RequestLog* log,
+                                   IdleWatchdog::Call* watch);
 
   // The Ibl call in the same three steps: decoded and pinned; the map decoded, the job run
   // (progress events, cancellation between stages) and its files encoded; streamed back.
@@ -93,7 +100,12 @@ class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
                           RequestLog* log);
   absl::Status SendIblResult(grpc::ServerContext* context,
                              grpc::ServerWriter<shrm::v1::IblEvent>* writer, const IblCall& call,
-                             RequestLog* log);
+                             RequestLog* log, IdleWatchdog::Call* watch);
+  // Runs `transfer` (the sending of a result) under the idle watchdog: a client that stops
+  // reading for --idle-timeout gets its call ended (DEADLINE_EXCEEDED in the log: "no progress
+  // `what`").
+  absl::Status WhileWatched(grpc::ServerContext* context, std::string_view what,
+                            const std::function<absl::Status(IdleWatchdog::Call*)>& transfer);
   // The testing hooks (ServiceOptions::test_stage_delay, test_stage_hook) at `stage`.
   void TestStageHooks(std::string_view stage) const;
 
@@ -101,6 +113,7 @@ class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
   std::unique_ptr<BlobStore> blobs_;
   PrefilterCaches caches_;
   DecodeGuard decode_guard_;
+  IdleWatchdog idle_;
   std::atomic<int> running_jobs_{0};
   std::atomic<bool> draining_{false};
 };

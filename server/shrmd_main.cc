@@ -47,6 +47,7 @@ int main(int argc, char** argv) {
   std::string decode_isolation = "process";
   uint64_t decode_memory_mib = opt.service.decode_limits.memory_bytes / kMiB;
   double decode_timeout_s = absl::ToDoubleSeconds(opt.service.decode_limits.timeout);
+  double idle_timeout_s = absl::ToDoubleSeconds(opt.service.idle_timeout);
 
   CLI::App app{"shrmd: the shrm prefilter service (gRPC shrm.v1.Shrm; docs/server.md)", "shrmd"};
   app.set_version_flag("--version", shrm::VersionText("shrmd"),
@@ -75,6 +76,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--grace-period", grace_s,
                  "seconds running jobs get to finish after SIGTERM/SIGINT")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--idle-timeout", idle_timeout_s,
+                 "seconds an upload may go without a chunk, or a client without reading the "
+                 "result, before the call is ended (0: never)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   app.add_option("--decode-isolation", decode_isolation,
@@ -155,6 +161,7 @@ int main(int argc, char** argv) {
       job_threads > 0 ? job_threads : std::max(1, cores / opt.service.max_jobs);
   opt.service.decode_limits.memory_bytes = decode_memory_mib * kMiB;
   opt.service.decode_limits.timeout = absl::Seconds(decode_timeout_s);
+  opt.service.idle_timeout = absl::Seconds(idle_timeout_s);
 
   // A file-size limit (RLIMIT_FSIZE) must fail a spool write with EFBIG (the upload gets
   // RESOURCE_EXHAUSTED), not kill the daemon with SIGXFSZ.

@@ -88,14 +88,7 @@ class BlobStoreTest : public ::testing::Test {
     std::error_code ec;
     std::filesystem::remove_all(dir_, ec);
   }
-  int IncomingFiles() const {
-    int n = 0;
-    for ([[maybe_unused]] const auto& e :
-         std::filesystem::directory_iterator(dir_ + "/spool/incoming")) {
-      ++n;
-    }
-    return n;
-  }
+  int IncomingFiles() const { return testing::CountFiles(dir_ + "/spool/incoming"); }
   std::string dir_;
 };
 

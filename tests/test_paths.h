@@ -17,6 +17,16 @@ inline std::string UniqueTempPath(const std::string& name) {
       .string();
 }
 
+// Entries in `dir` (0 when it does not exist).
+inline int CountFiles(const std::string& dir) {
+  std::error_code ec;
+  int n = 0;
+  for (std::filesystem::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    ++n;
+  }
+  return n;
+}
+
 }  // namespace shrm::testing
 
 #endif  // SHRM_TESTS_TEST_PATHS_H_
