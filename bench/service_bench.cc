@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "bench/latency.h"
 #include "client/shrm_client.h"
 #include "core/brdf/brdf.h"
 #include "core/envmap/envmap.h"
@@ -37,7 +38,9 @@
 namespace {
 
 namespace v1 = ::shrm::v1;
-using Clock = std::chrono::steady_clock;
+using shrm::bench::Clock;
+using shrm::bench::Ms;
+using shrm::bench::Percentile;
 
 constexpr char kMap[] = "courtyard.exr";
 constexpr char kBrdf[] = "microfacet:sigma=0.2";
@@ -48,15 +51,6 @@ constexpr int kThroughputClients = 8;
 // Explicit BRDF order for the cached-lighting phase (Phong is radially symmetric in the
 // reflected direction, so a small P suffices); F is taken from the steady-state job's F_B.
 constexpr int kPhongP = 2;
-
-double Ms(Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
-
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const size_t i = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
-  return v[i];
-}
 
 void Die(const absl::Status& s, const char* what) {
   std::fprintf(stderr, "service_bench: %s: %s\n", what, s.ToString().c_str());

@@ -6,6 +6,11 @@
       the view angle for each GGX alpha, per map (thin) and the mean over the maps (bold).
       Defaults: docs/data/split_sum_vs_shrm.json -> docs/images/split_sum_vs_shrm.png.
 
+  scripts/plots.py soak [JSON] [PNG]
+      the soak of shrmd (bench/soak_bench SHRMD SECONDS JSON): per minute the p50 and p99
+      latency of each call kind (left) and the daemon's RSS, descriptors and threads (right).
+      Defaults: docs/data/soak.json -> docs/images/soak.png.
+
 The PNGs carry no time stamp or version, so a regeneration from the same data leaves them
 byte-identical.
 """
@@ -63,13 +68,50 @@ def split_sum(json_path, png_path):
     print(f"wrote {png_path}")
 
 
+def soak(json_path, png_path):
+    with open(json_path) as f:
+        data = json.load(f)
+    rows = data["per_minute"]
+    minutes = [r["minute"] for r in rows]
+    fig, (lat, res) = plt.subplots(1, 2, figsize=(11, 4.2))
+    styles = ["-", "--", ":", "-.", (0, (1, 3))]
+    markers = ["o", "s", "^", "v", "D"]
+    for i, kind in enumerate(["prefilter", "analyze", "irradiance", "upload", "cancelled"]):
+        lat.plot(minutes, [r[kind]["p50_ms"] for r in rows], linestyle=styles[i],
+                 marker=markers[i], color="black", label=f"{kind} p50")
+        lat.plot(minutes, [r[kind]["p99_ms"] for r in rows], linestyle=styles[i],
+                 marker=markers[i], color="grey", markerfacecolor="none", label=f"{kind} p99")
+    lat.set_yscale("log")
+    lat.set_xlabel("minute")
+    lat.set_ylabel("latency (ms)")
+    lat.set_title(f"{data['clients']} clients, fixed mix: latency per minute", fontsize=10)
+    lat.legend(fontsize=7, ncol=2)
+    res.plot(minutes, [r["rss_mib"] for r in rows], "-o", color="black", label="RSS (MiB)")
+    res.plot(minutes, [r["fds"] for r in rows], "--s", color="grey", label="open descriptors")
+    res.plot(minutes, [r["threads"] for r in rows], ":^", color="black", label="threads")
+    res.set_ylim(bottom=0)
+    res.set_xlabel("minute")
+    res.set_title("shrmd's resources at the end of each minute", fontsize=10)
+    res.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=90, metadata={"Software": None})
+    print(f"wrote {png_path}")
+
+
+PLOTS = {
+    "split-sum": (split_sum, "split_sum_vs_shrm"),
+    "soak": (soak, "soak"),
+}
+
+
 def main(argv):
-    if len(argv) < 2 or argv[1] != "split-sum":
+    if len(argv) < 2 or argv[1] not in PLOTS:
         print(__doc__)
         return 2
-    json_path = argv[2] if len(argv) > 2 else os.path.join(ROOT, "docs/data/split_sum_vs_shrm.json")
-    png_path = argv[3] if len(argv) > 3 else os.path.join(ROOT, "docs/images/split_sum_vs_shrm.png")
-    split_sum(json_path, png_path)
+    plot, name = PLOTS[argv[1]]
+    json_path = argv[2] if len(argv) > 2 else os.path.join(ROOT, f"docs/data/{name}.json")
+    png_path = argv[3] if len(argv) > 3 else os.path.join(ROOT, f"docs/images/{name}.png")
+    plot(json_path, png_path)
     return 0
 
 
