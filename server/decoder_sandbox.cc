@@ -43,6 +43,17 @@ struct ReplyHeader {
   int32_t value;
 };
 constexpr size_t kMaxMessageBytes = 8192;
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kAddressSanitizer = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kAddressSanitizer = true;
+#else
+constexpr bool kAddressSanitizer = false;
+#endif
+#else
+constexpr bool kAddressSanitizer = false;
+#endif
 constexpr size_t kMaxReplyText = kMaxMessageBytes - sizeof(ReplyHeader);
 
 void SendReply(int fd, ReplyKind kind, int32_t value, std::string_view text) {
@@ -60,8 +71,10 @@ void SendReply(int fd, ReplyKind kind, int32_t value, std::string_view text) {
   prctl(PR_SET_DUMPABLE, 0);  // no core dumps of crashes the sandbox is there to contain
   const rlimit no_core{0, 0};
   setrlimit(RLIMIT_CORE, &no_core);
-  const rlimit as{h.memory_bytes, h.memory_bytes};
-  setrlimit(RLIMIT_AS, &as);
+  if (!kAddressSanitizer) {  // ASan's shadow memory alone reserves terabytes of address space
+    const rlimit as{h.memory_bytes, h.memory_bytes};
+    setrlimit(RLIMIT_AS, &as);
+  }
   const rlim_t seconds = static_cast<rlim_t>(std::max<int64_t>(1, h.timeout_s));
   const rlimit cpu{seconds, seconds + 1};
   setrlimit(RLIMIT_CPU, &cpu);

@@ -33,8 +33,8 @@ namespace shrm::server {
 
 // The limits of one decoding child.
 struct DecodeLimits {
-  ImageLimits image;                            // the header checks (as in-process decoding)
-  uint64_t memory_bytes = 8ull << 30;           // RLIMIT_AS of the child
+  ImageLimits image;                   // the header checks (as in-process decoding)
+  uint64_t memory_bytes = 8ull << 30;  // RLIMIT_AS of the child (not under AddressSanitizer)
   absl::Duration timeout = absl::Seconds(300);  // wall clock (SIGALRM) and CPU time (RLIMIT_CPU)
   // Testing only: a file that starts with kTestPoisonMagic makes the child abort(), one that
   // starts with kTestHangMagic makes it sleep until its time limit.
