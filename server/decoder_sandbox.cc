@@ -43,6 +43,9 @@ struct ReplyHeader {
   int32_t value;
 };
 constexpr size_t kMaxMessageBytes = 8192;
+// Clean blobs remembered by a DecodeGuard (about 100 bytes each); beyond that the set starts
+// again, which costs one more check per blob, never a wrong answer.
+constexpr size_t kMaxRememberedBlobs = 1 << 16;
 #if defined(__SANITIZE_ADDRESS__)
 constexpr bool kAddressSanitizer = true;
 #elif defined(__has_feature)
@@ -317,6 +320,7 @@ absl::Status DecodeGuard::Vet(const std::string& sha256, const std::string& path
   }
   absl::MutexLock lock(&mu_);
   if (s.ok()) {
+    if (clean_.size() >= kMaxRememberedBlobs) clean_.clear();  // checked again when used again
     clean_.insert(sha256);
   } else if (wire::ErrorReason(s) == wire::kReasonDecoderCrashed) {
     refused_.emplace(sha256, s);

@@ -73,7 +73,8 @@ class DecoderSandbox {
 // blobs that decoded cleanly are not checked again; a blob that killed a decoder is refused at
 // once with the same answer (quarantined for the life of the daemon; a restarted daemon checks it
 // again in a child, which costs a child, never the daemon). Other decoder errors are not kept:
-// in-process decoding returns them as well. Thread-safe.
+// in-process decoding returns them as well. The clean set is bounded (65,536 blobs, then it starts
+// again). Thread-safe.
 class DecodeGuard {
  public:
   // `sandbox` null: no isolation (Vet returns OK).
