@@ -213,8 +213,8 @@ ShrmServiceImpl::ShrmServiceImpl(const ServiceOptions& options, std::unique_ptr<
     : options_(options),
       blobs_(std::move(blobs)),
       caches_(options.cache_bytes),
-      idle_(options.idle_timeout),
-      decode_guard_(options.decoder_sandbox, options.decode_limits) {}
+      decode_guard_(options.decoder_sandbox, options.decode_limits),
+      idle_(options.idle_timeout) {}
 
 absl::StatusOr<std::unique_ptr<ShrmServiceImpl::JobSlot>> ShrmServiceImpl::Admit() {
   if (draining_) {
