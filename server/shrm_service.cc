@@ -282,7 +282,6 @@ grpc::Status ShrmServiceImpl::UploadBlob(grpc::ServerContext* context,
   if (!reader->Read(&chunk)) {
     return fail(absl::InvalidArgumentError("upload: no chunks received"));
   }
-  watch->Progress();
   const std::string expected = chunk.sha256();
   const uint64_t declared = chunk.total_size();
   if (!IsSha256Hex(expected)) {
@@ -298,13 +297,14 @@ grpc::Status ShrmServiceImpl::UploadBlob(grpc::ServerContext* context,
   absl::StatusOr<std::unique_ptr<BlobStore::Upload>> up = blobs_->BeginUpload();
   if (!up.ok()) return fail(up.status());
   do {
+    watch->Progress();  // a chunk arrived
     if (chunk.data().size() + (*up)->size() > options_.max_blob_bytes) {
       return fail(absl::ResourceExhaustedError(absl::StrCat(
           "upload: more than the server's limit of ", options_.max_blob_bytes, " bytes received")));
     }
     log.AddBytesIn(chunk.data().size());
     if (absl::Status s = (*up)->Append(chunk.data()); !s.ok()) return fail(s);
-  } while (reader->Read(&chunk) && (watch->Progress(), true));
+  } while (reader->Read(&chunk));
   if (context->IsCancelled()) return fail(absl::CancelledError("upload cancelled"));
   if ((*up)->size() != declared) {
     return fail(absl::InvalidArgumentError(absl::StrCat(

@@ -22,6 +22,7 @@
 #include "core/io/image.h"
 #include "proto/status_details.h"
 #include "server/server.h"
+#include "tests/small_job.h"
 #include "tests/test_paths.h"
 
 namespace shrm {
@@ -37,10 +38,6 @@ constexpr absl::Duration kHangTimeout = absl::Seconds(1);
 // An address-space limit far below what decoding a 1024 x 512 map needs (the child's libraries
 // alone map more): the child runs out of memory.
 constexpr uint64_t kStarvedMemory = 32ull << 20;
-// Small jobs for the service test.
-constexpr int kTestF = 8;
-constexpr int kTestP = 2;
-constexpr int kTestFaceSize = 16;
 constexpr int kConcurrentChecks = 8;
 
 std::string RealMap(const char* name) {
@@ -210,13 +207,7 @@ TEST_F(DecoderSandboxTest, PoisonedJobGetsAFinalErrorAndTheDaemonServesOn) {
   auto request = [&](const std::string& path) -> absl::StatusOr<client::PrefilterOutcome> {
     absl::StatusOr<std::string> sha = (*c)->UploadIfMissing(path);
     if (!sha.ok()) return sha.status();
-    v1::PrefilterRequest req;
-    req.mutable_environment()->add_sha256(*sha);
-    req.set_brdf("phong:s=32");
-    req.mutable_orders()->set_f(kTestF);
-    req.mutable_orders()->set_p(kTestP);
-    req.set_face_size(kTestFaceSize);
-    return (*c)->Prefilter(req);
+    return (*c)->Prefilter(testing::SmallPrefilterRequest(*sha));
   };
   const std::string poison = Write("poison.exr", std::string(server::kTestPoisonMagic) + "\n");
   const int64_t before = g_sandbox->checks();

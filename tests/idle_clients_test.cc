@@ -14,6 +14,7 @@
 #include "client/shrm_client.h"
 #include "core/io/sha256.h"
 #include "server/server.h"
+#include "tests/small_job.h"
 #include "tests/test_paths.h"
 
 namespace shrm {
@@ -31,9 +32,6 @@ constexpr auto kNeverEndedDeadline = std::chrono::seconds(120);
 constexpr int kSilentUploads = 1000;
 constexpr int kChannels = 10;  // the silent uploads spread over several connections
 constexpr int kStalledMidStream = 10;
-constexpr int kTestF = 8;
-constexpr int kTestP = 2;
-constexpr int kTestFaceSize = 16;
 // A result larger than the HTTP/2 flow-control windows (a client that does not read it blocks
 // the server's writes): an SHRM at face S holds 6 S^2 (P+1)^2 RGB floats.
 constexpr int kLargeFaceSize = 256;  // 42 MB uncompressed
@@ -64,15 +62,6 @@ class IdleClientsTest : public ::testing::Test {
         client::ShrmClient::Connect(target_, {});
     EXPECT_TRUE(c.ok()) << c.status();
     return c.ok() ? *std::move(c) : nullptr;
-  }
-  v1::PrefilterRequest Request(const std::string& sha, int face_size) {
-    v1::PrefilterRequest req;
-    req.mutable_environment()->add_sha256(sha);
-    req.set_brdf("phong:s=32");
-    req.mutable_orders()->set_f(kTestF);
-    req.mutable_orders()->set_p(kTestP);
-    req.set_face_size(face_size);
-    return req;
   }
   int IncomingFiles() const { return testing::CountFiles(dir_ + "/spool/incoming"); }
 
@@ -115,7 +104,7 @@ TEST_F(IdleClientsTest, SilentAndStalledUploadsDoNotStopServiceAndEndAtTheIdleTi
   absl::StatusOr<std::string> sha =
       c->UploadIfMissing(absl::StrCat(SHRM_SOURCE_DIR, "/data/envmaps/courtyard.exr"));
   ASSERT_TRUE(sha.ok()) << sha.status();
-  absl::StatusOr<client::PrefilterOutcome> job = c->Prefilter(Request(*sha, kTestFaceSize));
+  absl::StatusOr<client::PrefilterOutcome> job = c->Prefilter(testing::SmallPrefilterRequest(*sha));
   ASSERT_TRUE(job.ok()) << job.status();
   EXPECT_FALSE(job->shrm_file.empty());
   absl::StatusOr<v1::HasBlobResponse> has = c->HasBlob(*sha);
@@ -147,7 +136,7 @@ TEST_F(IdleClientsTest, ClientThatStopsReadingLosesItsCallAndFreesTheSlot) {
   grpc::ClientContext context;
   context.set_deadline(std::chrono::system_clock::now() + kNeverEndedDeadline);
   std::unique_ptr<grpc::ClientReader<v1::PrefilterEvent>> reader =
-      stub->Prefilter(&context, Request(*sha, kLargeFaceSize));
+      stub->Prefilter(&context, testing::SmallPrefilterRequest(*sha, kLargeFaceSize));
   // Read nothing: the server blocks in its writes. The only job slot stays taken meanwhile.
   v1::PrefilterEvent ev;
   int events = 0;
@@ -167,7 +156,8 @@ TEST_F(IdleClientsTest, ClientThatStopsReadingLosesItsCallAndFreesTheSlot) {
   EXPECT_FALSE(saw_file_end);
   EXPECT_GT(events, 0);
   // The slot is free again: the next job is admitted (max_jobs 1).
-  absl::StatusOr<client::PrefilterOutcome> next = c->Prefilter(Request(*sha, kTestFaceSize));
+  absl::StatusOr<client::PrefilterOutcome> next =
+      c->Prefilter(testing::SmallPrefilterRequest(*sha));
   EXPECT_TRUE(next.ok()) << next.status();
 }
 
