@@ -52,6 +52,8 @@ class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
   void BeginDrain() { draining_ = true; }
   // Calls ended by the idle watchdog (ServiceOptions::idle_timeout).
   int64_t idle_calls_ended() const { return idle_.ended(); }
+  // Jobs holding a slot now.
+  int running_jobs() const { return running_jobs_.load(); }
 
   grpc::Status HasBlob(grpc::ServerContext* context, const shrm::v1::HasBlobRequest* request,
                        shrm::v1::HasBlobResponse* response) override;

@@ -119,6 +119,11 @@ TEST_F(IdleClientsTest, SilentAndStalledUploadsDoNotStopServiceAndEndAtTheIdleTi
     ended_by_server += s.error_code() == grpc::StatusCode::CANCELLED;
   }
   EXPECT_EQ(ended_by_server, static_cast<int>(open.size()));
+  EXPECT_EQ(server_->idle_calls_ended(), static_cast<int64_t>(open.size()));
+  // A client sees CANCELLED as soon as the server cancels the call, before the handler thread
+  // has returned and removed the partial upload: wait for the handlers (the bound is a safety
+  // net, not a timing check), then nothing may be left.
+  for (int i = 0; i < kWaitPolls && IncomingFiles() != 0; ++i) absl::SleepFor(kWaitPoll);
   EXPECT_EQ(IncomingFiles(), 0);
   // And it serves on.
   EXPECT_TRUE(c->HasBlob(*sha).ok());
@@ -155,6 +160,10 @@ TEST_F(IdleClientsTest, ClientThatStopsReadingLosesItsCallAndFreesTheSlot) {
   EXPECT_EQ(s.error_code(), grpc::StatusCode::CANCELLED) << s.error_message();
   EXPECT_FALSE(saw_file_end);
   EXPECT_GT(events, 0);
+  // The client has its status before the handler has returned and released the slot: wait for
+  // it (safety-net bound, not a timing check).
+  for (int i = 0; i < kWaitPolls && server_->running_jobs() != 0; ++i) absl::SleepFor(kWaitPoll);
+  EXPECT_EQ(server_->running_jobs(), 0);
   // The slot is free again: the next job is admitted (max_jobs 1).
   absl::StatusOr<client::PrefilterOutcome> next =
       c->Prefilter(testing::SmallPrefilterRequest(*sha));
