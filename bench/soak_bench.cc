@@ -17,9 +17,7 @@
 // Usage: soak_bench SHRMD [soak_seconds=600] [json_out]
 // The JSON (docs/data/soak.json) feeds `scripts/plots.py soak`.
 #include <fcntl.h>
-#include <netinet/in.h>
 #include <signal.h>
-#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -44,6 +42,7 @@
 #include "bench/latency.h"
 #include "client/shrm_client.h"
 #include "proto/status_details.h"
+#include "tests/loopback.h"
 
 namespace {
 
@@ -73,21 +72,6 @@ constexpr double kLateMs = 10;
 [[noreturn]] void Die(const std::string& what) {
   std::fprintf(stderr, "soak_bench: %s\n", what.c_str());
   std::exit(1);
-}
-
-int FreePort() {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t len = sizeof a;
-  if (bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 ||
-      getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) != 0) {
-    Die("no free port");
-  }
-  const int port = ntohs(a.sin_port);
-  close(fd);
-  return port;
 }
 
 // The daemon's resident set (kB), open descriptors and threads.
@@ -157,7 +141,8 @@ int main(int argc, char** argv) {
   const std::string json_out = argc > 3 ? argv[3] : "";
   const std::string spool =
       (std::filesystem::temp_directory_path() / absl::StrCat("soak_bench_", getpid())).string();
-  const int port = FreePort();
+  const int port = shrm::testing::FreeLoopbackPort();
+  if (port == 0) Die("no free port");
   const std::string target = absl::StrCat("127.0.0.1:", port);
   const std::string log = spool + ".log";
   const pid_t daemon = fork();

@@ -27,6 +27,11 @@ inline constexpr char kReasonDraining[] = "DRAINING";
 inline constexpr char kReasonSpoolFull[] = "SPOOL_FULL";
 // An input killed the isolated decoder (server/decoder_sandbox.h): final, never sent again.
 inline constexpr char kReasonDecoderCrashed[] = "DECODER_CRASHED";  // metadata "sha256"
+// Memory admission (server/memory_budget.h): a job that does not fit the memory free now
+// (RESOURCE_EXHAUSTED with a RetryInfo), and one larger than the whole budget (INVALID_ARGUMENT,
+// final); metadata "needed_mib".
+inline constexpr char kReasonMemoryBusy[] = "MEMORY_BUSY";
+inline constexpr char kReasonJobTooLarge[] = "JOB_TOO_LARGE";
 
 // `status` with an ErrorInfo of kErrorDomain (`metadata_key`: `metadata_value` when given).
 absl::Status WithErrorReason(absl::Status status, absl::string_view reason,

@@ -95,8 +95,8 @@ absl::StatusOr<CachedPrefilterResult> CachedPrefilter(const CachedPrefilterInput
     clock.End();
   }
   out.layout = cl->layout;
-  SHRM_RETURN_IF_ERROR(
-      FinishPrefilter(cb->stage, cl->stage, options, hook, &r, input.max_cube_values));
+  SHRM_RETURN_IF_ERROR(FinishPrefilter(cb->stage, cl->stage, options, hook, &r,
+                                       input.max_cube_values, options.admit_cube));
   if (options.verify > 0 && options.synthesize) {
     if (!env) SHRM_RETURN_IF_ERROR(decode());
     SHRM_RETURN_IF_ERROR(clock.Begin("verify"));

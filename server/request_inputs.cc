@@ -8,6 +8,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_replace.h"
 #include "core/base/status_macros.h"
+#include "core/io/image.h"
 #include "core/io/sha256.h"
 
 namespace shrm::server {
@@ -112,6 +113,9 @@ absl::StatusOr<PinnedEnv> PinEnvironment(const wire::WireEnvironment& env, BlobS
   for (const auto& lease : p.leases) {
     SHRM_RETURN_IF_ERROR(
         HideSpoolPaths(guard->Vet(lease->sha256(), lease->path(), p.options.limits), &p));
+    absl::StatusOr<ImageHeader> header = ProbeImage(lease->path(), p.options.limits);
+    if (!header.ok()) return HideSpoolPaths(header.status(), &p);
+    p.pixels += static_cast<int64_t>(header->width) * header->height;
   }
   p.source = {absl::StrJoin(env.spec.files, ","), jobs::CombinedSourceSha256(env.sha256)};
   const std::string rot_key =

@@ -5,6 +5,7 @@
 #ifndef SHRM_SERVER_REQUEST_INPUTS_H_
 #define SHRM_SERVER_REQUEST_INPUTS_H_
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -34,11 +35,12 @@ struct PinnedEnv {
   jobs::EnvironmentSpec spec;  // files: the client's names (shrm:source)
   EnvMapOptions options;       // paths: the pinned blob files
   jobs::SourceIdentity source;
-  std::string key;  // cache key of L_lm (without the degree)
+  std::string key;     // cache key of L_lm (without the degree)
+  int64_t pixels = 0;  // of all files, from their headers (the memory estimate of decoding)
 };
 // NOT_FOUND (reason BLOB_NOT_FOUND) for a blob the server does not hold; each blob vetted by
-// `guard` (decoded once in an isolated process, server/decoder_sandbox.h): its errors name the
-// blob.
+// `guard` (decoded once in an isolated process, server/decoder_sandbox.h), then its header read
+// (ProbeImage): their errors name the blob.
 absl::StatusOr<PinnedEnv> PinEnvironment(const wire::WireEnvironment& env, BlobStore* blobs,
                                          DecodeGuard* guard);
 

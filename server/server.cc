@@ -36,16 +36,20 @@ absl::StatusOr<std::unique_ptr<ShrmServer>> ShrmServer::Start(const ServerOption
   health->SetServingStatus(kLivenessService, true);
   health->SetServingStatus(kReadinessService, true);
   health->SetServingStatus("", true);
-  LogEvent("listening", {{"address", options.listen},
-                         {"port", std::to_string(s->port_)},
-                         {"reflection", options.reflection ? "on" : "off"},
-                         {"decode_isolation", options.service.decoder_sandbox ? "process" : "off"},
-                         {"tls", options.security.tls_cert_file.empty()   ? "off"
-                                 : options.security.tls_client_ca.empty() ? "on"
-                                                                          : "mutual"},
-                         {"tokens", options.security.token_file.empty() ? "off" : "on"},
-                         {"version", kVersion},
-                         {"revision", GitRevision()}});
+  LogEvent("listening",
+           {{"address", options.listen},
+            {"port", std::to_string(s->port_)},
+            {"reflection", options.reflection ? "on" : "off"},
+            {"decode_isolation", options.service.decoder_sandbox ? "process" : "off"},
+            {"memory_budget",
+             options.service.memory_bytes > 0 ? options.service.memory_text : std::string("off")},
+            {"job_memory_mib", std::to_string(s->service_->memory().job_bytes() >> 20)},
+            {"tls", options.security.tls_cert_file.empty()   ? "off"
+                    : options.security.tls_client_ca.empty() ? "on"
+                                                             : "mutual"},
+            {"tokens", options.security.token_file.empty() ? "off" : "on"},
+            {"version", kVersion},
+            {"revision", GitRevision()}});
   return s;
 }
 

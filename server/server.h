@@ -40,6 +40,7 @@ class ShrmServer {
   // Calls the idle watchdog ended so far (ServiceOptions::idle_timeout).
   int64_t idle_calls_ended() const { return service_->idle_calls_ended(); }
   int running_jobs() const { return service_->running_jobs(); }
+  const MemoryBudget& memory() const { return service_->memory(); }
   // Readiness NOT_SERVING, new jobs refused with UNAVAILABLE, running calls get until `grace`
   // to finish (then they are cancelled), then the server stops. Idempotent.
   void Shutdown(absl::Duration grace);

@@ -18,6 +18,7 @@
 #include "jobs/analyze_job.h"
 #include "jobs/ibl_job.h"
 #include "jobs/ibl_outputs.h"
+#include "jobs/memory_estimate.h"
 #include "jobs/point_jobs.h"
 #include "jobs/prefilter_job.h"
 #include "jobs/report.h"
@@ -93,11 +94,13 @@ struct DecodedEnv {
   PinnedEnv pinned;
   EnvMap map;
 };
-absl::StatusOr<DecodedEnv> PinAndDecode(grpc::ServerContext* context, const v1::Environment& env,
-                                        BlobStore* blobs, DecodeGuard* guard,
-                                        std::string_view next_stage) {
+absl::StatusOr<DecodedEnv> PinAndDecode(
+    grpc::ServerContext* context, const v1::Environment& env, BlobStore* blobs, DecodeGuard* guard,
+    std::string_view next_stage,
+    const std::function<absl::Status(uint64_t bytes, std::string_view what)>& reserve) {
   SHRM_ASSIGN_OR_RETURN(wire::WireEnvironment wire_env, wire::DecodeEnvironment(env));
   SHRM_ASSIGN_OR_RETURN(PinnedEnv pinned, PinEnvironment(wire_env, blobs, guard));
+  SHRM_RETURN_IF_ERROR(reserve(jobs::MapBytes(pinned.pixels), "decoding the map"));
   SHRM_RETURN_IF_ERROR(CheckStage(context, "decode"));
   absl::StatusOr<EnvMap> map = EnvMap::Load(pinned.options);
   if (!map.ok()) return HideSpoolPaths(map.status(), &pinned);
@@ -164,6 +167,7 @@ absl::Status WriteOrFail(grpc::ServerContext* context, grpc::ServerWriter<Event>
 
 // A Prefilter call between its stages: the decoded job and its resolved inputs, then the result.
 struct ShrmServiceImpl::PrefilterCall {
+  JobSlot* slot = nullptr;
   wire::WirePrefilter request;
   RequestBrdf brdf;
   std::optional<PinnedEnv> env;
@@ -175,6 +179,7 @@ struct ShrmServiceImpl::PrefilterCall {
 
 // An Ibl call between its stages: the decoded job and its pinned map, then the files.
 struct ShrmServiceImpl::IblCall {
+  JobSlot* slot = nullptr;
   wire::WireIbl request;
   std::optional<PinnedEnv> env;
   std::string source_sha256;
@@ -184,18 +189,26 @@ struct ShrmServiceImpl::IblCall {
 };
 
 // A held job slot; releases it on destruction.
+// A held job slot and the memory its stages reserved; releases both on destruction.
 class ShrmServiceImpl::JobSlot {
  public:
-  explicit JobSlot(std::atomic<int>* running) : running_(running) {
+  JobSlot(std::atomic<int>* running, MemoryBudget* memory) : running_(running), memory_(memory) {
     Metrics::Global().JobStarted();
   }
   ~JobSlot() {
     running_->fetch_sub(1);
     Metrics::Global().JobFinished();
   }
+  // Reserves a stage's estimated peak (jobs/memory_estimate.h) before it runs; the first
+  // reservation adds the job's base (jobs::kJobBaseBytes).
+  absl::Status Reserve(uint64_t bytes, std::string_view what) {
+    if (memory_.bytes() == 0) bytes += jobs::kJobBaseBytes;
+    return memory_.Add(bytes, what);
+  }
 
  private:
   std::atomic<int>* running_;
+  MemoryBudget::Reservation memory_;
 };
 
 absl::StatusOr<std::unique_ptr<ShrmServiceImpl>> ShrmServiceImpl::Create(
@@ -204,17 +217,38 @@ absl::StatusOr<std::unique_ptr<ShrmServiceImpl>> ShrmServiceImpl::Create(
     return absl::InvalidArgumentError("max jobs and job threads must be >= 1");
   }
   if (options.spool_dir.empty()) return absl::InvalidArgumentError("a spool directory is required");
+  uint64_t job_memory = 0;
+  if (options.memory_bytes > 0) {
+    // What jobs may hold: the budget less what the daemon holds now, what its caches may hold and
+    // the reserve for calls in flight.
+    const uint64_t rss = ProcessRssBytes();
+    const uint64_t fixed = rss + options.cache_bytes + kServiceReserveBytes;
+    if (options.memory_bytes <= fixed ||
+        options.memory_bytes - fixed < jobs::kJobBaseBytes + jobs::MapBytes(1 << 20)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(options.memory_text, " (", options.memory_bytes >> 20,
+                       " MiB) leaves too little for jobs: the daemon holds ", rss >> 20,
+                       " MiB at start, the caches up to ", options.cache_bytes >> 20,
+                       " MiB (--cache-mib), calls ", kServiceReserveBytes >> 20,
+                       " MiB, and a job on a 1-Mpixel map needs ",
+                       (jobs::kJobBaseBytes + jobs::MapBytes(1 << 20)) >> 20, " MiB"));
+    }
+    job_memory = options.memory_bytes - fixed;
+  }
   SHRM_ASSIGN_OR_RETURN(std::unique_ptr<BlobStore> blobs,
                         BlobStore::Open(options.spool_dir, options.spool_bytes));
-  return std::unique_ptr<ShrmServiceImpl>(new ShrmServiceImpl(options, std::move(blobs)));
+  return std::unique_ptr<ShrmServiceImpl>(
+      new ShrmServiceImpl(options, std::move(blobs), job_memory));
 }
 
-ShrmServiceImpl::ShrmServiceImpl(const ServiceOptions& options, std::unique_ptr<BlobStore> blobs)
+ShrmServiceImpl::ShrmServiceImpl(const ServiceOptions& options, std::unique_ptr<BlobStore> blobs,
+                                 uint64_t job_memory_bytes)
     : options_(options),
       blobs_(std::move(blobs)),
       caches_(options.cache_bytes),
       decode_guard_(options.decoder_sandbox, options.decode_limits),
-      idle_(options.idle_timeout) {}
+      idle_(options.idle_timeout),
+      memory_(std::make_unique<MemoryBudget>(job_memory_bytes, options.memory_text)) {}
 
 absl::StatusOr<std::unique_ptr<ShrmServiceImpl::JobSlot>> ShrmServiceImpl::Admit() {
   if (draining_) {
@@ -235,7 +269,7 @@ absl::StatusOr<std::unique_ptr<ShrmServiceImpl::JobSlot>> ShrmServiceImpl::Admit
     }
     if (running_jobs_.compare_exchange_weak(running, running + 1)) break;
   }
-  return std::make_unique<JobSlot>(&running_jobs_);
+  return std::make_unique<JobSlot>(&running_jobs_, memory_.get());
 }
 absl::Status ShrmServiceImpl::WhileWatched(
     grpc::ServerContext* context, std::string_view what,
@@ -327,6 +361,7 @@ grpc::Status ShrmServiceImpl::Prefilter(grpc::ServerContext* context,
   };
   absl::StatusOr<std::unique_ptr<JobSlot>> slot = Admit();
   if (!slot.ok()) return fail(slot.status());
+  call.slot = slot->get();
   if (absl::Status s = ParsePrefilterCall(*request, &call); !s.ok()) return fail(s);
   if (absl::Status s = RunPrefilterCall(context, writer, &call, &log); !s.ok()) return fail(s);
   if (absl::Status s = WhileWatched(context, "reading the result",
@@ -359,10 +394,20 @@ absl::Status ShrmServiceImpl::RunPrefilterCall(grpc::ServerContext* context,
   in.env_key = call->env->key;
   in.options = jobs::CorePrefilterOptions(job, options_.job_threads);
   in.max_cube_values = kMaxCubeValues;
+  // Memory: the decoded map before decoding, the cube once S_B and P_B are known.
+  in.options.admit_cube = [&](int face_size, int p_b) {
+    return call->slot->Reserve(
+        jobs::ShrmCubeBytes(face_size, p_b),
+        absl::StrCat("an SHRM cube of face size ", face_size, " and P_B = ", p_b));
+  };
   // Progress events and cancellation checks between stages.
   int stage_index = 0;
   StageHook hook = [&](std::string_view stage) -> absl::Status {
     SHRM_RETURN_IF_ERROR(CheckStage(context, stage));
+    if (stage == "decode") {
+      SHRM_RETURN_IF_ERROR(
+          call->slot->Reserve(jobs::MapBytes(call->env->pixels), "decoding the map"));
+    }
     TestStageHooks(stage);
     WriteProgress(writer, stage, std::min(stage_index++, 5) / kStages);
     return CheckStage(context, stage);
@@ -464,6 +509,7 @@ grpc::Status ShrmServiceImpl::Analyze(grpc::ServerContext* context,
   absl::StatusOr<PinnedEnv> pinned = PinEnvironment(*wire_env, blobs_.get(), &decode_guard_);
   if (!pinned.ok()) return fail(pinned.status());
   env = std::move(*pinned);
+  bool map_reserved = false;  // the map is decoded at most once at a time
   for (double e : epsilons) {
     jobs::PrefilterJob job;
     job.env = env->spec;
@@ -474,7 +520,13 @@ grpc::Status ShrmServiceImpl::Analyze(grpc::ServerContext* context,
     in.env_key = env->key;
     in.options = jobs::CorePrefilterOptions(job, options_.job_threads);
     in.options.synthesize = false;
-    StageHook hook = [&](std::string_view stage) { return CheckStage(context, stage); };
+    StageHook hook = [&](std::string_view stage) -> absl::Status {
+      if (stage == "decode" && !map_reserved) {
+        SHRM_RETURN_IF_ERROR((*slot)->Reserve(jobs::MapBytes(env->pixels), "decoding the map"));
+        map_reserved = true;
+      }
+      return CheckStage(context, stage);
+    };
     absl::StatusOr<CachedPrefilterResult> res = CachedPrefilter(in, &caches_, hook);
     if (!res.ok()) return fail(res.status());
     v1::AnalyzeResult* r = response->add_results();
@@ -522,8 +574,9 @@ grpc::Status ShrmServiceImpl::Reference(grpc::ServerContext* context,
   if (!index.ok()) return fail(index.status());
   absl::StatusOr<Vec3> view = RequestDirection(request->has_view(), request->view(), "view");
   if (!view.ok()) return fail(view.status());
-  absl::StatusOr<DecodedEnv> env =
-      PinAndDecode(context, request->environment(), blobs_.get(), &decode_guard_, "reference");
+  absl::StatusOr<DecodedEnv> env = PinAndDecode(
+      context, request->environment(), blobs_.get(), &decode_guard_, "reference",
+      [&](uint64_t bytes, std::string_view what) { return (*slot)->Reserve(bytes, what); });
   if (!env.ok()) return fail(env.status());
   const std::array<double, 3> rgb = BrdfReferenceRadiance(
       env->map.samples(), *brdf->brdf, jobs::EnvironmentRotation(env->pinned.spec), *index, *view);
@@ -538,8 +591,9 @@ grpc::Status ShrmServiceImpl::Irradiance(grpc::ServerContext* context,
   auto fail = [&](const absl::Status& s) { return log.Finish(wire::ToGrpcStatus(s)); };
   absl::StatusOr<std::unique_ptr<JobSlot>> slot = Admit();
   if (!slot.ok()) return fail(slot.status());
-  absl::StatusOr<DecodedEnv> env =
-      PinAndDecode(context, request->environment(), blobs_.get(), &decode_guard_, "lighting");
+  absl::StatusOr<DecodedEnv> env = PinAndDecode(
+      context, request->environment(), blobs_.get(), &decode_guard_, "lighting",
+      [&](uint64_t bytes, std::string_view what) { return (*slot)->Reserve(bytes, what); });
   if (!env.ok()) return fail(env.status());
   absl::StatusOr<std::vector<double>> e9 = jobs::IrradianceSh9(
       env->map, jobs::EnvironmentRotation(env->pinned.spec), options_.job_threads);
@@ -557,6 +611,7 @@ grpc::Status ShrmServiceImpl::Ibl(grpc::ServerContext* context, const v1::IblReq
   };
   absl::StatusOr<std::unique_ptr<JobSlot>> slot = Admit();
   if (!slot.ok()) return fail(slot.status());
+  call.slot = slot->get();
   if (absl::Status s = ParseIblCall(*request, &call); !s.ok()) return fail(s);
   if (absl::Status s = RunIblCall(context, writer, &call, &log); !s.ok()) return fail(s);
   if (absl::Status s = WhileWatched(context, "reading the files",
@@ -590,6 +645,8 @@ absl::Status ShrmServiceImpl::RunIblCall(grpc::ServerContext* context,
     return CheckStage(context, stage);
   };
   SHRM_RETURN_IF_ERROR(hook("decode"));
+  SHRM_RETURN_IF_ERROR(call->slot->Reserve(
+      jobs::MapBytes(call->env->pixels) + jobs::IblOutputBytes(job), "the map and the IBL set"));
   const auto decode_start = std::chrono::steady_clock::now();
   SHRM_ASSIGN_OR_RETURN(const EnvMap map, EnvMap::Load(call->env->options));
   // The client's names and the blobs' hashes: the outputs record the embedded run's shrm:source.

@@ -18,6 +18,7 @@
 #include "server/cached_prefilter.h"
 #include "server/decoder_sandbox.h"
 #include "server/idle_watchdog.h"
+#include "server/memory_budget.h"
 #include "server/request_log.h"
 #include "shrm/v1/shrm.grpc.pb.h"
 
@@ -30,6 +31,11 @@ struct ServiceOptions {
   int max_jobs = 1;                      // concurrent jobs (Prefilter, Analyze, ..., Ibl calls)
   int job_threads = 1;                   // worker threads of one job
   size_t cache_bytes = 512ull << 20;     // L_lm + rho_lpq caches together
+  // The daemon's memory budget (server/memory_budget.h): jobs reserve their stages' estimated
+  // peaks from it less the memory at start, the caches and kServiceReserveBytes; 0 = jobs are
+  // admitted by max_jobs only. `memory_text` names it in refusals (e.g. "--memory-mib 2048").
+  uint64_t memory_bytes = 0;
+  std::string memory_text = "the memory budget";
   // Isolated decoding of uploaded maps (server/decoder_sandbox.h; not owned, outlives the
   // service); null: maps are decoded in the daemon only.
   DecoderSandbox* decoder_sandbox = nullptr;
@@ -54,6 +60,8 @@ class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
   int64_t idle_calls_ended() const { return idle_.ended(); }
   // Jobs holding a slot now.
   int running_jobs() const { return running_jobs_.load(); }
+  // What jobs may reserve together (0: no memory admission), and what they hold now.
+  const MemoryBudget& memory() const { return *memory_; }
 
   grpc::Status HasBlob(grpc::ServerContext* context, const shrm::v1::HasBlobRequest* request,
                        shrm::v1::HasBlobResponse* response) override;
@@ -78,7 +86,8 @@ class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
   class JobSlot;
   struct PrefilterCall;
   struct IblCall;
-  ShrmServiceImpl(const ServiceOptions& options, std::unique_ptr<BlobStore> blobs);
+  ShrmServiceImpl(const ServiceOptions& options, std::unique_ptr<BlobStore> blobs,
+                  uint64_t job_memory_bytes);
   // OK and a held slot, or RESOURCE_EXHAUSTED (reason SERVER_BUSY, with a retry delay) /
   // UNAVAILABLE (reason DRAINING).
   absl::StatusOr<std::unique_ptr<JobSlot>> Admit();
@@ -116,6 +125,7 @@ class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
   PrefilterCaches caches_;
   DecodeGuard decode_guard_;
   IdleWatchdog idle_;
+  std::unique_ptr<MemoryBudget> memory_;
   std::atomic<int> running_jobs_{0};
   std::atomic<bool> draining_{false};
 };

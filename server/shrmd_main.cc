@@ -12,9 +12,11 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "absl/strings/str_cat.h"
 #include "absl/time/time.h"
 #include "server/config_file.h"
 #include "server/decoder_sandbox.h"
+#include "server/memory_budget.h"
 #include "server/request_log.h"
 #include "server/server.h"
 #include "shrm/version.h"
@@ -42,6 +44,7 @@ int main(int argc, char** argv) {
   uint64_t spool_mib = opt.service.spool_bytes / kMiB;
   uint64_t max_blob_mib = opt.service.max_blob_bytes / kMiB;
   uint64_t cache_mib = opt.service.cache_bytes / kMiB;
+  uint64_t memory_mib = 0;  // 0: from the system (SystemMemoryLimit)
   int job_threads = 0;
   double grace_s = kDefaultGraceSeconds;
   std::string decode_isolation = "process";
@@ -74,6 +77,12 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_option("--cache-mib", cache_mib, "L_lm and rho_lpq caches together, in MiB (LRU)")
       ->capture_default_str();
+  app.add_option("--memory-mib", memory_mib,
+                 "memory budget of the daemon in MiB: every job's stages reserve their estimated "
+                 "peak from it first; a job that does not fit now gets RESOURCE_EXHAUSTED (retried "
+                 "by clients), one larger than the budget INVALID_ARGUMENT (default: 3/4 of the "
+                 "cgroup's memory limit, or of the machine's memory)")
+      ->check(CLI::PositiveNumber);
   app.add_option("--grace-period", grace_s,
                  "seconds running jobs get to finish after SIGTERM/SIGINT")
       ->capture_default_str()
@@ -157,6 +166,17 @@ int main(int argc, char** argv) {
   opt.service.spool_bytes = spool_mib * kMiB;
   opt.service.max_blob_bytes = max_blob_mib * kMiB;
   opt.service.cache_bytes = cache_mib * kMiB;
+  if (memory_mib > 0) {
+    opt.service.memory_bytes = memory_mib * kMiB;
+    opt.service.memory_text = absl::StrCat("--memory-mib ", memory_mib);
+  } else {
+    // Three quarters: the rest is for the isolated decoders (same cgroup) and the allocator's
+    // fragmentation.
+    const shrm::server::SystemMemory system = shrm::server::SystemMemoryLimit();
+    opt.service.memory_bytes = system.bytes / 4 * 3;
+    opt.service.memory_text =
+        absl::StrCat("--memory-mib ", opt.service.memory_bytes / kMiB, ": 3/4 of ", system.source);
+  }
   opt.service.job_threads =
       job_threads > 0 ? job_threads : std::max(1, cores / opt.service.max_jobs);
   opt.service.decode_limits.memory_bytes = decode_memory_mib * kMiB;

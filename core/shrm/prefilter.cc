@@ -89,7 +89,8 @@ absl::StatusOr<LightingStage> ComputeLightingStage(const EnvMap& env, int lmax,
 
 absl::Status FinishPrefilter(const BrdfStage& brdf, const LightingStage& lighting,
                              const PrefilterOptions& options, const PrefilterProgress& progress,
-                             PrefilterResult* r, double max_cube_values) {
+                             PrefilterResult* r, double max_cube_values,
+                             const std::function<absl::Status(int, int)>& admit_cube) {
   StageClock clock(&r->timings, progress);
   r->brdf = brdf.coefficients;
   r->light_lmax = brdf.f_rho;
@@ -118,6 +119,9 @@ absl::Status FinishPrefilter(const BrdfStage& brdf, const LightingStage& lightin
     return absl::InvalidArgumentError(
         absl::StrCat("face size ", face_size, " with P_B = ", r->analysis.p_b, " needs ",
                      cube_values, " values, above the limit of ", max_cube_values));
+  }
+  if (admit_cube) {
+    SHRM_RETURN_IF_ERROR(admit_cube(face_size, r->analysis.p_b));
   }
   SHRM_ASSIGN_OR_RETURN(ShrmSynthesizer synth,
                         ShrmSynthesizer::Create(r->light_lmax, 3, r->light, r->brdf,
@@ -264,7 +268,8 @@ absl::StatusOr<PrefilterResult> Prefilter(const EnvMap& env, const Brdf& brdf,
     chosen.p = r.choice.p;
     chosen.window = r.choice.window;
     chosen.face_size = r.choice.face_size;
-    SHRM_RETURN_IF_ERROR(FinishPrefilter(b, l, chosen, progress, &r, options.max_cube_values));
+    SHRM_RETURN_IF_ERROR(
+        FinishPrefilter(b, l, chosen, progress, &r, options.max_cube_values, options.admit_cube));
     r.tolerance_rule = true;
     MergeTimings(&r.timings);
     SHRM_RETURN_IF_ERROR(VerifyStage(env, brdf, options, progress, &r));
@@ -278,7 +283,8 @@ absl::StatusOr<PrefilterResult> Prefilter(const EnvMap& env, const Brdf& brdf,
   SHRM_RETURN_IF_ERROR(clock.Begin("lighting"));
   SHRM_ASSIGN_OR_RETURN(LightingStage l, ComputeLightingStage(env, b.f_rho, options));
   clock.End();
-  SHRM_RETURN_IF_ERROR(FinishPrefilter(b, l, options, progress, &r, options.max_cube_values));
+  SHRM_RETURN_IF_ERROR(
+      FinishPrefilter(b, l, options, progress, &r, options.max_cube_values, options.admit_cube));
   SHRM_RETURN_IF_ERROR(VerifyStage(env, brdf, options, progress, &r));
   return r;
 }

@@ -45,6 +45,10 @@ struct PrefilterOptions {
   int selection_pairs = 256;
   // Prefilter() only (FinishPrefilter takes it as an argument): > 0 bounds 6 S_B^2 (P_B + 1)^2 3.
   double max_cube_values = 0;
+  // Prefilter() only (FinishPrefilter takes it as an argument): called with S_B and P_B once they
+  // are known, before the cube is allocated; a non-OK status (e.g. a memory budget's refusal)
+  // stops the pipeline with it.
+  std::function<absl::Status(int face_size, int p_b)> admit_cube;
   // > 0: the synthesized cube (ShrmEval) is measured at this many seeded pairs (kVerifySeed,
   // never the selection's) against FastReference (the brute-force sum to 1e-3 per direction):
   // PrefilterResult::measured, stage "verify".
@@ -129,7 +133,8 @@ absl::StatusOr<LightingStage> ComputeLightingStage(const EnvMap& env, int lmax,
 // naming S_B and P_B above it).
 absl::Status FinishPrefilter(const BrdfStage& brdf, const LightingStage& lighting,
                              const PrefilterOptions& options, const PrefilterProgress& progress,
-                             PrefilterResult* r, double max_cube_values = 0);
+                             PrefilterResult* r, double max_cube_values = 0,
+                             const std::function<absl::Status(int, int)>& admit_cube = nullptr);
 
 }  // namespace shrm
 
