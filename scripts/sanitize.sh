@@ -27,7 +27,7 @@ SERVICE_TESTS=(service_test service_ops_test service_load_test decoder_sandbox_t
 if [ "${1:-}" = --service ]; then
   shift
   cmake --build "$BUILD_DIR" -j "${SHRM_JOBS:-$(nproc)}" --target "${SERVICE_TESTS[@]}"
-  set -- -R '^(ServiceTest|ServiceOpsTest|ServiceLoadTest|AuthTest|ConfigFileTest|DecoderSandboxTest|BlobStoreTest|IdleClientsTest|ClientRetryTest|ClientDecisions|StatusDetails|MemoryBudgetTest)\.' "$@"
+  set -- -R '^(ServiceTest|ServiceOpsTest|ServiceLoadTest|AuthTest|ConfigFileTest|DecoderSandboxTest|BlobStoreTest|IdleClientsTest|ClientRetryTest|ClientDecisions|StatusDetails|MemoryBudgetTest|MemoryAdmissionInProcessTest)\.' "$@"
 else
   cmake --build "$BUILD_DIR" -j "${SHRM_JOBS:-$(nproc)}"
 fi

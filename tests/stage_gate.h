@@ -9,7 +9,9 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <string_view>
+#include <utility>
 
 #include "absl/time/time.h"
 
@@ -17,9 +19,13 @@ namespace shrm::testing {
 
 class StageGate {
  public:
+  StageGate() = default;
+  // A gate that holds jobs only at `stage` (e.g. "write": after the cube is made).
+  explicit StageGate(std::string stage) : stage_(std::move(stage)) {}
   // The hook to install; it shares the gate's state, so it may outlive nothing it points to.
   std::function<void(std::string_view)> Hook() const {
-    return [s = state_](std::string_view) {
+    return [s = state_, only = stage_](std::string_view stage) {
+      if (!only.empty() && stage != only) return;
       std::unique_lock<std::mutex> lock(s->mu);
       if (s->open) return;
       ++s->held;
@@ -48,6 +54,7 @@ class StageGate {
     int held = 0;
   };
   std::shared_ptr<State> state_ = std::make_shared<State>();
+  std::string stage_;  // "" = every stage
 };
 
 }  // namespace shrm::testing
