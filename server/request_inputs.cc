@@ -10,6 +10,7 @@
 #include "core/base/status_macros.h"
 #include "core/io/image.h"
 #include "core/io/sha256.h"
+#include "jobs/memory_estimate.h"
 
 namespace shrm::server {
 namespace {
@@ -113,9 +114,6 @@ absl::StatusOr<PinnedEnv> PinEnvironment(const wire::WireEnvironment& env, BlobS
   for (const auto& lease : p.leases) {
     SHRM_RETURN_IF_ERROR(
         HideSpoolPaths(guard->Vet(lease->sha256(), lease->path(), p.options.limits), &p));
-    absl::StatusOr<ImageHeader> header = ProbeImage(lease->path(), p.options.limits);
-    if (!header.ok()) return HideSpoolPaths(header.status(), &p);
-    p.pixels += static_cast<int64_t>(header->width) * header->height;
   }
   p.source = {absl::StrJoin(env.spec.files, ","), jobs::CombinedSourceSha256(env.sha256)};
   const std::string rot_key =
@@ -128,6 +126,16 @@ absl::StatusOr<PinnedEnv> PinEnvironment(const wire::WireEnvironment& env, BlobS
                    "|in=", p.options.input_colour_space, "|work=", p.options.working_colour_space,
                    "|nonfinite=", static_cast<int>(p.options.non_finite), "|rot=", rot_key);
   return p;
+}
+
+absl::StatusOr<uint64_t> MapDecodeBytes(const PinnedEnv& env) {
+  int64_t pixels = 0;
+  for (const auto& lease : env.leases) {
+    absl::StatusOr<ImageHeader> header = ProbeImage(lease->path(), env.options.limits);
+    if (!header.ok()) return HideSpoolPaths(header.status(), &env);
+    pixels += static_cast<int64_t>(header->width) * header->height;
+  }
+  return jobs::MapBytes(pixels);
 }
 
 absl::Status HideSpoolPaths(const absl::Status& status, const PinnedEnv* env) {

@@ -35,14 +35,17 @@ struct PinnedEnv {
   jobs::EnvironmentSpec spec;  // files: the client's names (shrm:source)
   EnvMapOptions options;       // paths: the pinned blob files
   jobs::SourceIdentity source;
-  std::string key;     // cache key of L_lm (without the degree)
-  int64_t pixels = 0;  // of all files, from their headers (the memory estimate of decoding)
+  std::string key;  // cache key of L_lm (without the degree)
 };
 // NOT_FOUND (reason BLOB_NOT_FOUND) for a blob the server does not hold; each blob vetted by
-// `guard` (decoded once in an isolated process, server/decoder_sandbox.h), then its header read
-// (ProbeImage): their errors name the blob.
+// `guard` (decoded once in an isolated process, server/decoder_sandbox.h): its errors name the
+// blob.
 absl::StatusOr<PinnedEnv> PinEnvironment(const wire::WireEnvironment& env, BlobStore* blobs,
                                          DecodeGuard* guard);
+
+// What decoding the pinned map will hold (jobs::MapBytes of its files' pixels, from their headers:
+// read only for a job that decodes, after the blobs were vetted); errors name the blob.
+absl::StatusOr<uint64_t> MapDecodeBytes(const PinnedEnv& env);
 
 // Core messages name the spool files; clients know blobs by hash (`env` may be null).
 absl::Status HideSpoolPaths(const absl::Status& status, const PinnedEnv* env);

@@ -100,7 +100,8 @@ absl::StatusOr<DecodedEnv> PinAndDecode(
     const std::function<absl::Status(uint64_t bytes, std::string_view what)>& reserve) {
   SHRM_ASSIGN_OR_RETURN(wire::WireEnvironment wire_env, wire::DecodeEnvironment(env));
   SHRM_ASSIGN_OR_RETURN(PinnedEnv pinned, PinEnvironment(wire_env, blobs, guard));
-  SHRM_RETURN_IF_ERROR(reserve(jobs::MapBytes(pinned.pixels), "decoding the map"));
+  SHRM_ASSIGN_OR_RETURN(const uint64_t map_bytes, MapDecodeBytes(pinned));
+  SHRM_RETURN_IF_ERROR(reserve(map_bytes, "decoding the map"));
   SHRM_RETURN_IF_ERROR(CheckStage(context, "decode"));
   absl::StatusOr<EnvMap> map = EnvMap::Load(pinned.options);
   if (!map.ok()) return HideSpoolPaths(map.status(), &pinned);
@@ -405,8 +406,8 @@ absl::Status ShrmServiceImpl::RunPrefilterCall(grpc::ServerContext* context,
   StageHook hook = [&](std::string_view stage) -> absl::Status {
     SHRM_RETURN_IF_ERROR(CheckStage(context, stage));
     if (stage == "decode") {
-      SHRM_RETURN_IF_ERROR(
-          call->slot->Reserve(jobs::MapBytes(call->env->pixels), "decoding the map"));
+      SHRM_ASSIGN_OR_RETURN(const uint64_t map_bytes, MapDecodeBytes(*call->env));
+      SHRM_RETURN_IF_ERROR(call->slot->Reserve(map_bytes, "decoding the map"));
     }
     TestStageHooks(stage);
     WriteProgress(writer, stage, std::min(stage_index++, 5) / kStages);
@@ -522,7 +523,8 @@ grpc::Status ShrmServiceImpl::Analyze(grpc::ServerContext* context,
     in.options.synthesize = false;
     StageHook hook = [&](std::string_view stage) -> absl::Status {
       if (stage == "decode" && !map_reserved) {
-        SHRM_RETURN_IF_ERROR((*slot)->Reserve(jobs::MapBytes(env->pixels), "decoding the map"));
+        SHRM_ASSIGN_OR_RETURN(const uint64_t map_bytes, MapDecodeBytes(*env));
+        SHRM_RETURN_IF_ERROR((*slot)->Reserve(map_bytes, "decoding the map"));
         map_reserved = true;
       }
       return CheckStage(context, stage);
@@ -645,8 +647,9 @@ absl::Status ShrmServiceImpl::RunIblCall(grpc::ServerContext* context,
     return CheckStage(context, stage);
   };
   SHRM_RETURN_IF_ERROR(hook("decode"));
-  SHRM_RETURN_IF_ERROR(call->slot->Reserve(
-      jobs::MapBytes(call->env->pixels) + jobs::IblOutputBytes(job), "the map and the IBL set"));
+  SHRM_ASSIGN_OR_RETURN(const uint64_t map_bytes, MapDecodeBytes(*call->env));
+  SHRM_RETURN_IF_ERROR(
+      call->slot->Reserve(map_bytes + jobs::IblOutputBytes(job), "the map and the IBL set"));
   const auto decode_start = std::chrono::steady_clock::now();
   SHRM_ASSIGN_OR_RETURN(const EnvMap map, EnvMap::Load(call->env->options));
   // The client's names and the blobs' hashes: the outputs record the embedded run's shrm:source.
