@@ -3,17 +3,13 @@
 #   shrm       bin/shrm, its man pages, bash completion, the bundled maps, the docs
 #   shrmd      sbin/shrmd, shrmd(8), the systemd units, the sysusers file, etc/shrmd/shrmd.conf
 #   shrm-view  bin/shrm-view, shrm-view(1), bash completion
+#   imageio    LIBDIR/shrm/libshrm_imageio.so: OpenImageIO and OpenColorIO, loaded on demand
 #   dev        the libraries (static, PIC), their headers (include/shrm), the proto file, the
 #              CMake package (find_package(shrm): shrm::core, shrm::jobs, shrm::client) and the
 #              pkg-config files (shrm-core, shrm-jobs, shrm-client)
 # Nothing installed refers to the build or source tree.
 
-# Debian's multiarch library directory for every prefix, not only /usr (GNUInstallDirs' default),
-# so a local install and the package have the same layout; find_package and pkg-config search it.
-if(NOT DEFINED CMAKE_INSTALL_LIBDIR AND CMAKE_LIBRARY_ARCHITECTURE)
-  set(CMAKE_INSTALL_LIBDIR "lib/${CMAKE_LIBRARY_ARCHITECTURE}"
-      CACHE PATH "Object code libraries (LIBDIR)")
-endif()
+# CMAKE_INSTALL_LIBDIR: Debian's multiarch folder (set in the top CMakeLists.txt).
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
@@ -56,6 +52,9 @@ install(TARGETS ${SHRM_EXPORTED_TARGETS} EXPORT shrmTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev
         INCLUDES DESTINATION ${SHRM_INSTALL_INCLUDEDIR})
 install(EXPORT shrmTargets NAMESPACE shrm:: DESTINATION ${SHRM_INSTALL_CMAKEDIR} COMPONENT dev)
+# The image I/O module (core/io/image_module.h), loaded at run time by every program and by
+# programs that link shrm::io: LIBDIR/shrm/libshrm_imageio.so (package shrm-imageio).
+install(TARGETS shrm_imageio LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}/shrm COMPONENT imageio)
 
 # Public headers, included as in the tree ("core/shrm/prefilter.h", "jobs/prefilter_job.h",
 # "client/shrm_client.h", "shrm/v1/shrm.pb.h", "shrm/version.h") below include/shrm.

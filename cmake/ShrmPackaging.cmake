@@ -5,6 +5,8 @@
 #   shrmd        the daemon, shrmd(8), the systemd units, the system user shrmd, /etc/shrmd
 #   shrm-view    the viewer
 #   libshrm-dev  static libraries, headers, the CMake package, pkg-config files, the proto file
+#   shrm-imageio the module with OpenImageIO and OpenColorIO that the others load on demand
+#                (core/io/image_module.h); each of them depends on it, at the same version
 # Runtime dependencies come from what the binaries link (dpkg-shlibdeps); libshrm-dev depends on
 # the -dev packages its CMake package finds. Each package carries
 # /usr/share/doc/<package>/{copyright,changelog.Debian.gz} (deploy/debian/).
@@ -56,7 +58,7 @@ macro(shrm_deb_package group package component section)
   endif()
 endmacro()
 
-set(SHRM_INSTALLED_COMPONENTS shrm dev)
+set(SHRM_INSTALLED_COMPONENTS shrm dev imageio)
 if(TARGET shrmd)
   list(APPEND SHRM_INSTALLED_COMPONENTS shrmd)
 endif()
@@ -91,6 +93,13 @@ shrm_deb_package(viewer shrm-view shrm-view graphics
   "service), on meshes: global and local SHRMs, SH/HSH lighting with normal"
   "mapping, H-basis irradiance, progressive ground truth and a difference view;"
   "headless screenshots.")
+shrm_deb_package(imageio shrm-imageio imageio graphics
+  "image formats and colour spaces for shrm (OpenImageIO, OpenColorIO)"
+  "The module that shrm, shrmd, shrm-view and programs built with libshrm-dev"
+  "load the first time they read a Radiance HDR, PFM, TIFF or PNG file, write a"
+  "TIFF image or convert between colour spaces. OpenEXR files and the default"
+  "colour space do not need it, so the programs start without loading"
+  "OpenImageIO and OpenColorIO.")
 shrm_deb_package(devel libshrm-dev dev libdevel
   "shrm libraries: SHRM prefiltering core, job layer and service client"
   "Static libraries (PIC) and headers of shrm: the core (spherical harmonics,"
@@ -124,8 +133,13 @@ set(CPACK_DEBIAN_PACKAGE_CONTROL_STRICT_PERMISSION ON)
 set(CPACK_DEBIAN_CLI_PACKAGE_SHLIBDEPS ON)
 set(CPACK_DEBIAN_VIEWER_PACKAGE_SHLIBDEPS ON)
 set(CPACK_DEBIAN_DAEMON_PACKAGE_SHLIBDEPS ON)
+set(CPACK_DEBIAN_IMAGEIO_PACKAGE_SHLIBDEPS ON)
+# The module is loaded, not linked: dpkg-shlibdeps cannot see it. The same build's, exactly.
+set(SHRM_DEB_IMAGEIO_DEPENDS "shrm-imageio (= ${PROJECT_VERSION}-${SHRM_DEB_RELEASE})")
+set(CPACK_DEBIAN_CLI_PACKAGE_DEPENDS "${SHRM_DEB_IMAGEIO_DEPENDS}")
+set(CPACK_DEBIAN_VIEWER_PACKAGE_DEPENDS "${SHRM_DEB_IMAGEIO_DEPENDS}")
 # The postinst creates the system user with systemd-sysusers, or adduser without systemd.
-set(CPACK_DEBIAN_DAEMON_PACKAGE_DEPENDS "adduser")
+set(CPACK_DEBIAN_DAEMON_PACKAGE_DEPENDS "adduser, ${SHRM_DEB_IMAGEIO_DEPENDS}")
 set(CPACK_DEBIAN_DAEMON_PACKAGE_SUGGESTS "shrm, nginx")
 # The maintainer scripts of shrmd (as dh_installsystemd writes them) and its conffile.
 set(SHRM_DEB_CONTROL ${PROJECT_BINARY_DIR}/install/daemon)
@@ -139,7 +153,7 @@ foreach(script postinst prerm postrm)
 endforeach()
 # What find_package(shrm) and the pkg-config files find (cmake/shrmConfig.cmake.in).
 set(CPACK_DEBIAN_DEVEL_PACKAGE_DEPENDS
-    "libabsl-dev, libfftw3-dev, libopenimageio-dev, libopencolorio-dev, libopenexr-dev, libssl-dev, nlohmann-json3-dev, pkg-config")
+    "${SHRM_DEB_IMAGEIO_DEPENDS}, libabsl-dev, libfftw3-dev, libopenexr-dev, zlib1g-dev, libssl-dev, nlohmann-json3-dev, pkg-config")
 if(TARGET shrm_client)
   string(APPEND CPACK_DEBIAN_DEVEL_PACKAGE_DEPENDS ", libgrpc++-dev, libprotobuf-dev")
 endif()

@@ -21,6 +21,7 @@ cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_FLAGS="$FLAGS" -DCMAKE_C_FLAGS="$FLAGS" \
   -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
   -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" \
+  -DCMAKE_MODULE_LINKER_FLAGS="-fsanitize=address,undefined" \
   -DSHRM_BUILD_BENCH=OFF -DSHRM_BUILD_VIEWER=OFF -DSHRM_NATIVE=OFF
 SERVICE_TESTS=(service_test service_ops_test service_load_test decoder_sandbox_test
   blob_store_test idle_clients_test client_retry_test status_details_test memory_admission_test)

@@ -205,6 +205,37 @@ else
   fail "nan_replaced: failed: $(cat "$TMP/cases/nan_replaced.stderr")"
 fi
 
+# --- the image module (core/io/image_module.h) ----------------------------------------------
+# shrm links neither OpenImageIO nor OpenColorIO. A copy of it with no module where it looks
+# (no ../lib/shrm beside it, SHRM_MODULE_DIR empty; the install prefix compiled in may hold one,
+# so this runs only when it does not) still prefilters an EXR map, and refuses a PFM map with a
+# message that names the module and where it looked, leaving nothing behind.
+CHECKS=$((CHECKS + 1))
+if readelf -d "$SHRM" | grep -qiE 'NEEDED.*(OpenImageIO|OpenColorIO)'; then
+  fail "module: $SHRM links OpenImageIO or OpenColorIO: $(readelf -d "$SHRM" | grep -iE 'OpenImageIO|OpenColorIO')"
+else
+  echo "ok: module: $SHRM links neither OpenImageIO nor OpenColorIO"
+fi
+mkdir -p "$TMP/lonely/bin"
+cp "$SHRM" "$TMP/lonely/bin/shrm"
+LONELY_DIRS=$(SHRM_MODULE_DIR=/nonexistent "$TMP/lonely/bin/shrm" prefilter --brdf phong:s=8 --size 8 \
+  --env "$IN/wide.pfm" -o "$TMP/lonely/x.shrm.exr" 2>&1)
+if grep -q "libshrm_imageio.so.*cannot be loaded" <<<"$LONELY_DIRS"; then
+  expect_error module_missing 1 'libshrm_imageio\.so.*cannot be loaded.*/nonexistent/libshrm_imageio\.so' \
+    env SHRM_MODULE_DIR=/nonexistent "$TMP/lonely/bin/shrm" prefilter --brdf phong:s=8 --size 8 \
+    --env "$IN/wide.pfm" -o out.shrm.exr
+  CHECKS=$((CHECKS + 1))
+  if SHRM_MODULE_DIR=/nonexistent "$TMP/lonely/bin/shrm" prefilter --brdf phong:s=8 --size 8 \
+    --env "$MAP" -o "$TMP/lonely/ok.shrm.exr" >/dev/null 2>"$TMP/lonely/err"; then
+    echo "ok: module: an EXR job runs without the module"
+  else
+    fail "module: an EXR job needs the module: $(head -c 400 "$TMP/lonely/err")"
+  fi
+else
+  note "module: an installed module answers for the copy (install prefix); missing-module case not run"
+fi
+rm -rf "$TMP/lonely"
+
 # --- happy path -----------------------------------------------------------------------------
 
 json_ok() {  # validates a JSON file with python3 when present

@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "absl/status/status.h"
+#include "core/io/cube_exr.h"
 #include "core/io/sha256.h"
 #include "gtest/gtest.h"
 #include "tests/test_paths.h"
@@ -148,13 +149,29 @@ TEST(ImageTest, ExrHeaderCheckPassesValidFiles) {
 }
 
 // Found by fuzzing (docs/fuzzing.md): OpenEXR 3.1.5 allocates a string attribute's declared size
-// before reading it; a 7 KB file claiming 1.8 GB took the process past its memory limit.
+// before reading it; a 7 KB file claiming 1.8 GB (its capDate) took the process past its memory
+// limit. Here the string attribute of a small cube file (EncodeCubeExr) claims the same size.
 TEST(ImageTest, ExrAttributeLargerThanTheFileIsRejectedBeforeOpenExr) {
-  const absl::Status s =
-      CheckPatchedExr("attr.exr", PatchedExr(std::string("capDate\0string\0", 15), 0, 0x6d000000));
+  CubeExr cube;
+  cube.face_size = 2;
+  cube.group_names = {"c"};
+  cube.data.assign(cube.size(), 0.5f);
+  cube.attributes["shrm:note"] = "abc";
+  std::string bytes = *EncodeCubeExr(cube, "attr");
+  const std::string marker("shrm:note\0string\0", 17);
+  const size_t at = bytes.find(marker);
+  ASSERT_NE(at, std::string::npos);
+  for (int i = 0; i < 4; ++i)
+    bytes[at + marker.size() + i] = char((uint32_t{0x6d000000} >> (8 * i)) & 255);
+  const std::string path = TempPath("attr.exr");
+  WriteBytes(path, bytes);
+  const absl::Status s = CheckExrHeader(path, {});
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << s;
-  EXPECT_NE(s.message().find("attribute 'capDate' claims 1828716544 bytes"), std::string::npos)
+  EXPECT_NE(s.message().find("attribute 'shrm:note' claims 1828716544 bytes"), std::string::npos)
       << s;
+  const absl::Status read = ReadCubeExr(path).status();
+  EXPECT_EQ(read.code(), absl::StatusCode::kInvalidArgument) << read;
+  fs::remove(path);
 }
 
 // Found by fuzzing: OpenEXR reads a channel list (and the fixed-size types) up to its own end,

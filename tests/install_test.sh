@@ -65,7 +65,7 @@ if ! "$CMAKE" --install "$BUILD" --prefix "$P" >install.log 2>&1; then
 fi
 LIBDIR=$(cd "$P" && ls -d lib/*/cmake/shrm 2>/dev/null | sed 's|/cmake/shrm$||')
 [ -n "$LIBDIR" ] || LIBDIR=lib
-for f in bin/shrm sbin/shrmd bin/shrm-view \
+for f in bin/shrm sbin/shrmd bin/shrm-view "$LIBDIR/shrm/libshrm_imageio.so" \
   "$LIBDIR/libshrm_client.a" "$LIBDIR/libshrm_jobs.a" "$LIBDIR/libshrm_shrm.a" \
   "$LIBDIR/cmake/shrm/shrmConfig.cmake" "$LIBDIR/cmake/shrm/shrmConfigVersion.cmake" \
   "$LIBDIR/cmake/shrm/shrmTargets.cmake" "$LIBDIR/pkgconfig/shrm-core.pc" \
@@ -121,6 +121,25 @@ for exe in bin/shrm sbin/shrmd bin/shrm-view; do
     fail "$name --version exited $?: $out"
   fi
 done
+# The installed shrm loads its image module from the prefix: a PNG map goes through OpenImageIO
+# (sRGB-encoded 8-bit input, converted to linear by OpenColorIO).
+python3 - "$TMP/map.png" <<'PY'
+import struct, sys, zlib
+w, h = 16, 8
+rows = b"".join(b"\0" + bytes(v for x in range(w) for v in (x * 15, y * 30, 128))
+               for y in range(h))
+def chunk(t, d):
+    return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
+png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)) +
+       chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
+open(sys.argv[1], "wb").write(png)
+PY
+if out=$("$P/bin/shrm" analyze --env "$TMP/map.png" --epsilon 0.1 2>&1); then
+  pass "installed shrm reads a PNG map (module $LIBDIR/shrm/libshrm_imageio.so)"
+else
+  fail "installed shrm cannot read a PNG map: $out"
+fi
+
 # Completion: one shell (with bash-completion when installed) answers every query: a line of
 # candidates, sorted, per query.
 mapfile -t got < <(bash -c '
@@ -279,7 +298,7 @@ if ! "$CPACK" -G DEB --config "$BUILD/CPackConfig.cmake" -B "$DEBS" >cpack.log 2
 fi
 ARCH=$(dpkg --print-architecture)
 declare -A DEB
-for pkg in shrm shrmd shrm-view libshrm-dev; do
+for pkg in shrm shrmd shrm-view libshrm-dev shrm-imageio; do
   DEB[$pkg]=$DEBS/${pkg}_${VERSION}-1_$ARCH.deb
   [ -f "${DEB[$pkg]}" ] || fail "cpack: ${pkg}_${VERSION}-1_$ARCH.deb missing ($(ls "$DEBS"))"
 done
@@ -314,6 +333,7 @@ has shrm /usr/bin/shrm /usr/share/man/man1/shrm.1.gz /usr/share/man/man1/shrm-ba
 has shrmd /usr/sbin/shrmd /usr/share/man/man8/shrmd.8.gz /lib/systemd/system/shrmd.service \
   /lib/systemd/system/shrmd@.service /usr/lib/sysusers.d/shrmd.conf /etc/shrmd/shrmd.conf \
   /usr/share/doc/shrmd/copyright
+has shrm-imageio "/usr/$LIBDIR/shrm/libshrm_imageio.so" /usr/share/doc/shrm-imageio/copyright
 has shrm-view /usr/bin/shrm-view /usr/share/man/man1/shrm-view.1.gz /usr/share/doc/shrm-view/copyright
 has libshrm-dev "/usr/$LIBDIR/libshrm_client.a" "/usr/$LIBDIR/cmake/shrm/shrmConfig.cmake" \
   "/usr/$LIBDIR/pkgconfig/shrm-client.pc" /usr/include/shrm/client/shrm_client.h \
@@ -324,12 +344,15 @@ changelog_version=$(dpkg-deb --fsys-tarfile "${DEB[shrm]}" |
   tar -xO ./usr/share/doc/shrm/changelog.Debian.gz | zcat | sed -n '1s/^shrm (\([^)]*\)).*/\1/p')
 [ "$changelog_version" = "$VERSION-1" ] || fail "changelog.Debian.gz: top entry $changelog_version, not $VERSION-1"
 
-# Depends: every shared library a program links is provided by a package Depends names.
-for pkg in shrm shrmd shrm-view; do
+# Depends: every shared library a program (or the module) links is provided by a package Depends
+# names; the programs depend on the module's package, which they load, at this very version.
+for pkg in shrm shrmd shrm-view shrm-imageio; do
   depends=$(dpkg-deb -f "${DEB[$pkg]}" Depends)
   version=$(dpkg-deb -f "${DEB[$pkg]}" Version)
   [ "$version" = "$VERSION-1" ] || fail "$pkg: Version $version"
-  exe=$(grep -E '^/usr/s?bin/' "files-$pkg.txt")
+  [ "$pkg" = shrm-imageio ] || grep -qF "shrm-imageio (= $VERSION-1)" <<<"$depends" ||
+    fail "$pkg: Depends lacks shrm-imageio (= $VERSION-1): $depends"
+  exe=$(grep -E '^/usr/s?bin/|libshrm_imageio\.so$' "files-$pkg.txt")
   needed=$(readelf -d "$TMP/usr-install$exe" | sed -n 's/.*(NEEDED).*\[\(.*\)\]/\1/p')
   dep_names=$(tr ',|' '\n\n' <<<"$depends" | sed 's/(.*//; s/[[:space:]]//g')
   paths=()
@@ -360,8 +383,8 @@ grep -q adduser <<<"$(dpkg-deb -f "${DEB[shrmd]}" Depends)" || fail "shrmd: Depe
 synopsis=$(dpkg-deb -f "${DEB[shrmd]}" Description | head -n 1)
 [ "$synopsis" = "shrm prefilter service (gRPC)" ] || fail "shrmd: Description synopsis '$synopsis'"
 dev_depends=$(dpkg-deb -f "${DEB[libshrm-dev]}" Depends)
-for d in libgrpc++-dev libprotobuf-dev libabsl-dev libopenimageio-dev libopencolorio-dev \
-  libopenexr-dev libfftw3-dev libssl-dev nlohmann-json3-dev; do
+for d in libgrpc++-dev libprotobuf-dev libabsl-dev shrm-imageio libopenexr-dev zlib1g-dev \
+  libfftw3-dev libssl-dev nlohmann-json3-dev; do
   grep -q "$d" <<<"$dev_depends" || fail "libshrm-dev: Depends lacks $d"
 done
 
@@ -376,9 +399,9 @@ if [ "$(id -u)" -eq 0 ]; then
   [ -e "$host_link" ] && host_had_link=1
   if dpkg --root="$R" --force-script-chrootless --force-depends --log="$TMP/dpkg.log" \
     -i "${DEB[@]}" >dpkg-install.log 2>&1; then
-    status=$(dpkg --root="$R" -l shrm shrmd shrm-view libshrm-dev 2>/dev/null | grep -c '^ii')
-    [ "$status" -eq 4 ] && pass "dpkg --root: the 4 packages installed and configured" ||
-      fail "dpkg --root: $status of 4 packages configured: $(dpkg --root="$R" -l | tail -n 4)"
+    status=$(dpkg --root="$R" -l shrm shrmd shrm-view libshrm-dev shrm-imageio 2>/dev/null | grep -c '^ii')
+    [ "$status" -eq 5 ] && pass "dpkg --root: the 5 packages installed and configured" ||
+      fail "dpkg --root: $status of 5 packages configured: $(dpkg --root="$R" -l | tail -n 5)"
   else
     fail "dpkg --root -i: $(tail -n 10 dpkg-install.log)"
   fi
@@ -407,7 +430,7 @@ if [ "$(id -u)" -eq 0 ]; then
     fail "postinst: shrmd.service not enabled in the root: $(ls -l "$R/etc/systemd/system" 2>&1)"
   [ "$host_had_link" -eq 1 ] || [ ! -e "$host_link" ] || fail "postinst: enabled shrmd on this host"
   if dpkg --root="$R" --force-script-chrootless --force-depends --log="$TMP/dpkg.log" \
-    --purge shrm shrmd shrm-view libshrm-dev >dpkg-purge.log 2>&1; then
+    --purge shrm shrmd shrm-view libshrm-dev shrm-imageio >dpkg-purge.log 2>&1; then
     left=$(cd "$R" && find . -type f ! -path './var/lib/dpkg/*' ! -path './etc/*' ! -path './var/lib/systemd/*' | head -n 5)
     [ -z "$left" ] && [ ! -e "$R/etc/shrmd/shrmd.conf" ] && [ ! -e "$R$host_link" ] &&
       pass "dpkg --purge: files, conffile and unit link removed" ||
@@ -427,7 +450,7 @@ if command -v lintian >/dev/null; then
   lintian --fail-on error,warning --display-level ">=warning" "${DEB[@]}" >lintian.log 2>&1
   rc=$?
   if [ $rc -eq 0 ] && ! grep -qE '^[EW]: ' lintian.log; then
-    pass "lintian: no errors or warnings for the 4 packages"
+    pass "lintian: no errors or warnings for the 5 packages"
   else
     fail "lintian (exit $rc): $(grep -v 'running with root privileges' lintian.log)"
   fi

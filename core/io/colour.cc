@@ -1,7 +1,5 @@
 #include "core/io/colour.h"
 
-#include <OpenColorIO/OpenColorIO.h>
-#include <OpenImageIO/imageio.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -14,14 +12,15 @@
 #include <sstream>
 
 #include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
+#include "absl/strings/strip.h"
 #include "core/base/status_macros.h"
+#include "core/io/image_module.h"
 
 namespace shrm {
 namespace {
-
-namespace OCIO = OCIO_NAMESPACE;
 
 // Identical to data/ocio/config.ocio (tests/colour_test.cc compares the two byte for byte).
 constexpr char kBuiltinConfig[] = R"ocio(ocio_profile_version: 2
@@ -156,62 +155,52 @@ std::string ResolveConfigPath(const std::string& config_path) {
   return "";
 }
 
-absl::StatusOr<OCIO::ConstConfigRcPtr> GetConfig(const std::string& config_path) {
-  static std::mutex mu;
-  static auto* cache = new std::map<std::string, OCIO::ConstConfigRcPtr>();
-  const std::string file = ResolveConfigPath(config_path);
-  std::lock_guard<std::mutex> lock(mu);
-  auto it = cache->find(file);
-  if (it != cache->end()) return it->second;
-  const std::string source = file.empty() ? std::string(kBuiltinSourceName) : file;
-  OCIO::ConstConfigRcPtr config;
-  try {
-    if (file.empty()) {
-      std::istringstream in{std::string(kBuiltinConfig)};
-      config = OCIO::Config::CreateFromStream(in);
-    } else {
-      if (!std::filesystem::exists(file)) {
-        return absl::NotFoundError(absl::StrCat(file, ": OpenColorIO config not found"));
+// A colour space of the built-in config: its name, aliases and whether it is data.
+struct BuiltinSpace {
+  std::string name;
+  std::vector<std::string> aliases;
+  bool is_data = false;
+};
+
+// The built-in config's colour spaces, read from its text (the "- !<ColorSpace>" entries' name,
+// aliases and isdata lines), so that the identity conversion of every default job needs no
+// OpenColorIO (tests/colour_test.cc checks the table against OpenColorIO's own parse).
+const std::vector<BuiltinSpace>& BuiltinSpaces() {
+  static const auto* const spaces = [] {
+    auto* out = new std::vector<BuiltinSpace>();
+    std::istringstream in{std::string(kBuiltinConfig)};
+    std::string line;
+    bool in_space = false;
+    while (std::getline(in, line)) {
+      const std::string t(absl::StripAsciiWhitespace(line));
+      if (t == "- !<ColorSpace>") {
+        out->emplace_back();
+        in_space = true;
+      } else if (!in_space || t.empty()) {
+        continue;
+      } else if (absl::StartsWith(t, "name: ")) {
+        out->back().name = t.substr(6);
+      } else if (absl::StartsWith(t, "aliases: [") && absl::EndsWith(t, "]")) {
+        for (absl::string_view a : absl::StrSplit(t.substr(10, t.size() - 11), ',')) {
+          out->back().aliases.emplace_back(absl::StripAsciiWhitespace(a));
+        }
+      } else if (t == "isdata: true") {
+        out->back().is_data = true;
       }
-      config = OCIO::Config::CreateFromFile(file.c_str());
     }
-    config->validate();
-  } catch (const OCIO::Exception& e) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(source, ": invalid OpenColorIO config: ", e.what()));
-  } catch (const std::exception& e) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(source, ": cannot load OpenColorIO config: ", e.what()));
-  }
-  (*cache)[file] = config;
-  return config;
+    return out;
+  }();
+  return *spaces;
 }
 
-std::vector<std::string> SpaceNames(const OCIO::ConstConfigRcPtr& config) {
-  std::vector<std::string> names;
-  const int n = config->getNumColorSpaces(OCIO::SEARCH_REFERENCE_SPACE_ALL, OCIO::COLORSPACE_ALL);
-  for (int i = 0; i < n; ++i) {
-    names.emplace_back(config->getColorSpaceNameByIndex(OCIO::SEARCH_REFERENCE_SPACE_ALL,
-                                                        OCIO::COLORSPACE_ALL, i));
+// The built-in space that `name` names (OpenColorIO compares names and aliases case-blind).
+const BuiltinSpace* FindBuiltinSpace(const std::string& name) {
+  for (const BuiltinSpace& s : BuiltinSpaces()) {
+    if (absl::EqualsIgnoreCase(s.name, name)) return &s;
+    for (const std::string& a : s.aliases)
+      if (absl::EqualsIgnoreCase(a, name)) return &s;
   }
-  return names;
-}
-
-absl::StatusOr<OCIO::ConstColorSpaceRcPtr> FindSpace(const OCIO::ConstConfigRcPtr& config,
-                                                     const std::string& name,
-                                                     const std::string& config_path) {
-  OCIO::ConstColorSpaceRcPtr space;
-  try {
-    space = config->getColorSpace(name.c_str());
-  } catch (const OCIO::Exception&) {
-    space = nullptr;
-  }
-  if (!space) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("unknown colour space '", name, "' (config ", ColourConfigSource(config_path),
-                     "); valid names: ", absl::StrJoin(SpaceNames(config), ", ")));
-  }
-  return space;
+  return nullptr;
 }
 
 }  // namespace
@@ -226,12 +215,9 @@ std::string ColourConfigSource(const std::string& config_path) {
 }
 
 absl::StatusOr<std::vector<std::string>> ListColourSpaces(const std::string& config_path) {
-  SHRM_ASSIGN_OR_RETURN(OCIO::ConstConfigRcPtr config, GetConfig(config_path));
-  try {
-    return SpaceNames(config);
-  } catch (const OCIO::Exception& e) {
-    return absl::InternalError(absl::StrCat("OpenColorIO: ", e.what()));
-  }
+  SHRM_ASSIGN_OR_RETURN(const image_module::Api* module, image_module::Get());
+  return module->list_colour_spaces(ResolveConfigPath(config_path), ColourConfigSource(config_path),
+                                    kBuiltinConfig);
 }
 
 absl::Status ConvertColourSpace(std::span<float> rgb_interleaved, const std::string& from,
@@ -240,49 +226,29 @@ absl::Status ConvertColourSpace(std::span<float> rgb_interleaved, const std::str
     return absl::InvalidArgumentError(absl::StrCat("colour conversion needs RGB triples, got ",
                                                    rgb_interleaved.size(), " values"));
   }
-  SHRM_ASSIGN_OR_RETURN(OCIO::ConstConfigRcPtr config, GetConfig(config_path));
-  SHRM_ASSIGN_OR_RETURN(OCIO::ConstColorSpaceRcPtr src, FindSpace(config, from, config_path));
-  SHRM_ASSIGN_OR_RETURN(OCIO::ConstColorSpaceRcPtr dst, FindSpace(config, to, config_path));
-  if (std::string(src->getName()) == dst->getName() || rgb_interleaved.empty()) {
-    return absl::OkStatus();
-  }
-  try {
-    OCIO::ConstProcessorRcPtr processor = config->getProcessor(src, dst);
-    if (processor->isNoOp()) return absl::OkStatus();
-    OCIO::ConstCPUProcessorRcPtr cpu = processor->getDefaultCPUProcessor();
-    // Rows of at most 2^20 pixels keep the image description's sizes small.
-    constexpr size_t kRow = size_t{1} << 20;
-    const size_t pixels = rgb_interleaved.size() / 3;
-    for (size_t start = 0; start < pixels; start += kRow) {
-      const size_t n = std::min(kRow, pixels - start);
-      OCIO::PackedImageDesc desc(rgb_interleaved.data() + start * 3, static_cast<long>(n), 1, 3);
-      cpu->apply(desc);
+  // The identity within the built-in config (both names of one space, or a data space): what
+  // OpenColorIO would do, without loading it.
+  if (ResolveConfigPath(config_path).empty()) {
+    const BuiltinSpace* src = FindBuiltinSpace(from);
+    const BuiltinSpace* dst = FindBuiltinSpace(to);
+    if (src != nullptr && dst != nullptr && (src == dst || src->is_data || dst->is_data)) {
+      return absl::OkStatus();
     }
-  } catch (const OCIO::Exception& e) {
-    return absl::InvalidArgumentError(absl::StrCat("cannot convert from '", from, "' to '", to,
-                                                   "' (config ", ColourConfigSource(config_path),
-                                                   "): ", e.what()));
   }
-  return absl::OkStatus();
+  SHRM_ASSIGN_OR_RETURN(const image_module::Api* module, image_module::Get());
+  return module->convert_colour_space(rgb_interleaved, from, to, ResolveConfigPath(config_path),
+                                      ColourConfigSource(config_path), kBuiltinConfig);
 }
 
 absl::StatusOr<std::string> DefaultInputColourSpace(const std::string& path,
                                                     const ImageLimits& limits) {
-  SHRM_ASSIGN_OR_RETURN(ImageHeader header, ProbeImage(path, limits));  // also sets OIIO options
-  auto in = OIIO::ImageInput::create(header.format);
-  if (!in) {
-    return absl::InternalError(
-        absl::StrCat(path, ": no OpenImageIO reader for format ", header.format));
+  SHRM_ASSIGN_OR_RETURN(ImageHeader header, ProbeImage(path, limits));
+  // EXR, Radiance HDR and PFM hold only half or float pixels, PNG only integers; TIFF either.
+  bool is_float = header.format != "png";
+  if (header.format == "tiff") {
+    SHRM_ASSIGN_OR_RETURN(const image_module::Api* module, image_module::Get());
+    SHRM_ASSIGN_OR_RETURN(is_float, module->is_float(path, limits, header.format));
   }
-  OIIO::ImageSpec spec;
-  if (!in->open(path, spec)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(path, ": cannot read ", header.format, " header: ", in->geterror()));
-  }
-  in->close();
-  const auto base = static_cast<OIIO::TypeDesc::BASETYPE>(spec.format.basetype);
-  const bool is_float = base == OIIO::TypeDesc::HALF || base == OIIO::TypeDesc::FLOAT ||
-                        base == OIIO::TypeDesc::DOUBLE;
   return std::string(is_float ? kLinRec709 : kSrgbTexture);
 }
 

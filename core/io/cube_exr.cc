@@ -1,7 +1,6 @@
 #include "core/io/cube_exr.h"
 
 #include <Imath/half.h>
-#include <OpenImageIO/imageio.h>
 
 #include <algorithm>
 #include <bit>
@@ -19,6 +18,7 @@
 #include "core/base/cubemap.h"
 #include "core/base/status_macros.h"
 #include "core/io/atomic_file.h"
+#include "core/io/exr_file.h"
 
 namespace shrm {
 namespace {
@@ -204,55 +204,61 @@ absl::StatusOr<CubeExr> ReadCubeExr(const std::string& path, const ImageLimits& 
         absl::StrCat(path, ": file is ", bytes, " bytes, above the limit"));
   }
   SHRM_RETURN_IF_ERROR(CheckExrHeader(path, limits));
-  auto in = OIIO::ImageInput::create("openexr");
-  if (!in) return absl::InternalError("no OpenImageIO reader for openexr");
-  OIIO::ImageSpec spec;
-  if (!in->open(path, spec)) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": cannot read header: ", in->geterror()));
+  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<exr::PartReader> reader,
+                        exr::PartReader::Open(path, limits, kCubeFaceCount, 3 * kMaxGroups));
+  const std::vector<exr::PartInfo>& parts = reader->parts();
+  if (parts.size() < static_cast<size_t>(kCubeFaceCount)) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": has fewer than 6 parts (face ",
+                                                   kCubeFaceNames[parts.size()], " missing)"));
   }
+  const exr::PartInfo& first = parts[0];
   CubeExr cube;
-  cube.face_size = spec.width;
-  const int nch = spec.nchannels;
-  if (spec.deep || spec.width != spec.height || spec.width < 1 || spec.width > limits.max_width ||
-      int64_t{6} * spec.width * spec.width > limits.max_pixels || nch % 3 != 0 ||
+  cube.face_size = first.width;
+  // Channel groups in the order OpenImageIO lists them (by layer name, then R, G, B), each of
+  // which must be a complete RGB triple.
+  const std::vector<std::string> ordered = exr::OrderedChannels(first.channels);
+  const int nch = static_cast<int>(ordered.size());
+  if (first.width != first.height || first.width < 1 || first.width > limits.max_width ||
+      int64_t{6} * first.width * first.width > limits.max_pixels || nch % 3 != 0 ||
       nch / 3 > kMaxGroups) {
     return absl::InvalidArgumentError(
-        absl::StrCat(path, ": not an SHRM cube part (", spec.width, " x ", spec.height, ", ", nch,
+        absl::StrCat(path, ": not an SHRM cube part (", first.width, " x ", first.height, ", ", nch,
                      " channels; expected square faces and RGB channel triples)"));
   }
   for (int g = 0; g < nch / 3; ++g) {
-    const std::string& name = spec.channelnames[g * 3];
+    const std::string& name = ordered[g * 3];
     if (!absl::EndsWith(name, ".R")) {
       return absl::InvalidArgumentError(
           absl::StrCat(path, ": channel ", name, " is not the R channel of a triple"));
     }
-    cube.group_names.push_back(name.substr(0, name.size() - 2));
+    const std::string group = name.substr(0, name.size() - 2);
+    for (int c = 1; c < 3; ++c) {
+      if (ordered[g * 3 + c] != group + kChannelSuffix[c]) {
+        return absl::InvalidArgumentError(absl::StrCat(path, ": channel ", ordered[g * 3 + c],
+                                                       " where ", group, kChannelSuffix[c],
+                                                       " was expected"));
+      }
+    }
+    cube.group_names.push_back(group);
   }
-  for (const OIIO::ParamValue& p : spec.extra_attribs) {
-    if (absl::StartsWith(p.name().string(), "shrm:") && p.type() == OIIO::TypeDesc::STRING)
-      cube.attributes[p.name().string()] = p.get_string();
+  for (const auto& [k, v] : first.string_attributes) {
+    if (absl::StartsWith(k, "shrm:")) cube.attributes[k] = v;
   }
   cube.data.resize(cube.size());
   const size_t face_values = size_t{1} * cube.face_size * cube.face_size * nch;
   for (int f = 0; f < kCubeFaceCount; ++f) {
-    if (!in->seek_subimage(f, 0, spec)) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(path, ": has fewer than 6 parts (face ", kCubeFaceNames[f], " missing)"));
-    }
-    if (spec.deep || spec.width != cube.face_size || spec.height != cube.face_size ||
-        spec.nchannels != nch) {
+    if (parts[f].width != cube.face_size || parts[f].height != cube.face_size ||
+        exr::OrderedChannels(parts[f].channels) != ordered) {
       return absl::InvalidArgumentError(
           absl::StrCat(path, ": part ", f, " differs in size or channels from part 0"));
     }
-    if (!in->read_image(f, 0, 0, nch, OIIO::TypeDesc::FLOAT, cube.data.data() + f * face_values)) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(path, ": cannot decode face ", kCubeFaceNames[f], ": ", in->geterror()));
+    std::vector<exr::ChannelDestination> dest;
+    for (int c = 0; c < nch; ++c) {
+      dest.push_back({ordered[c], cube.data.data() + f * face_values + c, static_cast<size_t>(nch),
+                      static_cast<size_t>(nch) * cube.face_size});
     }
+    SHRM_RETURN_IF_ERROR(reader->Read(f, dest));
   }
-  if (in->seek_subimage(kCubeFaceCount, 0)) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": has more than 6 parts"));
-  }
-  in->close();
   return cube;
 }
 

@@ -1,8 +1,5 @@
 #include "core/io/image.h"
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -17,19 +14,11 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
 #include "core/io/atomic_file.h"
+#include "core/io/exr_file.h"
+#include "core/io/image_module.h"
+#include "core/io/png.h"
 
 namespace shrm {
-namespace {
-
-void ConfigureOiioOnce() {
-  static std::once_flag once;
-  std::call_once(once, [] {
-    // Never let an unexpected file reach a reader other than the one its magic bytes select.
-    OIIO::attribute("try_all_readers", 0);
-  });
-}
-
-}  // namespace
 
 absl::StatusOr<std::string> DetectImageFormat(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -257,78 +246,77 @@ absl::Status CheckExrHeader(const std::string& path, const ImageLimits& limits) 
 
 namespace {
 
-absl::StatusOr<std::unique_ptr<OIIO::ImageInput>> OpenChecked(const std::string& path,
-                                                              const ImageLimits& limits,
-                                                              ImageHeader* header) {
-  ConfigureOiioOnce();
-  SHRM_ASSIGN_OR_RETURN(header->format, DetectImageFormat(path));
+// The checks of every format before its reader opens the file (format by magic bytes, file size,
+// the EXR header walk), then the header from OpenEXR (EXR) or the image module (the others).
+absl::StatusOr<ImageHeader> CheckedHeader(const std::string& path, const ImageLimits& limits,
+                                          const image_module::Api** module) {
+  ImageHeader header;
+  SHRM_ASSIGN_OR_RETURN(header.format, DetectImageFormat(path));
   std::error_code ec;
-  header->file_bytes = static_cast<int64_t>(std::filesystem::file_size(path, ec));
+  header.file_bytes = static_cast<int64_t>(std::filesystem::file_size(path, ec));
   if (ec) return absl::NotFoundError(absl::StrCat(path, ": ", ec.message()));
-  if (header->file_bytes > limits.max_file_bytes) {
-    return absl::ResourceExhaustedError(absl::StrCat(path, ": file is ", header->file_bytes,
+  if (header.file_bytes > limits.max_file_bytes) {
+    return absl::ResourceExhaustedError(absl::StrCat(path, ": file is ", header.file_bytes,
                                                      " bytes, above the limit of ",
                                                      limits.max_file_bytes));
   }
-  if (header->format == "openexr") SHRM_RETURN_IF_ERROR(CheckExrHeader(path, limits));
-  auto in = OIIO::ImageInput::create(header->format);
-  if (!in) {
-    return absl::InternalError(
-        absl::StrCat(path, ": no OpenImageIO reader for format ", header->format));
+  if (header.format == "openexr") {
+    SHRM_RETURN_IF_ERROR(CheckExrHeader(path, limits));
+    *module = nullptr;
+  } else {
+    SHRM_ASSIGN_OR_RETURN(*module, image_module::Get());
   }
-  OIIO::ImageSpec spec;
-  if (!in->open(path, spec)) {
+  return header;
+}
+
+// 8-bit values of an image in [0, 1]: clamped, NaN -> 0, rounded.
+std::vector<unsigned char> To8Bit(const Image& image) {
+  std::vector<unsigned char> bytes(image.pixels.size());
+  for (size_t i = 0; i < bytes.size(); ++i) {
+    const float v = image.pixels[i];
+    const float c = std::isnan(v) ? 0.0f : std::clamp(v, 0.0f, 1.0f);
+    bytes[i] = static_cast<unsigned char>(std::lround(c * 255.0f));
+  }
+  return bytes;
+}
+
+absl::Status CheckConsistent(const Image& image, const std::string& what) {
+  if (image.width <= 0 || image.height <= 0 || image.channels <= 0 ||
+      image.pixels.size() != static_cast<size_t>(image.width) * image.height * image.channels) {
     return absl::InvalidArgumentError(
-        absl::StrCat(path, ": cannot read ", header->format, " header: ", in->geterror()));
+        absl::StrCat(what, " (", image.width, " x ", image.height, " x ", image.channels, ")"));
   }
-  header->width = spec.width;
-  header->height = spec.height;
-  header->channels = spec.nchannels;
-  if (spec.deep) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": deep images are not supported"));
-  }
-  if (in->seek_subimage(1, 0)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(path, ": multi-part/multi-subimage files are not supported"));
-  }
-  in->seek_subimage(0, 0);
-  if (spec.width <= 0 || spec.height <= 0 || spec.depth != 1) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": invalid dimensions ", spec.width, " x ",
-                                                   spec.height, " x ", spec.depth));
-  }
-  if (spec.width > limits.max_width || spec.height > limits.max_height ||
-      int64_t{spec.width} * spec.height > limits.max_pixels) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        path, ": image is ", spec.width, " x ", spec.height, ", above the limits of ",
-        limits.max_width, " x ", limits.max_height, " and ", limits.max_pixels, " pixels"));
-  }
-  if (spec.nchannels < 1 || spec.nchannels > 64) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(path, ": unsupported channel count ", spec.nchannels));
-  }
-  return in;
+  return absl::OkStatus();
 }
 
 }  // namespace
 
 absl::StatusOr<ImageHeader> ProbeImage(const std::string& path, const ImageLimits& limits) {
-  ImageHeader header;
-  SHRM_ASSIGN_OR_RETURN(auto in, OpenChecked(path, limits, &header));
-  in->close();
+  const image_module::Api* module = nullptr;
+  SHRM_ASSIGN_OR_RETURN(ImageHeader header, CheckedHeader(path, limits, &module));
+  if (module == nullptr) {
+    SHRM_ASSIGN_OR_RETURN(const ImageHeader exr, exr::Probe(path, limits));
+    header.width = exr.width;
+    header.height = exr.height;
+    header.channels = exr.channels;
+  } else {
+    SHRM_RETURN_IF_ERROR(module->probe(path, limits, &header));
+  }
   return header;
 }
 
 absl::StatusOr<Image> ReadImageRgb(const std::string& path, const ImageLimits& limits,
                                    NonFinitePolicy policy) {
-  ImageHeader header;
-  SHRM_ASSIGN_OR_RETURN(auto in, OpenChecked(path, limits, &header));
-  const int nc = header.channels;
-  std::vector<float> raw(static_cast<size_t>(header.width) * header.height * nc);
-  if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, raw.data())) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(path, ": cannot decode pixels: ", in->geterror()));
+  const image_module::Api* module = nullptr;
+  SHRM_ASSIGN_OR_RETURN(ImageHeader header, CheckedHeader(path, limits, &module));
+  std::vector<float> raw;
+  int nc = 0;  // channels in `raw`
+  if (module == nullptr) {
+    SHRM_ASSIGN_OR_RETURN(raw, exr::ReadChannels(path, limits, &header, &nc));
+  } else {
+    SHRM_ASSIGN_OR_RETURN(raw, module->read(path, limits, &header, /*unassociated_alpha=*/false));
+    nc = header.channels;
   }
-  in->close();
   Image img;
   img.width = header.width;
   img.height = header.height;
@@ -357,37 +345,10 @@ absl::StatusOr<Image> ReadImageRgb(const std::string& path, const ImageLimits& l
   return img;
 }
 
-namespace {
-
-// Writes pixels with OpenImageIO to a temporary file, then renames it over `path`.
-absl::Status WriteAtomically(const std::string& path, const Image& image, const char* format,
-                             OIIO::TypeDesc type, const void* pixels, OIIO::TypeDesc pixel_type) {
-  if (image.width <= 0 || image.height <= 0 || image.channels <= 0 ||
-      image.pixels.size() != static_cast<size_t>(image.width) * image.height * image.channels) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": inconsistent image to write (",
-                                                   image.width, " x ", image.height, " x ",
-                                                   image.channels, ")"));
-  }
-  const std::string tmp = TempPathFor(path);
-  auto out = OIIO::ImageOutput::create(format);
-  if (!out) return absl::InternalError(absl::StrCat("no OpenImageIO writer for ", format));
-  OIIO::ImageSpec spec(image.width, image.height, image.channels, type);
-  if (std::string(format) == "openexr") spec.attribute("compression", "zip");
-  // A fixed capture date (OpenImageIO would stamp the wall-clock time into EXR and TIFF headers):
-  // equal pixels give byte-identical files, so pipelines can compare outputs by hash.
-  spec.attribute("DateTime", "1970:01:01 00:00:00");
-  if (!out->open(tmp, spec) || !out->write_image(pixel_type, pixels) || !out->close()) {
-    DiscardTempFile(tmp);
-    return absl::UnavailableError(absl::StrCat(path, ": cannot write: ", out->geterror()));
-  }
-  return CommitTempFile(tmp, path);
-}
-
-}  // namespace
-
 absl::Status WriteExr(const std::string& path, const Image& image) {
-  return WriteAtomically(path, image, "openexr", OIIO::TypeDesc::FLOAT, image.pixels.data(),
-                         OIIO::TypeDesc::FLOAT);
+  SHRM_RETURN_IF_ERROR(CheckConsistent(image, absl::StrCat(path, ": inconsistent image to write")));
+  SHRM_ASSIGN_OR_RETURN(const std::string bytes, exr::EncodeFloat(image));
+  return WriteFileAtomically(path, bytes);
 }
 
 absl::Status WriteImage8Bit(const std::string& path, const Image& image) {
@@ -397,50 +358,28 @@ absl::Status WriteImage8Bit(const std::string& path, const Image& image) {
     return absl::InvalidArgumentError(
         absl::StrCat(path, ": 8-bit output needs a .png, .tif or .tiff extension"));
   }
-  std::vector<unsigned char> bytes(image.pixels.size());
-  for (size_t i = 0; i < bytes.size(); ++i) {
-    const float v = image.pixels[i];
-    const float c = std::isnan(v) ? 0.0f : std::clamp(v, 0.0f, 1.0f);
-    bytes[i] = static_cast<unsigned char>(std::lround(c * 255.0f));
+  SHRM_RETURN_IF_ERROR(CheckConsistent(image, absl::StrCat(path, ": inconsistent image to write")));
+  const std::vector<unsigned char> bytes = To8Bit(image);
+  if (std::string(format) == "png") {
+    SHRM_ASSIGN_OR_RETURN(const std::string png,
+                          png::Encode8(image.width, image.height, image.channels, bytes));
+    return WriteFileAtomically(path, png);
   }
-  return WriteAtomically(path, image, format, OIIO::TypeDesc::UINT8, bytes.data(),
-                         OIIO::TypeDesc::UINT8);
+  SHRM_ASSIGN_OR_RETURN(const image_module::Api* module, image_module::Get());
+  const std::string tmp = TempPathFor(path);
+  if (absl::Status s = module->write8(tmp, image, format, bytes.data()); !s.ok()) {
+    DiscardTempFile(tmp);
+    return absl::Status(s.code(), absl::StrCat(path, ": ", s.message()));
+  }
+  return CommitTempFile(tmp, path);
 }
 
 absl::StatusOr<std::string> EncodeImage(const Image& image, ImageEncoding encoding) {
-  if (image.width <= 0 || image.height <= 0 || image.channels <= 0 ||
-      image.pixels.size() != static_cast<size_t>(image.width) * image.height * image.channels) {
-    return absl::InvalidArgumentError(absl::StrCat("inconsistent image to encode (", image.width,
-                                                   " x ", image.height, " x ", image.channels,
-                                                   ")"));
-  }
-  const bool exr = encoding == ImageEncoding::kExrFloat;
-  std::vector<unsigned char> bytes;
-  if (!exr) {
-    bytes.resize(image.pixels.size());
-    for (size_t i = 0; i < bytes.size(); ++i) {
-      const float v = image.pixels[i];
-      const float c = std::isnan(v) ? 0.0f : std::clamp(v, 0.0f, 1.0f);
-      bytes[i] = static_cast<unsigned char>(std::lround(c * 255.0f));
-    }
-  }
-  OIIO::Filesystem::IOVecOutput proxy;
-  auto out = OIIO::ImageOutput::create(exr ? "openexr" : "png");
-  if (!out) return absl::InternalError("no OpenImageIO writer for the in-memory encoding");
-  const OIIO::TypeDesc type = exr ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8;
-  OIIO::ImageSpec spec(image.width, image.height, image.channels, type);
-  if (exr) spec.attribute("compression", "zip");
-  // The values are stored as given: OpenImageIO would otherwise take a 4th channel as associated
-  // alpha and divide the colour by it (RGBD data in the glTF IBL's PNGs is not premultiplied).
-  spec.attribute("oiio:UnassociatedAlpha", 1);
-  spec.attribute("DateTime", "1970:01:01 00:00:00");
-  if (!out->set_ioproxy(&proxy) || !out->open(exr ? "memory.exr" : "memory.png", spec) ||
-      !out->write_image(type, exr ? static_cast<const void*>(image.pixels.data())
-                                  : static_cast<const void*>(bytes.data())) ||
-      !out->close()) {
-    return absl::InternalError(absl::StrCat("cannot encode the image: ", out->geterror()));
-  }
-  return std::string(proxy.buffer().begin(), proxy.buffer().end());
+  SHRM_RETURN_IF_ERROR(CheckConsistent(image, "inconsistent image to encode"));
+  if (encoding == ImageEncoding::kExrFloat) return exr::EncodeFloat(image);
+  // The values are stored as given (a 4th channel is not taken as premultiplied alpha: RGBD data
+  // in the glTF IBL's PNGs is not premultiplied).
+  return png::Encode8(image.width, image.height, image.channels, To8Bit(image));
 }
 
 Image TonemapPreview(const Image& linear, double exposure) {

@@ -1,5 +1,6 @@
-// Image input for shrm: float pixels from EXR, Radiance HDR, PFM, TIFF and PNG files through
-// OpenImageIO, validated before any pixel is decoded.
+// Image input for shrm: float pixels from EXR (through OpenEXR), Radiance HDR, PFM, TIFF and PNG
+// files (through OpenImageIO, in the module of image_module.h, loaded on first use), validated
+// before any pixel is decoded.
 //
 // Safety rules (docs/formats.md, "Input validation"): the reader is chosen by the file's magic
 // bytes, never by its extension, and OpenImageIO is not allowed to try other readers; the header
@@ -33,7 +34,7 @@ enum class NonFinitePolicy {
 
 // What the header says, before decoding.
 struct ImageHeader {
-  std::string format;  // OpenImageIO format name chosen from the magic bytes, e.g. "openexr"
+  std::string format;  // format name chosen from the magic bytes (OpenImageIO's), e.g. "openexr"
   int width = 0;
   int height = 0;
   int channels = 0;
