@@ -587,6 +587,24 @@ TEST(EnvMapLoad, RealMapLoadsAsLatLongUnchanged) {
   EXPECT_GT((*c)[0], 0);
 }
 
+// LightingEnergy sums a lat-long map ring by ring from the image; the slow twin is the sum of
+// L^2 d omega over the map's samples (their directions and solid angles, EnvMap::BuildSamples).
+TEST(EnvMapLighting, LatLongEnergyEqualsTheSumOverTheSamples) {
+  constexpr double kRoundingTol = 1e-12;  // relative: double sums of ~5e5 terms in two orders
+  for (const char* name : {"city.exr", "courtyard.exr", "forest.exr", "interior.exr"}) {
+    SCOPED_TRACE(name);
+    EnvMapOptions opts;
+    opts.paths = {MapPath(name)};
+    auto map = EnvMap::Load(opts);
+    ASSERT_TRUE(map.ok()) << map.status();
+    const std::array<double, 3> fast = LightingEnergy(*map);
+    std::array<double, 3> slow{0, 0, 0};
+    for (const EnvSample& s : map->samples())
+      for (int c = 0; c < 3; ++c) slow[c] += s.solid_angle * double{s.rgb[c]} * s.rgb[c];
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(fast[c], slow[c], kRoundingTol * slow[c]) << c;
+  }
+}
+
 void ExpectError(const absl::Status& st, absl::StatusCode code,
                  const std::vector<std::string>& parts) {
   EXPECT_EQ(st.code(), code) << st;

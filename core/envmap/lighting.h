@@ -73,6 +73,8 @@ absl::StatusOr<std::vector<double>> LightingCoefficientsDirect(
 
 // Eq. 5.15's integral of L_c^2 over the sphere, per channel, by the map's own sample quadrature
 // (its pixels' solid angles): the total the captured fraction of eq. 5.16 is measured against.
+// Lat-long maps are summed ring by ring from the image (equal to the sum over samples() up to
+// rounding; tests/envmap_test.cc), the other layouts over samples().
 std::array<double, 3> LightingEnergy(const EnvMap& map);
 
 }  // namespace shrm
