@@ -1,0 +1,110 @@
+// Replaces the global operator new / delete of the program it is linked into (the `shrm` command)
+// so that allocations of 1 MiB or more get their own 2 MiB-aligned anonymous mapping advised for
+// transparent huge pages (madvise MADV_HUGEPAGE), and go back to the system when freed.
+//
+// Why (docs/architecture.md "Start-up"): a job touches tens of MB of fresh memory (the decoded
+// map, the EXR decoder's buffers, the SHRM cube, the encoded file), one page fault per 4 KiB page.
+// Where faults are expensive (measured here: ~17 us each in a paravirtualized VM, 8,400 faults in
+// a 270 ms prefilter), one fault per 2 MiB instead took the process from 270 to 185 ms. Where
+// transparent huge pages are off, the advice does nothing and the mappings are ordinary.
+//
+// Only large blocks are affected; everything smaller goes to malloc as before. A large block is
+// recognised at delete by its position (64 bytes past a 2 MiB boundary) and a header holding a
+// magic number and its own address, so no table or lock is needed. Not compiled under
+// AddressSanitizer, which must see every allocation itself.
+#include <sys/mman.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <new>
+
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define SHRM_NO_LARGE_ALLOCATIONS 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__)
+#define SHRM_NO_LARGE_ALLOCATIONS 1
+#endif
+
+#ifndef SHRM_NO_LARGE_ALLOCATIONS
+
+namespace {
+
+constexpr size_t kHugePage = size_t{2} << 20;
+constexpr size_t kLargeThreshold = size_t{1} << 20;
+constexpr size_t kHeaderBytes = 64;  // keeps the returned block 64-byte aligned
+constexpr uint64_t kMagic = 0x53'48'52'4d'4c'41'52'47ull;  // "SHRMLARG"
+
+struct Header {
+  uint64_t magic;
+  const void* self;  // the header's own address: a stray match of the magic number fails this
+  size_t length;     // bytes mapped, from the header on
+};
+
+void* MapLarge(size_t n) {
+  if (n > (SIZE_MAX >> 1)) return nullptr;
+  const size_t body = (kHeaderBytes + n + kHugePage - 1) & ~(kHugePage - 1);
+  const size_t length = body + kHugePage;  // room to align the start to 2 MiB
+  void* m = mmap(nullptr, length, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  if (m == MAP_FAILED) return nullptr;
+  const uintptr_t raw = reinterpret_cast<uintptr_t>(m);
+  const uintptr_t start = (raw + kHugePage - 1) & ~(kHugePage - 1);
+  if (const size_t head = start - raw; head > 0) munmap(m, head);
+  if (const size_t tail = length - (start - raw) - body; tail > 0) {
+    munmap(reinterpret_cast<void*>(start + body), tail);
+  }
+  void* base = reinterpret_cast<void*>(start);
+  madvise(base, body, MADV_HUGEPAGE);
+  auto* h = static_cast<Header*>(base);
+  h->magic = kMagic;
+  h->self = h;
+  h->length = body;
+  return static_cast<char*>(base) + kHeaderBytes;
+}
+
+// The header of a block MapLarge returned, or nullptr for any other pointer.
+const Header* LargeHeader(void* p) {
+  if ((reinterpret_cast<uintptr_t>(p) & (kHugePage - 1)) != kHeaderBytes) return nullptr;
+  const auto* h = reinterpret_cast<const Header*>(static_cast<char*>(p) - kHeaderBytes);
+  return h->magic == kMagic && h->self == h ? h : nullptr;
+}
+
+void* Allocate(size_t n) noexcept {
+  if (n >= kLargeThreshold) return MapLarge(n);
+  return std::malloc(n == 0 ? 1 : n);
+}
+
+void Release(void* p) noexcept {
+  if (p == nullptr) return;
+  if (const Header* h = LargeHeader(p)) {
+    munmap(const_cast<Header*>(h), h->length);
+  } else {
+    std::free(p);
+  }
+}
+
+void* AllocateOrThrow(size_t n) {
+  while (true) {
+    if (void* p = Allocate(n)) return p;
+    std::new_handler handler = std::get_new_handler();
+    if (handler == nullptr) throw std::bad_alloc();
+    handler();
+  }
+}
+
+}  // namespace
+
+void* operator new(size_t n) { return AllocateOrThrow(n); }
+void* operator new[](size_t n) { return AllocateOrThrow(n); }
+void* operator new(size_t n, const std::nothrow_t&) noexcept { return Allocate(n); }
+void* operator new[](size_t n, const std::nothrow_t&) noexcept { return Allocate(n); }
+void operator delete(void* p) noexcept { Release(p); }
+void operator delete[](void* p) noexcept { Release(p); }
+void operator delete(void* p, size_t) noexcept { Release(p); }
+void operator delete[](void* p, size_t) noexcept { Release(p); }
+void operator delete(void* p, const std::nothrow_t&) noexcept { Release(p); }
+void operator delete[](void* p, const std::nothrow_t&) noexcept { Release(p); }
+
+#endif  // SHRM_NO_LARGE_ALLOCATIONS
