@@ -286,17 +286,63 @@ std::vector<double> BrdfEnergy(const Brdf& brdf, int lmax_hint, const BrdfSampli
     for (double& e : energy) e *= 8.0 * kPi * kPi;
     return energy;
   }
-  int panels_i = Or(s.energy_panels_i, std::max({48, lmax_hint, brdf.bandwidth_hint().lmax}));
-  panels_i += panels_i % 2;
-  const Rule1D ri = SinPanels(panels_i, order);
-  const Rule1D ro = SinPanels(Or(s.energy_panels_o, 12), order);
-  AzimuthRule azimuth(brdf, Or(s.energy_phi, 32), 0);
   std::vector<double> sq(channels);
-  for (size_t k = 0; k < ro.x.size(); ++k) {
-    for (size_t j = 0; j < ri.x.size(); ++j) {
-      azimuth.Squares(ri.x[j], std::cos(ri.x[j]), std::sin(ri.x[j]), ro.x[k], sq.data());
-      const double w = ro.w[k] * ri.w[j];
-      for (int c = 0; c < channels; ++c) energy[c] += w * sq[c];
+  const bool clipped =
+      brdf.clipped_at_normal_horizon() && brdf.reparam() == ReparamKind::kReflection;
+  if (clipped && !s.energy_uniform_panels) {
+    // Horizon-clipped models: the azimuth integral of rho-hat^2 is smooth in theta_i' except
+    // where the visible arc starts to shrink (theta_i' = pi/2 - theta_o'/2) and where it closes
+    // (pi/2 + theta_o'/2; nothing is visible beyond), with square-root behaviour at both. Panels
+    // split there, and on [a, b] the substitution theta = a + (b - a)(3u^2 - 2u^3), whose
+    // derivative vanishes at both ends, make the integrand smooth in u: Gauss-Legendre converges
+    // fast again (docs/brdf.md "Sampling"; tests/brdf_coefficients_test.cc compares this rule
+    // with the uniform panels refined far beyond their default).
+    const int panels_i =
+        Or(s.energy_panels_i, std::max({24, lmax_hint, brdf.bandwidth_hint().lmax}));
+    const RingQuadrature gl = GaussLegendreRule(order);
+    const int sharp = brdf.bandwidth_hint().lmax;  // the lobe's own bandwidth
+    const Rule1D ro = SinPanels(Or(s.energy_panels_o, std::max(6, sharp / 12)), order);
+    AzimuthRule azimuth(brdf, Or(s.energy_phi, std::max(16, sharp / 3)), 0);
+    for (size_t k = 0; k < ro.x.size(); ++k) {
+      const double a = 0.5 * kPi - 0.5 * ro.x[k], b = 0.5 * kPi + 0.5 * ro.x[k];
+      // [0, a]: the whole arc is visible.
+      const int na = std::max(1, static_cast<int>(std::ceil(panels_i * a / kPi)));
+      for (int p = 0; p < na; ++p) {
+        const Rule1D panel = GaussOn(gl, a * p / na, a * (p + 1) / na);
+        for (size_t j = 0; j < panel.x.size(); ++j) {
+          const double t = panel.x[j], st = std::sin(t);
+          azimuth.Squares(t, std::cos(t), st, ro.x[k], sq.data());
+          const double w = ro.w[k] * panel.w[j] * st;
+          for (int c = 0; c < channels; ++c) energy[c] += w * sq[c];
+        }
+      }
+      // [a, b]: the arc shrinks from pi to 0.
+      const int nb = std::max(2, static_cast<int>(std::ceil(2.0 * panels_i * (b - a) / kPi)));
+      for (int p = 0; p < nb; ++p) {
+        const Rule1D panel = GaussOn(gl, static_cast<double>(p) / nb, (p + 1.0) / nb);
+        for (size_t j = 0; j < panel.x.size(); ++j) {
+          const double u = panel.x[j];
+          const double t = a + (b - a) * u * u * (3.0 - 2.0 * u);
+          const double dt = (b - a) * 6.0 * u * (1.0 - u);
+          const double st = std::sin(t);
+          azimuth.Squares(t, std::cos(t), st, ro.x[k], sq.data());
+          const double w = ro.w[k] * panel.w[j] * dt * st;
+          for (int c = 0; c < channels; ++c) energy[c] += w * sq[c];
+        }
+      }
+    }
+  } else {
+    int panels_i = Or(s.energy_panels_i, std::max({48, lmax_hint, brdf.bandwidth_hint().lmax}));
+    panels_i += panels_i % 2;
+    const Rule1D ri = SinPanels(panels_i, order);
+    const Rule1D ro = SinPanels(Or(s.energy_panels_o, 12), order);
+    AzimuthRule azimuth(brdf, Or(s.energy_phi, 32), 0);
+    for (size_t k = 0; k < ro.x.size(); ++k) {
+      for (size_t j = 0; j < ri.x.size(); ++j) {
+        azimuth.Squares(ri.x[j], std::cos(ri.x[j]), std::sin(ri.x[j]), ro.x[k], sq.data());
+        const double w = ro.w[k] * ri.w[j];
+        for (int c = 0; c < channels; ++c) energy[c] += w * sq[c];
+      }
     }
   }
   // 2 pi (phi_o') * 2 (phi over [0, pi] only, rho-hat even) = 4 pi (eq. 5.18).

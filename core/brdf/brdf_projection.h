@@ -39,10 +39,16 @@ struct BrdfSampling {
   // Energy integral: composite Gauss-Legendre panels in theta_i' (default max(48, lmax, h)) and in
   // theta_o' (default 12), `energy_panel_order` nodes each (default 8), and energy_phi azimuth
   // nodes on [0, pi] (default 32), same rule kinds as above. 1D path: max(256, 4 lmax, 4 h) panels.
+  // Horizon-clipped models (microfacet, GGX, Ward, ...) split the theta_i' panels where the
+  // visible azimuth arc starts and stops shrinking and smooth both ends by a substitution; there
+  // the defaults are max(24, lmax, h) panels over [0, pi], 6 in theta_o' and 16 azimuth
+  // nodes. energy_uniform_panels = true integrates them on the uniform panels above instead (the
+  // slower rule the split one is tested against).
   int energy_panels_i = 0;
   int energy_panels_o = 0;
   int energy_panel_order = 0;
   int energy_phi = 0;
+  bool energy_uniform_panels = false;
 };
 
 // Coefficients for l <= lmax, p <= pmax (0 <= lmax <= kMaxBrdfLmax, 0 <= pmax <= kMaxBrdfPmax),
