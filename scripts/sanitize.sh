@@ -1,38 +1,84 @@
 #!/usr/bin/env bash
-# The test suite under AddressSanitizer + UndefinedBehaviorSanitizer (g++; docs/server.md
-# "Hardening"): a separate build (build-asan, -O1 with debug info, no viewer, no benchmarks) and
-# every CTest test except the ones that drive whole programs from the shell or a browser (cli,
-# batch, engines, install, deploy: the same code paths run in the unit tests, and their own
-# timeouts assume full-speed binaries), and MemoryAdmissionTest (it bounds the daemon's resident
-# memory, which AddressSanitizer's shadow memory and quarantine inflate by design; the budget's
-# own accounting, MemoryBudgetTest, runs). Any sanitizer report fails the test that triggers it
-# (halt_on_error / abort_on_error).
+# The test suite under sanitizers (g++; docs/server.md "Hardening"). Any report fails the test
+# that triggers it (abort_on_error / halt_on_error).
 #
-#   scripts/sanitize.sh [CTEST ARGS...]   the whole suite (about 2 hours on 2 cores)
-#   scripts/sanitize.sh --service         only the service's tests (the daemon, its client, the
-#                                         blob store, the decoder sandbox, idle clients, retries):
-#                                         the targets they need are built, nothing else
+#   scripts/sanitize.sh [CTEST ARGS...]
+#       AddressSanitizer + UndefinedBehaviorSanitizer: a separate build (build-asan, -O1 with debug
+#       info, no viewer, no benchmarks) and the whole CTest suite, including the CLI's and the
+#       batch's shell tests on the sanitized programs, except:
+#         - engines_test, install_test, deploy_test: they test third-party consumers (browsers,
+#           Filament, Babylon.js), packaging (cmake --install, cpack, lintian, dpkg) and nginx,
+#           and time a real deployment; the shrm paths they drive run in the other tests;
+#         - MemoryAdmissionTest: it bounds a real daemon's resident memory, which AddressSanitizer's
+#           shadow memory and quarantine inflate by design (the budget's own accounting,
+#           MemoryBudgetTest and MemoryAdmissionInProcessTest, runs).
+#   scripts/sanitize.sh --service [CTEST ARGS...]
+#       the same, only the service's tests (builds only the targets they need).
+#   scripts/sanitize.sh --thread [CTEST ARGS...]
+#       ThreadSanitizer (build-tsan, -O1 -g): the service's tests (the daemon in process with its
+#       caches, admission, blob store, decoder sandbox, idle watchdog; the client and its retries),
+#       the job layer's tests and `shrm batch` (batch_test on the sanitized program, whose jobs
+#       run in parallel). Debian's gRPC, Protobuf and Abseil are not instrumented: their own
+#       memory accesses are invisible to TSan, and tests/tsan.supp names the few reports that
+#       come from synchronization TSan cannot see inside them (each with its reason).
+#
+# SHRM_SANITIZE_BUILD_DIR overrides the build folder; SHRM_JOBS the build's parallelism.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-BUILD_DIR=${SHRM_SANITIZE_BUILD_DIR:-build-asan}
-FLAGS="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined"
+
+MODE=address
+SERVICE_ONLY=0
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --service) SERVICE_ONLY=1; shift ;;
+    --thread) MODE=thread; shift ;;
+    *) break ;;
+  esac
+done
+
+SERVICE_TESTS=(service_test ibl_service_test service_ops_test service_load_test
+  decoder_sandbox_test blob_store_test idle_clients_test client_retry_test status_details_test
+  memory_admission_test)
+SERVICE_REGEX='^(ServiceTest|IblServiceTest|ServiceOpsTest|ServiceLoadTest|AuthTest|ConfigFileTest|DecoderSandboxTest|BlobStoreTest|IdleClientsTest|ClientRetryTest|ClientDecisions|StatusDetails|MemoryBudgetTest|MemoryAdmissionInProcessTest)\.'
+
+if [ "$MODE" = thread ]; then
+  BUILD_DIR=${SHRM_SANITIZE_BUILD_DIR:-build-tsan}
+  FLAGS="-fsanitize=thread -fno-omit-frame-pointer"
+  LINK="-fsanitize=thread"
+else
+  BUILD_DIR=${SHRM_SANITIZE_BUILD_DIR:-build-asan}
+  FLAGS="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined"
+  LINK="-fsanitize=address,undefined"
+fi
 cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g" \
   -DCMAKE_CXX_FLAGS="$FLAGS" -DCMAKE_C_FLAGS="$FLAGS" \
-  -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
-  -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" \
-  -DCMAKE_MODULE_LINKER_FLAGS="-fsanitize=address,undefined" \
+  -DCMAKE_EXE_LINKER_FLAGS="$LINK" -DCMAKE_SHARED_LINKER_FLAGS="$LINK" \
+  -DCMAKE_MODULE_LINKER_FLAGS="$LINK" \
   -DSHRM_BUILD_BENCH=OFF -DSHRM_BUILD_VIEWER=OFF -DSHRM_NATIVE=OFF
-SERVICE_TESTS=(service_test service_ops_test service_load_test decoder_sandbox_test
-  blob_store_test idle_clients_test client_retry_test status_details_test memory_admission_test)
-if [ "${1:-}" = --service ]; then
-  shift
-  cmake --build "$BUILD_DIR" -j "${SHRM_JOBS:-$(nproc)}" --target "${SERVICE_TESTS[@]}"
-  set -- -R '^(ServiceTest|ServiceOpsTest|ServiceLoadTest|AuthTest|ConfigFileTest|DecoderSandboxTest|BlobStoreTest|IdleClientsTest|ClientRetryTest|ClientDecisions|StatusDetails|MemoryBudgetTest|MemoryAdmissionInProcessTest)\.' "$@"
-else
-  cmake --build "$BUILD_DIR" -j "${SHRM_JOBS:-$(nproc)}"
+JOBS=${SHRM_JOBS:-$(nproc)}
+
+if [ "$MODE" = thread ]; then
+  # shrm for batch_test; the service tests build shrm and shrmd themselves where they run them.
+  cmake --build "$BUILD_DIR" -j "$JOBS" --target "${SERVICE_TESTS[@]}" jobs_test \
+    job_front_ends_test shrm
+  export SHRM_SANITIZER=thread  # tests/cli_test.sh: no address-space limit under a sanitizer
+  export TSAN_OPTIONS="halt_on_error=1:abort_on_error=1:second_deadlock_stack=1:ignore_noninstrumented_modules=1:suppressions=$PWD/tests/tsan.supp"
+  # MemoryAdmissionTest: a real daemon's resident memory, inflated by TSan's shadow like ASan's.
+  ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$(nproc)" \
+    -R "$SERVICE_REGEX|^(AnalyzeJob|Environment|OptionText|PrefilterJob|BatchManifest|JobFrontEnds|JobOptionsTable)\\.|^batch_test\$" \
+    -E '^MemoryAdmissionTest\.' "$@"
+  exit 0
 fi
+
+if [ "$SERVICE_ONLY" = 1 ]; then
+  cmake --build "$BUILD_DIR" -j "$JOBS" --target "${SERVICE_TESTS[@]}"
+  set -- -R "$SERVICE_REGEX" "$@"
+else
+  cmake --build "$BUILD_DIR" -j "$JOBS"
+fi
+export SHRM_SANITIZER=address  # tests/cli_test.sh: no address-space limit under a sanitizer
 export ASAN_OPTIONS="abort_on_error=1:detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$(nproc)" \
-  -E '^(cli_test|batch_test|engines_test|install_test|deploy_test|MemoryAdmissionTest\..*)$' "$@"
+  -E '^(engines_test|install_test|deploy_test|MemoryAdmissionTest\..*)$' "$@"

@@ -46,16 +46,18 @@ constexpr size_t kMaxMessageBytes = 8192;
 // Clean blobs remembered by a DecodeGuard (about 100 bytes each); beyond that the set starts
 // again, which costs one more check per blob, never a wrong answer.
 constexpr size_t kMaxRememberedBlobs = 1 << 16;
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kAddressSanitizer = true;
+// AddressSanitizer and ThreadSanitizer reserve terabytes of address space for their shadow
+// memory: no RLIMIT_AS can be applied under them.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr bool kSanitizerShadow = true;
 #elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kAddressSanitizer = true;
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+constexpr bool kSanitizerShadow = true;
 #else
-constexpr bool kAddressSanitizer = false;
+constexpr bool kSanitizerShadow = false;
 #endif
 #else
-constexpr bool kAddressSanitizer = false;
+constexpr bool kSanitizerShadow = false;
 #endif
 constexpr size_t kMaxReplyText = kMaxMessageBytes - sizeof(ReplyHeader);
 
@@ -74,7 +76,8 @@ void SendReply(int fd, ReplyKind kind, int32_t value, std::string_view text) {
   prctl(PR_SET_DUMPABLE, 0);  // no core dumps of crashes the sandbox is there to contain
   const rlimit no_core{0, 0};
   setrlimit(RLIMIT_CORE, &no_core);
-  if (!kAddressSanitizer) {  // ASan's shadow memory alone reserves terabytes of address space
+  if (!kSanitizerShadow) {  // the sanitizers' shadow memory alone reserves terabytes of address
+                            // space
     const rlimit as{h.memory_bytes, h.memory_bytes};
     setrlimit(RLIMIT_AS, &as);
   }
@@ -307,7 +310,7 @@ absl::Status DecodeGuard::Vet(const std::string& sha256, const std::string& path
                               const ImageLimits& image) {
   if (sandbox_ == nullptr) return absl::OkStatus();
   {
-    absl::MutexLock lock(&mu_);
+    std::lock_guard<std::mutex> lock(mu_);
     if (clean_.contains(sha256)) return absl::OkStatus();
     if (auto it = refused_.find(sha256); it != refused_.end()) return it->second;
   }
@@ -318,7 +321,7 @@ absl::Status DecodeGuard::Vet(const std::string& sha256, const std::string& path
     s = wire::WithErrorReason(absl::InvalidArgumentError(s.message()), wire::kReasonDecoderCrashed,
                               "sha256", sha256);
   }
-  absl::MutexLock lock(&mu_);
+  std::lock_guard<std::mutex> lock(mu_);
   if (s.ok()) {
     if (clean_.size() >= kMaxRememberedBlobs) clean_.clear();  // checked again when used again
     clean_.insert(sha256);

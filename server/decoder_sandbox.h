@@ -19,13 +19,13 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <string>
 
 #include "absl/container/flat_hash_map.h"
 #include "absl/container/flat_hash_set.h"
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
-#include "absl/synchronization/mutex.h"
 #include "absl/time/time.h"
 #include "core/io/image.h"
 
@@ -88,9 +88,9 @@ class DecodeGuard {
  private:
   DecoderSandbox* const sandbox_;
   const DecodeLimits limits_;
-  absl::Mutex mu_;
-  absl::flat_hash_set<std::string> clean_ ABSL_GUARDED_BY(mu_);
-  absl::flat_hash_map<std::string, absl::Status> refused_ ABSL_GUARDED_BY(mu_);
+  std::mutex mu_;  // guards clean_ and refused_
+  absl::flat_hash_set<std::string> clean_;
+  absl::flat_hash_map<std::string, absl::Status> refused_;
 };
 
 }  // namespace shrm::server

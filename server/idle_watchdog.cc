@@ -1,6 +1,7 @@
 #include "server/idle_watchdog.h"
 
 #include <algorithm>
+#include <chrono>
 
 namespace shrm::server {
 namespace {
@@ -18,7 +19,7 @@ IdleWatchdog::Call::Call(IdleWatchdog* dog, grpc::ServerContext* context)
 
 IdleWatchdog::Call::~Call() {
   if (dog_ == nullptr) return;
-  absl::MutexLock lock(&dog_->mu_);
+  std::lock_guard<std::mutex> lock(dog_->mu_);
   dog_->calls_.erase(self_);
 }
 
@@ -30,16 +31,17 @@ IdleWatchdog::IdleWatchdog(absl::Duration timeout) : timeout_(timeout) {
 
 IdleWatchdog::~IdleWatchdog() {
   {
-    absl::MutexLock lock(&mu_);
+    std::lock_guard<std::mutex> lock(mu_);
     stop_ = true;
   }
+  stopped_.notify_all();
   if (thread_.joinable()) thread_.join();
 }
 
 std::unique_ptr<IdleWatchdog::Call> IdleWatchdog::Watch(grpc::ServerContext* context) {
   if (timeout_ <= absl::ZeroDuration()) return std::unique_ptr<Call>(new Call(nullptr, context));
   std::unique_ptr<Call> c(new Call(this, context));
-  absl::MutexLock lock(&mu_);
+  std::lock_guard<std::mutex> lock(mu_);
   c->self_ = calls_.insert(calls_.end(), c.get());
   return c;
 }
@@ -47,8 +49,9 @@ std::unique_ptr<IdleWatchdog::Call> IdleWatchdog::Watch(grpc::ServerContext* con
 void IdleWatchdog::Loop() {
   const absl::Duration period = std::min(timeout_ / 4, kMaxScanPeriod);
   const int64_t limit_ns = absl::ToInt64Nanoseconds(timeout_);
-  absl::MutexLock lock(&mu_);
-  while (!mu_.AwaitWithTimeout(absl::Condition(&stop_), period)) {
+  const auto period_ns = std::chrono::nanoseconds(absl::ToInt64Nanoseconds(period));
+  std::unique_lock<std::mutex> lock(mu_);
+  while (!stopped_.wait_for(lock, period_ns, [this] { return stop_; })) {
     const int64_t now = NowNs();
     for (Call* c : calls_) {
       if (!c->ended_.load() && now - c->last_ns_.load(std::memory_order_relaxed) > limit_ns) {

@@ -10,12 +10,13 @@
 #include <grpcpp/server_context.h>
 
 #include <atomic>
+#include <condition_variable>
 #include <cstdint>
 #include <list>
 #include <memory>
+#include <mutex>
 #include <thread>
 
-#include "absl/synchronization/mutex.h"
 #include "absl/time/time.h"
 
 namespace shrm::server {
@@ -56,9 +57,10 @@ class IdleWatchdog {
  private:
   void Loop();
   const absl::Duration timeout_;
-  absl::Mutex mu_;
-  std::list<Call*> calls_ ABSL_GUARDED_BY(mu_);
-  bool stop_ ABSL_GUARDED_BY(mu_) = false;
+  std::mutex mu_;  // guards calls_ and stop_
+  std::condition_variable stopped_;
+  std::list<Call*> calls_;
+  bool stop_ = false;
   std::atomic<int64_t> ended_total_{0};
   std::thread thread_;
 };

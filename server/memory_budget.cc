@@ -58,12 +58,12 @@ MemoryBudget::MemoryBudget(uint64_t job_bytes, std::string budget_text)
     : job_bytes_(job_bytes), budget_text_(std::move(budget_text)) {}
 
 uint64_t MemoryBudget::reserved() const {
-  absl::MutexLock lock(&mu_);
+  std::lock_guard<std::mutex> lock(mu_);
   return reserved_;
 }
 
 uint64_t MemoryBudget::peak_reserved() const {
-  absl::MutexLock lock(&mu_);
+  std::lock_guard<std::mutex> lock(mu_);
   return peak_;
 }
 
@@ -77,7 +77,7 @@ absl::Status MemoryBudget::Take(uint64_t holding, uint64_t bytes, std::string_vi
             "): make the map, the face size or the orders smaller, or run it on a larger server")),
         wire::kReasonJobTooLarge, "needed_mib", absl::StrCat(CeilMiB(need)));
   }
-  absl::MutexLock lock(&mu_);
+  std::lock_guard<std::mutex> lock(mu_);
   if (job_bytes_ > 0 && reserved_ + bytes > job_bytes_) {
     return wire::WithRetryDelay(
         wire::WithErrorReason(
@@ -95,7 +95,7 @@ absl::Status MemoryBudget::Take(uint64_t holding, uint64_t bytes, std::string_vi
 }
 
 void MemoryBudget::Give(uint64_t bytes) {
-  absl::MutexLock lock(&mu_);
+  std::lock_guard<std::mutex> lock(mu_);
   reserved_ -= std::min(bytes, reserved_);
 }
 

@@ -12,12 +12,12 @@
 #define SHRM_SERVER_MEMORY_BUDGET_H_
 
 #include <cstdint>
+#include <mutex>
 #include <string>
 #include <string_view>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
-#include "absl/synchronization/mutex.h"
 
 namespace shrm::server {
 
@@ -59,9 +59,9 @@ class MemoryBudget {
   void Give(uint64_t bytes);
   const uint64_t job_bytes_;
   const std::string budget_text_;
-  mutable absl::Mutex mu_;
-  uint64_t reserved_ ABSL_GUARDED_BY(mu_) = 0;
-  uint64_t peak_ ABSL_GUARDED_BY(mu_) = 0;
+  mutable std::mutex mu_;  // guards reserved_ and peak_
+  uint64_t reserved_ = 0;
+  uint64_t peak_ = 0;
 };
 
 // The memory limit that applies to this process: the smallest cgroup limit on its path (v2
