@@ -33,6 +33,25 @@ constexpr double kFloatTol = 2e-6;
 // Energy may exceed 1 only by quadrature error.
 constexpr double kEnergyOvershootTol = 1e-5;
 
+// What a LUT channel holds at (n.v, alpha), by the single-point integrals.
+double PointValue(DfgChannel channel, double nv, double alpha) {
+  switch (channel) {
+    case DfgChannel::kGgxScale:
+      return IntegrateGgxDfg(nv, alpha).scale;
+    case DfgChannel::kGgxBias:
+      return IntegrateGgxDfg(nv, alpha).bias;
+    case DfgChannel::kGgxEnergy:
+      return IntegrateGgxDfg(nv, alpha).Energy();
+    case DfgChannel::kCharlieNeubelt:
+      return IntegrateCharlieNeubelt(nv, alpha);
+    case DfgChannel::kSheenAlbedo:
+      return IntegrateSheenAlbedo(nv, alpha);
+    case DfgChannel::kZero:
+      break;
+  }
+  return 0;
+}
+
 // ---- Independent brute force over l in (theta_l, phi_l) ----
 
 double GgxD(double nh, double alpha) {
@@ -249,29 +268,8 @@ TEST(DfgTest, ConsumerLayoutsPutTheSmoothRowFirstAndHoldTheirChannels) {
       for (int col : {0, n / 3, n - 1}) {
         const double nv = lut->NDotVOfColumn(col), alpha = lut->AlphaOfRow(row);
         EXPECT_DOUBLE_EQ(nv, (col + 0.5) / n);
-        const GgxDfg g = IntegrateGgxDfg(nv, alpha);
-        const double ch = IntegrateCharlieNeubelt(nv, alpha);
         for (int k = 0; k < lut->channels; ++k) {
-          double want = 0;
-          switch (lut->layout.channels[k]) {
-            case DfgChannel::kGgxScale:
-              want = g.scale;
-              break;
-            case DfgChannel::kGgxBias:
-              want = g.bias;
-              break;
-            case DfgChannel::kGgxEnergy:
-              want = g.Energy();
-              break;
-            case DfgChannel::kCharlieNeubelt:
-              want = ch;
-              break;
-            case DfgChannel::kSheenAlbedo:
-              want = IntegrateSheenAlbedo(nv, alpha);
-              break;
-            case DfgChannel::kZero:
-              break;
-          }
+          const double want = PointValue(lut->layout.channels[k], nv, alpha);
           EXPECT_NEAR(lut->At(row, col, k), want, kFloatTol) << row << " " << col << " " << k;
         }
       }
@@ -342,6 +340,37 @@ TEST(DfgTest, CmgenExactShiftsRoughnessByOneTexel) {
       EXPECT_EQ(lut->At(row, col, 1), centred->At(row + 1, col, 1)) << row << " " << col;
     }
   }
+}
+
+// The default-size tables come from the build's precomputed table (core/ibl/dfg.h): every
+// consumer's, at rows across the range (both ends, where offset 1 reaches y = 1), must equal the
+// single-point integrals stored as floats, bit for bit; and Filament's whole table the quadrature.
+TEST(DfgTest, PrecomputedTablesAreTheQuadratureBitForBit) {
+  const int n = kPrecomputedDfgSize;
+  for (DfgConsumer consumer :
+       {DfgConsumer::kFilament, DfgConsumer::kFilamentCmgenExact,
+        DfgConsumer::kFilamentSingleScatter, DfgConsumer::kGltfLutGgx, DfgConsumer::kGltfLutCharlie,
+        DfgConsumer::kGltfLutSheenE, DfgConsumer::kBabylon, DfgConsumer::kKaris}) {
+    SCOPED_TRACE(DfgConsumerName(consumer));
+    const absl::StatusOr<DfgLut> lut = ComputeDfgLut(n, consumer);
+    ASSERT_TRUE(lut.ok()) << lut.status();
+    for (int row : {0, 1, n / 3, n - 2, n - 1}) {
+      const double alpha = lut->AlphaOfRow(row);
+      for (int col = 0; col < n; ++col) {
+        const double nv = lut->NDotVOfColumn(col);
+        for (int c = 0; c < lut->channels; ++c) {
+          const double want = PointValue(lut->layout.channels[c], nv, alpha);
+          ASSERT_EQ(lut->At(row, col, c), static_cast<float>(want))
+              << "row " << row << " col " << col << " channel " << c;
+        }
+      }
+    }
+  }
+  const absl::StatusOr<DfgLut> table = ComputeDfgLut(n, DfgConsumer::kFilament, 2);
+  const absl::StatusOr<DfgLut> quadrature =
+      ComputeDfgLutByQuadrature(n, LayoutFor(DfgConsumer::kFilament), 2);
+  ASSERT_TRUE(table.ok() && quadrature.ok());
+  EXPECT_EQ(table->data, quadrature->data);
 }
 
 TEST(DfgTest, ThreadsGiveTheSameTable) {

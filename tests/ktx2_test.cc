@@ -6,9 +6,11 @@
 #include "core/export/ktx2.h"
 
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <numeric>
 #include <random>
 #include <string>
@@ -757,6 +759,50 @@ TEST(Ktx2Test, DecodersMatchTheSpecificationFormulas) {
     RoundTrip(Format::kE5B9G9R9UfloatPack32, rt);
     for (int c = 0; c < 3; ++c) EXPECT_EQ(rt[c], got[c]);
   }
+}
+
+// The encoders against their definition: the code (5-bit exponent, m mantissa bits) whose value,
+// by the specification's formula (DecodeUfloat), is nearest to v, ties to the even code, and the
+// largest finite code above it. Found by bisection over the codes (their values increase).
+uint32_t NearestCode(double v, int m) {
+  const uint32_t largest = (30u << m) | ((1u << m) - 1);
+  if (!(v > 0)) return 0;
+  if (v >= testing::DecodeUfloat(largest, m)) return largest;
+  uint32_t lo = 0, hi = largest;  // value(lo) <= v < value(hi)
+  while (hi - lo > 1) {
+    const uint32_t mid = lo + (hi - lo) / 2;
+    (testing::DecodeUfloat(mid, m) <= v ? lo : hi) = mid;
+  }
+  const double dl = v - testing::DecodeUfloat(lo, m), dh = testing::DecodeUfloat(hi, m) - v;
+  if (dl < dh) return lo;
+  if (dh < dl) return hi;
+  return (lo & 1u) ? hi : lo;
+}
+
+// Every code's value, the midpoints between neighbours (the ties) and the floats next to them,
+// plus a stride through all positive floats; for half, 10-bit and 11-bit ufloat, and half's sign.
+TEST(Ktx2Test, EncodersRoundToTheNearestCodeTiesToEven) {
+  auto check = [](float v) {
+    ASSERT_EQ(FloatToHalf(v), NearestCode(v, 10)) << v;
+    ASSERT_EQ(FloatToHalf(-v), v > 0 ? (0x8000u | NearestCode(v, 10)) : 0x8000u) << v;
+    const uint32_t packed = PackB10G11R11(v, v, v);
+    ASSERT_EQ(packed & 0x7FFu, NearestCode(v, 6)) << v;
+    ASSERT_EQ(packed >> 22, NearestCode(v, 5)) << v;
+  };
+  for (int m : {5, 6, 10}) {
+    const uint32_t largest = (30u << m) | ((1u << m) - 1);
+    for (uint32_t c = 0; c < largest; ++c) {
+      const double a = testing::DecodeUfloat(c, m), b = testing::DecodeUfloat(c + 1, m);
+      const float mid = static_cast<float>(0.5 * (a + b));  // exact: 12 significant bits at most
+      for (float v :
+           {static_cast<float>(a), mid, std::nextafter(mid, 0.0f), std::nextafter(mid, 1e30f)})
+        check(v);
+    }
+  }
+  for (uint64_t bits = 1; bits < 0x7F800000u; bits += 4099)
+    check(std::bit_cast<float>(static_cast<uint32_t>(bits)));
+  check(std::numeric_limits<float>::max());
+  check(std::numeric_limits<float>::denorm_min());
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "core/export/ktx2.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -106,35 +107,40 @@ void PadTo(std::string* out, uint64_t alignment) {
   while (out->size() % alignment != 0) out->push_back('\0');
 }
 
-// Nearest integer to q >= 0, ties to even (independent of the FPU rounding mode).
-uint64_t RoundHalfEven(double q) {
-  const double fl = std::floor(q);
-  const double d = q - fl;
-  uint64_t n = static_cast<uint64_t>(fl);
-  if (d > 0.5 || (d == 0.5 && (n & 1))) ++n;
-  return n;
+// x / 2^s rounded to the nearest integer, ties to even (s >= 0).
+uint32_t ShiftRoundHalfEven(uint32_t x, int s) {
+  if (s == 0) return x;
+  if (s > 31) return 0;  // x < 2^24 <= 2^(s - 1) for every caller: below one half
+  const uint32_t q = x >> s, r = x & ((1u << s) - 1), half = 1u << (s - 1);
+  return q + ((r > half || (r == half && (q & 1u))) ? 1u : 0u);
 }
 
 // v (finite) as an unsigned float with a 5-bit exponent (bias 15) and `m` mantissa bits: round
 // to nearest even, subnormals kept, saturating at the largest finite value. v <= 0 gives 0.
+// Integer arithmetic on the float's own bits (exact, independent of the FPU rounding mode).
 uint32_t EncodeUnsignedSmallFloat(float v, int m) {
   if (!(v > 0)) return 0;
   const uint32_t one = 1u << m;
-  int e2 = 0;
-  std::frexp(static_cast<double>(v), &e2);
-  int e = e2 - 1;  // v = 1.f * 2^e
+  const uint32_t largest = (30u << m) | (one - 1);
+  const uint32_t bits = std::bit_cast<uint32_t>(v);
+  const int biased_f = static_cast<int>(bits >> 23);  // sign is 0 here
+  if (biased_f == 255) return largest;                // +infinity saturates
+  // v = x 2^(e - 23), x < 2^24 an integer (with the implicit bit for normal floats).
+  const uint32_t x = biased_f == 0 ? (bits & 0x7FFFFFu) : ((bits & 0x7FFFFFu) | 0x800000u);
+  int e = biased_f == 0 ? -126 : biased_f - 127;
   if (e < -14) {
-    // Subnormal: units of 2^(-14 - m); a result of 2^m is exactly the smallest normal's bits.
-    return static_cast<uint32_t>(RoundHalfEven(std::ldexp(static_cast<double>(v), 14 + m)));
+    // Subnormal: units of 2^(-14 - m), v / unit = x 2^(e - 23 + 14 + m); a result of 2^m is
+    // exactly the smallest normal's bits.
+    return ShiftRoundHalfEven(x, 9 - m - e);
   }
-  uint64_t n = RoundHalfEven(std::ldexp(static_cast<double>(v), m - e));  // in [2^m, 2^(m+1)]
-  if (n == 2 * uint64_t{one}) {
+  uint32_t n = ShiftRoundHalfEven(x, 23 - m);  // in [2^m, 2^(m+1)]
+  if (n == 2 * one) {
     ++e;
     n = one;
   }
   const int biased = e + 15;
-  if (biased > 30) return (30u << m) | (one - 1);  // the largest finite value
-  return (static_cast<uint32_t>(biased) << m) | static_cast<uint32_t>(n - one);
+  if (biased > 30) return largest;
+  return (static_cast<uint32_t>(biased) << m) | (n - one);
 }
 
 bool ValidUtf8(std::string_view s) {
@@ -365,12 +371,15 @@ namespace {
 // An unsigned float with 5 exponent bits (bias 15) and `mantissa_bits` bits.
 float DecodeUnsignedSmallFloat(uint32_t bits, int mantissa_bits) {
   const uint32_t e = bits >> mantissa_bits, m = bits & ((1u << mantissa_bits) - 1);
-  if (e == 0) return static_cast<float>(std::ldexp(static_cast<double>(m), -14 - mantissa_bits));
+  if (e == 0) {  // m 2^(-14 - mantissa_bits): exact in float (m < 2^11, the scale a power of 2)
+    return static_cast<float>(m) *
+           std::bit_cast<float>(static_cast<uint32_t>(127 - 14 - mantissa_bits) << 23);
+  }
   if (e == 31)
     return m == 0 ? std::numeric_limits<float>::infinity()
                   : std::numeric_limits<float>::quiet_NaN();
-  return static_cast<float>(std::ldexp(1.0 + std::ldexp(static_cast<double>(m), -mantissa_bits),
-                                       static_cast<int>(e) - 15));
+  // A normal float with the same exponent and the mantissa's bits at the top of its 23.
+  return std::bit_cast<float>(((e - 15 + 127) << 23) | (m << (23 - mantissa_bits)));
 }
 
 }  // namespace

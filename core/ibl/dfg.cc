@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/geometry.h"
 #include "core/base/parallel.h"
+#include "core/base/status_macros.h"
 #include "core/sh/quadrature.h"
 
 namespace shrm::ibl {
@@ -511,7 +512,7 @@ double DfgLut::AlphaOfRow(int row) const {
   return layout.roughness_axis == RoughnessAxis::kPerceptual ? y * y : y;
 }
 
-absl::StatusOr<DfgLut> ComputeDfgLut(int size, const DfgLutLayout& layout, int threads) {
+absl::Status ValidateDfgLut(int size, const DfgLutLayout& layout, int threads) {
   if (size < 1 || size > kMaxDfgLutSize) {
     return absl::InvalidArgumentError(absl::StrCat(
         "DFG LUT size ", size, " is out of range: it must be in [1, ", kMaxDfgLutSize, "]"));
@@ -529,6 +530,12 @@ absl::StatusOr<DfgLut> ComputeDfgLut(int size, const DfgLutLayout& layout, int t
     return absl::InvalidArgumentError(
         absl::StrCat("DFG LUT thread count ", threads, " must be >= 1"));
   }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<DfgLut> ComputeDfgLutByQuadrature(int size, const DfgLutLayout& layout,
+                                                 int threads) {
+  SHRM_RETURN_IF_ERROR(ValidateDfgLut(size, layout, threads));
   DfgLut lut;
   lut.size = size;
   lut.channels = static_cast<int>(layout.channels.size());
@@ -581,10 +588,6 @@ absl::StatusOr<DfgLut> ComputeDfgLut(int size, const DfgLutLayout& layout, int t
     }
   });
   return lut;
-}
-
-absl::StatusOr<DfgLut> ComputeDfgLut(int size, DfgConsumer consumer, int threads) {
-  return ComputeDfgLut(size, LayoutFor(consumer), threads);
 }
 
 }  // namespace shrm::ibl

@@ -145,8 +145,25 @@ struct DfgLut {
 
 // n x n table. InvalidArgument for n < 1 or n > kMaxDfgLutSize, no channels or more than 4, or a
 // negative / non-finite offset. threads >= 1 (rows split between threads).
+// At n = kPrecomputedDfgSize with the perceptual axis and a roughness texel offset of 0 or 1
+// (every consumer's default table), the values come from a table the build computed with this
+// same quadrature (core/ibl/tools/dfg_table_gen.cc): bit for bit what the quadrature gives, in
+// microseconds instead of a quarter of a second. Other tables are integrated here.
 absl::StatusOr<DfgLut> ComputeDfgLut(int size, const DfgLutLayout& layout, int threads = 1);
 absl::StatusOr<DfgLut> ComputeDfgLut(int size, DfgConsumer consumer, int threads = 1);
+// The quadrature itself, never the precomputed table (the build's generator, the tests).
+absl::StatusOr<DfgLut> ComputeDfgLutByQuadrature(int size, const DfgLutLayout& layout,
+                                                 int threads = 1);
+// The arguments' checks of ComputeDfgLut.
+absl::Status ValidateDfgLut(int size, const DfgLutLayout& layout, int threads);
+
+// The precomputed table: size, rows and the quantities stored per (row, column).
+inline constexpr int kPrecomputedDfgSize = 128;
+// Rows 0..size-1 sample y = (j + 0.5) / size, row `size` samples y = 1 (perceptual axis), so that
+// offsets 0 and 1 are both rows of it.
+inline constexpr int kPrecomputedDfgRows = kPrecomputedDfgSize + 1;
+// Per (row, column), as floats: A, B, E, C, S (DfgChannel kGgxScale .. kSheenAlbedo).
+inline constexpr int kPrecomputedDfgValues = 5;
 
 }  // namespace shrm::ibl
 
