@@ -40,7 +40,8 @@ struct BatchJob {
   std::string status = "pending";  // ok, skipped, failed
   std::string orders;
   double seconds = 0;
-  int retries = 0;  // remote: attempts beyond the first
+  int retries = 0;                              // remote: attempts beyond the first
+  double measured_rms = -1, measured_max = -1;  // the job's own check (-1: not measured)
   std::string message;
 };
 

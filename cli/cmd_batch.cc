@@ -24,6 +24,7 @@
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_replace.h"
 #include "absl/strings/str_split.h"
@@ -494,6 +495,7 @@ absl::Status RunBatch(const BatchArgs& args) {
       const auto start = std::chrono::steady_clock::now();
       std::string status, message, orders;
       int retries = 0;
+      MeasuredError measured;
       std::string reason = "forced";
       if (!args.force) {
         std::string hash;
@@ -533,6 +535,7 @@ absl::Status RunBatch(const BatchArgs& args) {
           IblJobOutcome outcome;
           s = RunIblJob(job.ibl_job, run, &outcome);
           retries = outcome.retries;
+          measured = outcome.measured;
         } else {
           PrefilterRun run;
           batch_run(&run);
@@ -542,6 +545,7 @@ absl::Status RunBatch(const BatchArgs& args) {
           PrefilterJobOutcome outcome;
           s = RunPrefilterJob(job.job, run, &outcome);
           retries = outcome.retries;
+          measured = outcome.measured;
           orders = absl::StrCat(outcome.f_b, ",", outcome.p_b);
         }
         if (s.ok()) {
@@ -561,6 +565,8 @@ absl::Status RunBatch(const BatchArgs& args) {
       job.orders = orders;
       job.seconds = seconds;
       job.retries = retries;
+      job.measured_rms = measured.rms;
+      job.measured_max = measured.max;
       ++done;
       if (status == "failed") ++failed;
       show();
@@ -587,27 +593,35 @@ absl::Status RunBatch(const BatchArgs& args) {
     out["retries"] = retries;
     out["jobs"] = nlohmann::json::array();
     for (const BatchJob& j : jobs) {
-      out["jobs"].push_back({{"index", j.index},
-                             {"kind", j.ibl ? "ibl" : "prefilter"},
-                             {"map", j.map},
-                             {"brdf", j.brdf},
-                             {"output", j.output},
-                             {"status", j.status},
-                             {"orders", j.orders},
-                             {"seconds", j.seconds},
-                             {"retries", j.retries},
-                             {"message", j.message}});
+      out["jobs"].push_back(
+          {{"index", j.index},
+           {"kind", j.ibl ? "ibl" : "prefilter"},
+           {"map", j.map},
+           {"brdf", j.brdf},
+           {"output", j.output},
+           {"status", j.status},
+           {"orders", j.orders},
+           {"seconds", j.seconds},
+           {"retries", j.retries},
+           {"measured", j.measured_rms < 0
+                            ? nlohmann::json(nullptr)
+                            : nlohmann::json{{"rms", j.measured_rms}, {"max", j.measured_max}}},
+           {"message", j.message}});
     }
     std::printf("%s\n", out.dump(2).c_str());
   } else {
     size_t width = 3;
     for (const BatchJob& j : jobs) width = std::max(width, j.output.size());
-    std::printf("%-3s  %-*s  %-7s  %-7s  %8s  %7s  %s\n", "#", static_cast<int>(width), "job",
-                "status", "orders", "seconds", "retries", "message");
+    // The measured error: relative RMS / largest relative error of the job's own check.
+    std::printf("%-3s  %-*s  %-7s  %-7s  %-17s  %8s  %7s  %s\n", "#", static_cast<int>(width),
+                "job", "status", "orders", "measured rms/max", "seconds", "retries", "message");
     for (const BatchJob& j : jobs) {
-      std::printf("%-3d  %-*s  %-7s  %-7s  %8.2f  %7d  %s\n", j.index, static_cast<int>(width),
-                  j.output.c_str(), j.status.c_str(), j.orders.empty() ? "-" : j.orders.c_str(),
-                  j.seconds, j.retries, j.message.c_str());
+      const std::string measured =
+          j.measured_rms < 0 ? "-" : absl::StrFormat("%.2g/%.2g", j.measured_rms, j.measured_max);
+      std::printf("%-3d  %-*s  %-7s  %-7s  %-17s  %8.2f  %7d  %s\n", j.index,
+                  static_cast<int>(width), j.output.c_str(), j.status.c_str(),
+                  j.orders.empty() ? "-" : j.orders.c_str(), measured.c_str(), j.seconds, j.retries,
+                  j.message.c_str());
     }
     std::printf("%zu jobs: %d ok, %d skipped, %d failed, %d retries\n", jobs.size(), ok, skipped,
                 failed, retries);

@@ -247,7 +247,10 @@ absl::Status RunIblJob(const jobs::IblJob& job, const IblCommandRun& run, IblJob
     report["server"] = run.server;
     report["retries"] = r->retries;
   }
-  if (outcome != nullptr) outcome->levels = static_cast<int>(report["specular"]["levels"].size());
+  if (outcome != nullptr) {
+    outcome->levels = static_cast<int>(report["specular"]["levels"].size());
+    outcome->measured = IblMeasuredError(report);
+  }
   if (run.quiet) return jobs::IblOutcome(job, report);
   if (run.json) {
     std::printf("%s\n", report.dump(2).c_str());

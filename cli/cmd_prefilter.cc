@@ -172,6 +172,7 @@ absl::Status RunPrefilterRemote(const jobs::PrefilterJob& job, const PrefilterRu
   if (outcome != nullptr) {
     outcome->f_b = rep.f_b();
     outcome->p_b = rep.p_b();
+    outcome->measured = PrefilterMeasuredError(report);
   }
   if (run.quiet) return jobs::ToleranceOutcome(job, report);
   if (run.json) {
@@ -242,6 +243,7 @@ absl::Status RunPrefilterEmbedded(const jobs::PrefilterJob& job, const Prefilter
   if (outcome != nullptr) {
     outcome->f_b = an.f_b;
     outcome->p_b = an.p_b;
+    outcome->measured = PrefilterMeasuredError(report);
   }
   if (run.quiet) return jobs::ToleranceOutcome(job, report);
   if (run.json) {

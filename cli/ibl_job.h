@@ -11,6 +11,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "cli/cli_common.h"
+#include "cli/measured_error.h"
 #include "jobs/ibl_job.h"
 
 namespace shrm::cli {
@@ -45,8 +46,9 @@ struct IblCommandRun {
 };
 
 struct IblJobOutcome {
-  int levels = 0;   // of the specular chain written
-  int retries = 0;  // remote: attempts beyond the first
+  int levels = 0;          // of the specular chain written
+  int retries = 0;         // remote: attempts beyond the first
+  MeasuredError measured;  // the worst level's, when --verify measured it
 };
 
 // Adds the job's options (jobs/job_options.h, IblJobOptions) to `sub`.

@@ -11,6 +11,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "cli/cli_common.h"
+#include "cli/measured_error.h"
 #include "jobs/prefilter_job.h"
 
 namespace shrm::cli {
@@ -45,6 +46,7 @@ struct PrefilterRun {
 struct PrefilterJobOutcome {
   int f_b = -1, p_b = -1;  // the orders of the written SHRM
   int retries = 0;         // remote: attempts beyond the first (transient errors, missing blobs)
+  MeasuredError measured;  // the report's, when --verify measured it
 };
 
 // Adds the job's options (jobs/job_options.h) to `sub`.

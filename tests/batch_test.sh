@@ -56,6 +56,8 @@ manifest batch.json 0.1
 rc=$?
 [ $rc -eq 0 ] || fail "batch exit $rc: $(cat run1.err)"
 [ "$(count ok run1.json)" -eq 4 ] || fail "first run: expected 4 ok: $(cat run1.json)"
+# No --verify in this manifest: nothing measured, and the summary says so.
+[ "$(grep -c '"measured": null' run1.json)" -eq 4 ] || fail "unmeasured jobs: $(cat run1.json)"
 mkdir single
 for m in courtyard city; do
   for i in 0 1; do
@@ -96,6 +98,21 @@ manifest batch2.json 0.2
 # The text summary.
 "$SHRM" batch batch2.json >run6.txt 2>&1 || fail "run 6 exit $?"
 grep -q "4 jobs: 0 ok, 4 skipped, 0 failed, 0 retries" run6.txt || fail "summary line: $(cat run6.txt)"
+grep -q "measured rms/max" run6.txt || fail "summary header: $(cat run6.txt)"
+
+# A job that checks itself (--verify): the summary's measured error is its report's front figures.
+cat >verify.json <<'JSON'
+{"maps": ["maps/courtyard.exr"], "brdfs": ["phong:s=32"],
+ "options": {"epsilon": 0.1, "size": 16, "verify": 32, "report": true},
+ "output": "verified/{map}_{brdf}.shrm.exr"}
+JSON
+"$SHRM" batch verify.json --json >verify.out 2>verify.err || fail "verify batch exit $?: $(cat verify.err)"
+python3 - verify.out <<'PY' || fail "measured error in the summary: $(cat verify.out)"
+import json, sys
+job = json.load(open(sys.argv[1]))["jobs"][0]
+front = json.load(open(job["output"][: -len(".shrm.exr")] + ".json"))["measured"]["front"]
+assert job["measured"] == {"rms": front["rms"], "max": front["max"]}, (job["measured"], front)
+PY
 
 # --- 4. bad manifests are rejected up front -------------------------------------------------
 echo "== bad manifests rejected before any job"
@@ -185,6 +202,17 @@ cat >ibl.json <<'JSON'
 JSON
 "$SHRM" batch ibl.json --jobs 2 --json >ibl1.json 2>ibl1.err || fail "ibl batch exit $?: $(cat ibl1.err)"
 [ "$(count ok ibl1.json)" -eq 2 ] || fail "ibl batch: expected 2 ok: $(cat ibl1.json)"
+# The summary's measured error is the worst level's of each set's own check (ibl.json).
+python3 - ibl1.json <<'PY' || fail "ibl batch: measured error in the summary: $(cat ibl1.json)"
+import json, sys
+summary = json.load(open(sys.argv[1]))
+for job in summary["jobs"]:
+    report = json.load(open(job["output"] + "/ibl.json"))
+    levels = [l["measured"] for c in ("specular", "sheen", "irradiance") if c in report
+              for l in report[c]["levels"] if "measured" in l]
+    want = {"rms": max(l["rms"] for l in levels), "max": max(l["max"] for l in levels)}
+    assert job["measured"] == want, (job["measured"], want)
+PY
 "$SHRM" ibl --env maps/city.exr --size 16 --verify 2 --irradiance-size 8 --dfg-size 16 --sheen \
   -o ibl_single >/dev/null 2>&1 || fail "single shrm ibl failed"
 for f in specular.ktx2 sheen.ktx2 irradiance.ktx2 sh9.json ibl.json; do
