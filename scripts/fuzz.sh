@@ -22,7 +22,7 @@ ROOT=$PWD
 BUILD_DIR=${SHRM_FUZZ_BUILD_DIR:-build-fuzz}
 JOBS=${SHRM_JOBS:-2}
 HARNESSES=(image brdf_spec brdf_table merl shrm_file shrm_ktx2 batch_manifest config_file auth
-           request ktx_roundtrip)
+           request ktx_roundtrip gltf_roundtrip)
 RUNS=""
 TIME=""
 MAX_TIME=""

@@ -12,7 +12,7 @@ BUILD_DIR=${SHRM_FUZZ_BUILD_DIR:-build-fuzz}
 C=fuzz/corpus
 TMP=$(mktemp -d "${TMPDIR:-/tmp}/shrm-seeds.XXXXXX")
 trap 'rm -rf "$TMP"' EXIT
-mkdir -p $C/{image,brdf_spec,brdf_table,merl,shrm_file,batch_manifest,config_file,auth,request,ktx_roundtrip}
+mkdir -p $C/{image,brdf_spec,brdf_table,merl,shrm_file,batch_manifest,config_file,auth,request,ktx_roundtrip,gltf_roundtrip}
 
 # seed HARNESS NAME OPTION_BYTE FILE: the option byte (octal escape) then the file.
 seed() { { printf "$3"; cat "$4"; } >"$C/$1/$2"; }
@@ -166,5 +166,9 @@ for k in 0 1; do
     python3 -c "import sys,random; random.seed($n); sys.stdout.buffer.write(bytes([$k]) + bytes(random.getrandbits(8) for _ in range(300 * $n)))" \
       >"$C/ktx_roundtrip/ktx${k}_$n"
   done
+done
+for n in 1 2 3 4; do
+  python3 -c "import sys,random; random.seed(100 + $n); sys.stdout.buffer.write(bytes(random.getrandbits(8) for _ in range(1000 * $n)))" \
+    >"$C/gltf_roundtrip/glb_$n"
 done
 echo "make-fuzz-seeds: $(find $C -type f | wc -l) seeds, $(du -sh $C | cut -f1)"

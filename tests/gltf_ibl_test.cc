@@ -1,11 +1,8 @@
-// The glTF IBL encoder (core/export/gltf_ibl.h) against an independent reader written here from
-// the glTF 2.0 specification ("Binary glTF Layout": header, chunks, 4-byte alignment; "Accessors",
-// "Buffers and Buffer Views": ranges, min/max) and the PNG specification (chunks, IHDR, zlib
-// IDAT, the five row filters), decoding with zlib only; RGBD decoded with the extension's rule
-// (rgb / D) and Babylon's gamma 2.2, written out here.
+// The glTF IBL encoder (core/export/gltf_ibl.h) against an independent reader (tests/glb_reader.h,
+// from the glTF 2.0 and PNG specifications, zlib only), the accessors' ranges and min/max checked
+// here ("Accessors"); RGBD decoded with the extension's rule (rgb / D) and Babylon's gamma 2.2,
+// written out here.
 #include "core/export/gltf_ibl.h"
-
-#include <zlib.h>
 
 #include <array>
 #include <cmath>
@@ -17,6 +14,7 @@
 
 #include "core/base/cubemap.h"
 #include "gtest/gtest.h"
+#include "tests/glb_reader.h"
 
 namespace shrm::gltf {
 namespace {
@@ -31,108 +29,24 @@ constexpr double kFloatTol = 1e-6;
 // The coefficients pass through JSON text with 17 digits (nlohmann round-trips doubles).
 constexpr double kJsonTol = 0.0;
 
-uint32_t U32(const std::string& b, size_t at) {
-  uint32_t v = 0;
-  for (int i = 3; i >= 0; --i) v = (v << 8) | static_cast<unsigned char>(b.at(at + i));
-  return v;
-}
-uint32_t Be32(const std::string& b, size_t at) {
-  uint32_t v = 0;
-  for (int i = 0; i < 4; ++i) v = (v << 8) | static_cast<unsigned char>(b.at(at + i));
-  return v;
-}
+using testing::Glb;
+using testing::Rgba8;
 
-struct Glb {
-  json doc;
-  std::string bin;
-};
-
-// glTF 2.0 "Binary glTF Layout".
+// The reader of tests/glb_reader.h, its errors as test failures.
 Glb ParseGlb(const std::string& b) {
-  Glb g;
-  EXPECT_GE(b.size(), 28u);
-  EXPECT_EQ(U32(b, 0), 0x46546C67u);  // magic "glTF"
-  EXPECT_EQ(U32(b, 4), 2u);           // version
-  EXPECT_EQ(U32(b, 8), b.size());     // length
-  const uint32_t json_len = U32(b, 12);
-  EXPECT_EQ(U32(b, 16), 0x4E4F534Au);  // "JSON"
-  EXPECT_EQ(json_len % 4, 0u);
-  const std::string text = b.substr(20, json_len);
-  EXPECT_EQ(text.find_last_not_of(' ') + 1 <= text.size(), true);
-  g.doc = json::parse(text);
-  const size_t bin_at = 20 + json_len;
-  EXPECT_EQ(bin_at % 4, 0u);
-  const uint32_t bin_len = U32(b, bin_at);
-  EXPECT_EQ(U32(b, bin_at + 4), 0x004E4942u);  // "BIN\0"
-  EXPECT_EQ(bin_len % 4, 0u);
-  EXPECT_EQ(bin_at + 8 + bin_len, b.size());
-  g.bin = b.substr(bin_at + 8, bin_len);
-  return g;
+  absl::StatusOr<Glb> g = testing::ReadGlb(b);
+  EXPECT_TRUE(g.ok()) << g.status();
+  return g.ok() ? *std::move(g) : Glb{};
 }
-
-// The bytes of bufferView v, checked to lie in the buffer.
 std::string ViewBytes(const Glb& g, int v) {
-  const json& view = g.doc["bufferViews"].at(v);
-  EXPECT_EQ(view["buffer"], 0);
-  const size_t off = view.value("byteOffset", 0), len = view["byteLength"];
-  EXPECT_LE(off + len, g.bin.size());
-  EXPECT_EQ(off % 4, 0u);
-  return g.bin.substr(off, len);
+  absl::StatusOr<std::string> bytes = testing::GlbViewBytes(g, v);
+  EXPECT_TRUE(bytes.ok()) << bytes.status();
+  return bytes.ok() ? *std::move(bytes) : std::string();
 }
-
-struct Rgba8 {
-  int width = 0, height = 0;
-  std::vector<uint8_t> px;  // rows from the top, RGBA
-};
-
-int Paeth(int a, int b, int c) {
-  const int p = a + b - c, pa = std::abs(p - a), pb = std::abs(p - b), pc = std::abs(p - c);
-  return pa <= pb && pa <= pc ? a : pb <= pc ? b : c;
-}
-
-// PNG: signature, IHDR (8-bit RGBA, not interlaced), IDAT zlib stream, filters 0..4.
 Rgba8 DecodePng(const std::string& b) {
-  Rgba8 img;
-  EXPECT_EQ(b.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
-  std::string idat;
-  for (size_t at = 8; at + 8 <= b.size();) {
-    const uint32_t len = Be32(b, at);
-    const std::string type = b.substr(at + 4, 4);
-    if (type == "IHDR") {
-      img.width = Be32(b, at + 8);
-      img.height = Be32(b, at + 12);
-      EXPECT_EQ(b[at + 16], 8);  // bit depth
-      EXPECT_EQ(b[at + 17], 6);  // colour type RGBA
-      EXPECT_EQ(b[at + 20], 0);  // no interlace
-    } else if (type == "IDAT") {
-      idat += b.substr(at + 8, len);
-    }
-    at += 12 + len;
-  }
-  const size_t stride = static_cast<size_t>(img.width) * 4;
-  std::vector<uint8_t> raw((stride + 1) * img.height);
-  uLongf raw_len = raw.size();
-  EXPECT_EQ(
-      uncompress(raw.data(), &raw_len, reinterpret_cast<const Bytef*>(idat.data()), idat.size()),
-      Z_OK);
-  EXPECT_EQ(raw_len, raw.size());
-  img.px.assign(stride * img.height, 0);
-  for (int y = 0; y < img.height; ++y) {
-    const int filter = raw[y * (stride + 1)];
-    for (size_t x = 0; x < stride; ++x) {
-      const int v = raw[y * (stride + 1) + 1 + x];
-      const int a = x >= 4 ? img.px[y * stride + x - 4] : 0;
-      const int up = y > 0 ? img.px[(y - 1) * stride + x] : 0;
-      const int c = x >= 4 && y > 0 ? img.px[(y - 1) * stride + x - 4] : 0;
-      const int pred = filter == 0   ? 0
-                       : filter == 1 ? a
-                       : filter == 2 ? up
-                       : filter == 3 ? (a + up) / 2
-                                     : Paeth(a, up, c);
-      img.px[y * stride + x] = static_cast<uint8_t>(v + pred);
-    }
-  }
-  return img;
+  absl::StatusOr<Rgba8> img = testing::ReadPngRgba8(b);
+  EXPECT_TRUE(img.ok()) << img.status();
+  return img.ok() ? *std::move(img) : Rgba8{};
 }
 
 // A chain of `levels` levels from `size` whose radiance is a smooth function of the direction
