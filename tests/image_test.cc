@@ -174,6 +174,40 @@ TEST(ImageTest, ExrAttributeLargerThanTheFileIsRejectedBeforeOpenExr) {
   fs::remove(path);
 }
 
+// Found by fuzzing: libpng allocates and clears a text chunk's declared size before reading it,
+// so a 640-byte PNG claiming a 1.6 GB tEXt chunk touched 1.6 GB (a 70 s timeout under ASan). The
+// chunk walk refuses a chunk running past the file's end, and an IHDR beyond the limits, before
+// the image module (libpng through OpenImageIO) sees the file. Written here from the PNG
+// specification's chunk layout; the CRCs are not what is checked.
+TEST(ImageTest, PngChunkLongerThanTheFileIsRejectedBeforeLibpng) {
+  auto be32 = [](uint32_t v) {
+    return std::string{char(v >> 24), char((v >> 16) & 255), char((v >> 8) & 255), char(v & 255)};
+  };
+  auto chunk = [&](const std::string& type, const std::string& data, uint32_t length) {
+    return be32(length) + type + data + be32(0);
+  };
+  auto ihdr = [&](uint32_t w, uint32_t h) {
+    return chunk("IHDR", be32(w) + be32(h) + std::string("\x08\x02\x00\x00\x00", 5), 13);
+  };
+  const std::string signature("\x89PNG\r\n\x1a\n", 8);
+  const std::string path = TempPath("long_chunk.png");
+  WriteBytes(path, signature + ihdr(4, 24) + chunk("tEXt", "Comment", 1666122018));
+  const absl::Status probe = ProbeImage(path).status();
+  EXPECT_EQ(probe.code(), absl::StatusCode::kInvalidArgument) << probe;
+  EXPECT_NE(probe.message().find("chunk 1 ('tEXt') claims 1666122018 bytes"), std::string::npos)
+      << probe;
+  EXPECT_EQ(ReadImageRgb(path).status().code(), absl::StatusCode::kInvalidArgument);
+  // A header beyond the limits: ResourceExhausted naming the size, as for EXR.
+  WriteBytes(path, signature + ihdr(100000, 100000) + chunk("IEND", "", 0));
+  const absl::Status huge = CheckPngHeader(path, {});
+  EXPECT_EQ(huge.code(), absl::StatusCode::kResourceExhausted) << huge;
+  EXPECT_NE(huge.message().find("100000 x 100000"), std::string::npos) << huge;
+  // IHDR must come first.
+  WriteBytes(path, signature + chunk("IEND", "", 0));
+  EXPECT_EQ(CheckPngHeader(path, {}).code(), absl::StatusCode::kInvalidArgument);
+  fs::remove(path);
+}
+
 // Found by fuzzing: OpenEXR reads a channel list (and the fixed-size types) up to its own end,
 // whatever the attribute's size says, then reads the next attribute out of step (a string size
 // of 1.7 GB taken from text). The walker checks that such values fill exactly their size.

@@ -11,6 +11,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/ascii.h"
+#include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
 #include "core/io/atomic_file.h"
@@ -244,6 +245,49 @@ absl::Status CheckExrHeader(const std::string& path, const ImageLimits& limits) 
   return ExrHeaderWalker(path, limits).Walk();
 }
 
+absl::Status CheckPngHeader(const std::string& path, const ImageLimits& limits) {
+  auto bad = [&](absl::string_view what) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": malformed PNG: ", what));
+  };
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return absl::NotFoundError(absl::StrCat(path, ": cannot open"));
+  in.seekg(0, std::ios::end);
+  const int64_t file_bytes = static_cast<int64_t>(in.tellg());
+  in.seekg(0);
+  unsigned char b[25];
+  if (!in.read(reinterpret_cast<char*>(b), 8)) return bad("shorter than its signature");
+  auto u32 = [](const unsigned char* p) {
+    return (uint32_t{p[0]} << 24) | (uint32_t{p[1]} << 16) | (uint32_t{p[2]} << 8) | p[3];
+  };
+  // PNG specification, "Chunk layout": length (at most 2^31 - 1), type, data, CRC; IHDR first.
+  for (int64_t at = 8, chunk = 0; at < file_bytes; ++chunk) {
+    if (at + 12 > file_bytes) return bad(absl::StrCat("chunk ", chunk, " is cut short"));
+    in.seekg(at);
+    if (!in.read(reinterpret_cast<char*>(b), 8)) return bad("unreadable chunk header");
+    const uint32_t length = u32(b);
+    const std::string type(reinterpret_cast<const char*>(b + 4), 4);
+    if (length > 0x7FFFFFFFu || at + 12 + int64_t{length} > file_bytes) {
+      return bad(absl::StrCat("chunk ", chunk, " ('", absl::CHexEscape(type), "') claims ", length,
+                              " bytes, beyond the file's ", file_bytes));
+    }
+    if (chunk == 0) {
+      if (type != "IHDR" || length != 13) return bad("the first chunk is not a 13-byte IHDR");
+      if (!in.read(reinterpret_cast<char*>(b), 8)) return bad("unreadable IHDR");
+      const int64_t width = u32(b), height = u32(b + 4);
+      if (width < 1 || height < 1) return bad("zero width or height");
+      if (width > limits.max_width || height > limits.max_height ||
+          width * height > limits.max_pixels) {
+        return absl::ResourceExhaustedError(absl::StrCat(
+            path, ": image is ", width, " x ", height, ", above the limits of ", limits.max_width,
+            " x ", limits.max_height, " and ", limits.max_pixels, " pixels"));
+      }
+    }
+    at += 12 + int64_t{length};
+    if (type == "IEND") break;
+  }
+  return absl::OkStatus();
+}
+
 namespace {
 
 // The checks of every format before its reader opens the file (format by magic bytes, file size,
@@ -264,6 +308,7 @@ absl::StatusOr<ImageHeader> CheckedHeader(const std::string& path, const ImageLi
     SHRM_RETURN_IF_ERROR(CheckExrHeader(path, limits));
     *module = nullptr;
   } else {
+    if (header.format == "png") SHRM_RETURN_IF_ERROR(CheckPngHeader(path, limits));
     SHRM_ASSIGN_OR_RETURN(*module, image_module::Get());
   }
   return header;

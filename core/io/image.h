@@ -68,6 +68,14 @@ absl::StatusOr<std::string> DetectImageFormat(const std::string& path);
 // ReadCubeExr for "openexr" files.
 absl::Status CheckExrHeader(const std::string& path, const ImageLimits& limits);
 
+// Walks a PNG file's chunks before libpng (through OpenImageIO) reads them, and refuses a chunk
+// whose declared length runs past the file's end: libpng allocates and clears a text or
+// metadata chunk's declared size before reading it, so a 640-byte file claiming a 1.6 GB tEXt
+// chunk cost 1.6 GB of touched memory (found by fuzzing, docs/fuzzing.md). Also: IHDR first,
+// 13 bytes, a nonzero size within `limits` (ResourceExhausted). Called by ProbeImage/ReadImageRgb
+// for "png" files.
+absl::Status CheckPngHeader(const std::string& path, const ImageLimits& limits);
+
 // Opens the file and validates its header against `limits` without decoding pixels.
 absl::StatusOr<ImageHeader> ProbeImage(const std::string& path, const ImageLimits& limits = {});
 
