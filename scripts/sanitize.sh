@@ -80,5 +80,22 @@ fi
 export SHRM_SANITIZER=address  # tests/cli_test.sh: no address-space limit under a sanitizer
 export ASAN_OPTIONS="abort_on_error=1:detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
-ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$(nproc)" \
-  -E '^(engines_test|install_test|deploy_test|MemoryAdmissionTest\..*)$' "$@"
+LOG="$BUILD_DIR/sanitize-ctest.log"
+if ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$(nproc)" --output-log "$LOG" \
+  -E '^(engines_test|install_test|deploy_test|MemoryAdmissionTest\..*)$' "$@"; then
+  exit 0
+fi
+# LeakSanitizer's own crash: at exit its tracer thread stops the world and can fault reading a
+# thread that gRPC is tearing down ("Tracer caught signal 11" ... "LeakSanitizer has encountered
+# a fatal error"; seen once in 454 tests, the test itself passed). That is the tool failing, not
+# a report about our code: only when every failed test failed that way, and the log holds no
+# sanitizer report and no test failure, are the failed tests run once more (they must pass).
+failed=$(grep -cE '^[[:space:]]*[0-9]+ - .* \((Failed|Subprocess aborted|Timeout|SEGFAULT|Child aborted|Exception)\)' "$LOG" || true)
+lsan_crashes=$(grep -c 'LeakSanitizer has encountered a fatal error' "$LOG" || true)
+if [ "$failed" -gt 0 ] && [ "$lsan_crashes" -ge "$failed" ] &&
+  ! grep -qE 'ERROR: (AddressSanitizer|LeakSanitizer: detected)|runtime error:|^\[  FAILED  \]|Failure$' "$LOG"; then
+  echo "sanitize.sh: $failed test(s) hit LeakSanitizer's own fatal error; running them again"
+  ctest --test-dir "$BUILD_DIR" --output-on-failure --rerun-failed
+else
+  exit 1
+fi
