@@ -14,10 +14,15 @@
 //   BM_LimitedFresh      the sec. 4.2 rotator (all pool rotations are below its beta_lim)
 // After the runs a summary prints ns per rotation and the speed-up of Taylor 1.5th over each
 // exact path, followed by the sec. 3.1 error table.
+// Flags: Google Benchmark's (--benchmark_format=json / --benchmark_out=FILE for the timings) and
+// --json FILE: also write the sec. 3.1 error table (the paper's Fig. 3) as JSON, the input of
+// scripts/plots.py. --benchmark_filter=NONE prints only the error table.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <fstream>
 #include <map>
 #include <random>
 #include <string>
@@ -28,6 +33,7 @@
 #include "core/sh/rotation.h"
 #include "core/sh/sh.h"
 #include "core/sh/taylor_rotation.h"
+#include "nlohmann/json.hpp"
 
 namespace shrm {
 namespace {
@@ -166,7 +172,9 @@ std::vector<double> PhongLobe(int lmax) {
   return c;
 }
 
-void PrintErrorTable() {
+// The sec. 3.1 table: one row per (n, beta); also returned as JSON rows.
+nlohmann::ordered_json PrintErrorTable() {
+  nlohmann::ordered_json rows = nlohmann::ordered_json::array();
   std::printf(
       "\nSec. 3.1 error of R'_y(beta) (orders 1 / 1.5 / 2): max and mean singular value of\n"
       "R_y - R'_y over all n^2 singular values, and ||(R_y - R'_y) c|| for the unit cos^7 lobe\n");
@@ -185,14 +193,33 @@ void PrintErrorTable() {
       }
       std::printf("%3d %5.2f | %7.4f %7.4f %7.4f | %7.4f %7.4f %7.4f | %7.4f %7.4f %7.4f\n", n, deg,
                   mx[0], mx[1], mx[2], mean[0], mean[1], mean[2], ph[0], ph[1], ph[2]);
+      // Orders 1 / 1.5 / 2 in this order in every array.
+      rows.push_back({{"n", n},
+                      {"beta_deg", deg},
+                      {"max_sv", {mx[0], mx[1], mx[2]}},
+                      {"mean_sv", {mean[0], mean[1], mean[2]}},
+                      {"cos7_lobe", {ph[0], ph[1], ph[2]}}});
     }
   }
+  return rows;
 }
 
 }  // namespace
 }  // namespace shrm
 
 int main(int argc, char** argv) {
+  // --json FILE is ours; everything else goes to Google Benchmark.
+  std::string json_path;
+  std::vector<char*> args;
+  for (int i = 0; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--json") == 0 && i + 1 < argc) {
+      json_path = argv[++i];
+    } else {
+      args.push_back(argv[i]);
+    }
+  }
+  argc = static_cast<int>(args.size());
+  argv = args.data();
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   shrm::SummaryReporter reporter;
@@ -213,7 +240,19 @@ int main(int argc, char** argv) {
                 reporter.Ns(std::string(name) + "/5") / reporter.Ns("BM_Taylor15Fresh/5"),
                 reporter.Ns(std::string(name) + "/9") / reporter.Ns("BM_Taylor15Fresh/9"));
   }
-  shrm::PrintErrorTable();
+  nlohmann::ordered_json doc;
+  doc["bench"] = "rotation_bench";
+  doc["orders"] = {"1", "1.5", "2"};
+  doc["lobe"] = "unit-length zonal max(cos theta, 0)^7";
+  doc["error_table"] = shrm::PrintErrorTable();
   benchmark::Shutdown();
+  if (!json_path.empty()) {
+    std::ofstream f(json_path);
+    f << doc.dump(1) << "\n";
+    if (!f) {
+      std::fprintf(stderr, "error: cannot write %s\n", json_path.c_str());
+      return 1;
+    }
+  }
   return 0;
 }

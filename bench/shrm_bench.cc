@@ -19,11 +19,13 @@
 // Then the stages of the prefilter pipeline (core/shrm/prefilter.h, as the CLI runs it) on the
 // full 1024 x 512 map, and the SHRM file write.
 // Flags: --quick (no angular reference), --breakdown (per-stage synthesis times), --cli (the
-// pipeline stages only).
+// pipeline stages only), --json FILE (also write the Table 5.4 and 5.5 rows as JSON, the input of
+// scripts/plots.py; times in the units of the printed columns).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <map>
 #include <memory>
 #include <optional>
@@ -43,11 +45,17 @@
 #include "core/shrm/shrm_reference.h"
 #include "core/shrm/shrm_synthesis.h"
 #include "core/transform/sht.h"
+#include "nlohmann/json.hpp"
 
 namespace shrm {
 namespace {
 
 bool g_quick = false;  // --quick: skip the angular reference (its column prints 0)
+
+// Repetitions per timed path (best of); the angular reference runs once (it takes seconds).
+constexpr int kFreqReps = 5;       // Table 5.4 frequency path and Table 5.5 SHRM creation
+constexpr int kMapsReps = 4;       // Table 5.5: 100 maps into reused storage
+constexpr int kFreshMapsReps = 3;  // Table 5.5: 100 maps into fresh storage
 
 double Now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -175,13 +183,14 @@ BrdfCoefficients MicrofacetCoefficients(double sigma, int lmax, int pmax) {
   return b;
 }
 
-void Table54(const Light& L, const ReferenceIntegrator& integ) {
+nlohmann::ordered_json Table54(const Light& L, const ReferenceIntegrator& integ) {
+  nlohmann::ordered_json rows = nlohmann::ordered_json::array();
   std::printf("\nTable 5.4: Phong, S_L = 128 (256 x 128 lat-long), S_B = 128, one thread\n");
   std::printf("%6s %4s %12s %14s %10s %9s\n", "s", "F_B", "angular (s)", "frequency (ms)", "ratio",
               "W");
   for (int s : {8, 16, 32, 64, 128, 256, 512}) {
     const int f = static_cast<int>(1 + std::sqrt(6.0 * s));
-    double t_freq = Time(5, [&] {
+    double t_freq = Time(kFreqReps, [&] {
       auto light = ForwardSht(L.grid, f, 3, L.map);
       const BrdfCoefficients rho = PhongCoefficientsExact(s, f);
       auto synth = ShrmSynthesizer::Create(f, 3, *light, rho);
@@ -208,10 +217,18 @@ void Table54(const Light& L, const ReferenceIntegrator& integ) {
     const double w = 0.5 * (1 - std::pow(0.05, 1.0 / (s + 1)));
     std::printf("%6d %4d %12.2f %14.3f %10.1f %9.4f\n", s, f, t_ang, 1e3 * t_freq, t_ang / t_freq,
                 w);
+    rows.push_back({{"s", s},
+                    {"f_b", f},
+                    {"angular_s", t_ang},
+                    {"frequency_ms", 1e3 * t_freq},
+                    {"ratio", t_ang / t_freq},
+                    {"w", w}});
   }
+  return rows;
 }
 
-void Table55(const Light& L, const ReferenceIntegrator& integ) {
+nlohmann::ordered_json Table55(const Light& L, const ReferenceIntegrator& integ) {
+  nlohmann::ordered_json rows = nlohmann::ordered_json::array();
   std::printf(
       "\nTable 5.5: microfacet, eps < .03 orders from the paper, S_B = 128, T_B = 10, one "
       "thread\n");
@@ -227,19 +244,19 @@ void Table55(const Light& L, const ReferenceIntegrator& integ) {
     const double t_rho = Time(1, [&] { rho = MicrofacetCoefficients(sigma, f, p); });
     const double eps_rho = 1 - BrdfCapturedFraction(rho, f, p);
     ShrmCube cube;
-    const double t_shrm = Time(5, [&] {
+    const double t_shrm = Time(kFreqReps, [&] {
       auto light = ForwardSht(L.grid, f, 3, L.map);
       auto synth = ShrmSynthesizer::Create(f, 3, *light, rho);
       auto c = synth->BuildCube(ShrmKind::kGlobal, 128);
       if (!c.ok()) std::exit(3);
       cube = std::move(*c);
     });
-    const double t_maps_fresh = Time(3, [&] {
+    const double t_maps_fresh = Time(kFreshMapsReps, [&] {
       auto maps = ViewGridMaps(cube, 10);
       if (!maps.ok()) std::exit(4);
     });
     std::vector<RadianceCube> reuse;
-    const double t_maps = Time(4, [&] {
+    const double t_maps = Time(kMapsReps, [&] {
       if (!ViewGridMapsInto(cube, 10, reuse).ok()) std::exit(4);
     });
     TransferFunction mf = [sigma](const Vec3& n, const Vec3& v, const Vec3& w, int) {
@@ -261,7 +278,19 @@ void Table55(const Light& L, const ReferenceIntegrator& integ) {
     std::printf("%5.1f %3d,%-2d %8.4f %10.1f %11.2f %11.2f %11.2f %11.2f %12.2f %10.0f\n", sigma, f,
                 p, eps_rho, 1e3 * t_rho, 1e3 * t_shrm, 1e3 * t_maps, 1e3 * t_maps_fresh,
                 1e3 * (t_shrm + t_maps), t_ang, 100 * t_ang / (t_shrm + t_maps));
+    rows.push_back({{"sigma", sigma},
+                    {"f_b", f},
+                    {"p_b", p},
+                    {"eps_rho", eps_rho},
+                    {"rho_ms", 1e3 * t_rho},
+                    {"shrm_ms", 1e3 * t_shrm},
+                    {"maps_ms", 1e3 * t_maps},
+                    {"maps_fresh_ms", 1e3 * t_maps_fresh},
+                    {"total_ms", 1e3 * (t_shrm + t_maps)},
+                    {"angular_per_image_s", t_ang},
+                    {"ratio", 100 * t_ang / (t_shrm + t_maps)}});
   }
+  return rows;
 }
 
 // Stage breakdown of the frequency path (best of reps each).
@@ -349,8 +378,20 @@ void CliStages() {
 }  // namespace shrm
 
 int main(int argc, char** argv) {
-  if (argc > 1 && std::string(argv[1]) == "--quick") shrm::g_quick = true;
-  if (argc > 1 && std::string(argv[1]) == "--breakdown") {
+  std::string mode, json_path;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--json" && i + 1 < argc) {
+      json_path = argv[++i];
+    } else if (arg == "--quick" || arg == "--breakdown" || arg == "--cli") {
+      mode = arg;
+    } else {
+      std::fprintf(stderr, "usage: shrm_bench [--quick | --breakdown | --cli] [--json FILE]\n");
+      return 2;
+    }
+  }
+  if (mode == "--quick") shrm::g_quick = true;
+  if (mode == "--breakdown") {
     const shrm::Light light = shrm::LoadLight();
     for (int s : {8, 32, 128, 512}) {
       const int f = static_cast<int>(1 + std::sqrt(6.0 * s));
@@ -390,12 +431,26 @@ int main(int argc, char** argv) {
   }
   auto integ = shrm::ReferenceIntegrator::Create(light.samples);
   if (!integ.ok()) return 1;
-  if (argc > 1 && std::string(argv[1]) == "--cli") {
+  if (mode == "--cli") {
     shrm::CliStages();
     return 0;
   }
-  shrm::Table54(light, *integ);
-  shrm::Table55(light, *integ);
+  nlohmann::ordered_json doc;
+  doc["bench"] = "shrm_bench";
+  doc["map"] = "courtyard.exr, box-downsampled to 256 x 128";
+  doc["face_size"] = 128;
+  doc["threads"] = 1;
+  doc["quick"] = shrm::g_quick;
+  doc["table_5_4"] = shrm::Table54(light, *integ);
+  doc["table_5_5"] = shrm::Table55(light, *integ);
   shrm::CliStages();
+  if (!json_path.empty()) {
+    std::ofstream f(json_path);
+    f << doc.dump(1) << "\n";
+    if (!f) {
+      std::fprintf(stderr, "error: cannot write %s\n", json_path.c_str());
+      return 1;
+    }
+  }
   return 0;
 }

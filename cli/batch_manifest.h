@@ -23,7 +23,8 @@ struct BatchOptions {
   jobs::IblJob ibl_job;    // kind ibl: env.files is per job
   bool report = false;
   bool preview = false;
-  bool ktx2 = false;  // also <stem>.shrm.ktx2
+  bool ktx2 = false;         // also <stem>.shrm.ktx2
+  bool report_html = false;  // <stem>.report.html per job, and the batch's index page
 };
 
 struct BatchJob {
@@ -35,13 +36,14 @@ struct BatchJob {
   bool ibl = false;  // an IBL job (ibl_job, output: a folder) instead of a prefilter job (job)
   jobs::PrefilterJob job;
   jobs::IblJob ibl_job;
-  std::string output, report, preview, ktx2;
+  std::string output, report, preview, ktx2, report_html;
   // Outcome.
   std::string status = "pending";  // ok, skipped, failed
   std::string orders;
   double seconds = 0;
   int retries = 0;                              // remote: attempts beyond the first
   double measured_rms = -1, measured_max = -1;  // the job's own check (-1: not measured)
+  std::string thumbnail_png_base64;             // of its visual report (index page)
   std::string message;
 };
 

@@ -22,6 +22,7 @@
 #include <thread>
 #include <vector>
 
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -34,9 +35,11 @@
 #include "cli/ibl_job.h"
 #include "cli/prefilter_job.h"
 #include "core/brdf/brdf.h"
+#include "core/io/atomic_file.h"
 #include "core/shrm/shrm_file.h"
 #include "jobs/ibl_job.h"
 #include "jobs/option_text.h"
+#include "jobs/report_html.h"
 
 namespace shrm::cli {
 
@@ -87,6 +90,7 @@ std::string Mismatch(const BatchJob& job, const std::string& source_sha256, std:
   if (!job.report.empty() && !fs::exists(job.report, ec)) return "report missing";
   if (!job.preview.empty() && !fs::exists(job.preview, ec)) return "preview missing";
   if (!job.ktx2.empty() && !fs::exists(job.ktx2, ec)) return "KTX2 missing";
+  if (!job.report_html.empty() && !fs::exists(job.report_html, ec)) return "visual report missing";
   absl::StatusOr<ShrmFile> file = ReadShrmFile(job.output);
   if (!file.ok()) return absl::StrCat("existing output unreadable (", file.status().message(), ")");
   if (auto it = file->attributes.find("shrm:orders"); it != file->attributes.end()) {
@@ -348,29 +352,30 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
           else
             opt->job.face_size = v.get<int>();
         } else if (key == "orders") {
-          absl::StatusOr<jobs::Orders> o =
+          absl::StatusOr<jobs::Orders> orders =
               v.is_string() ? jobs::ParseOrdersText(v.get<std::string>(), "orders")
                             : absl::InvalidArgumentError("not a string");
-          if (!o.ok())
+          if (!orders.ok())
             err(path, "must be a string \"F,P\" with integers F, P >= 0");
           else
-            opt->job.orders = *o;
-        } else if (key == "half" || key == "report" || key == "preview" || key == "ktx2") {
+            opt->job.orders = *orders;
+        } else if (key == "half" || key == "report" || key == "preview" || key == "ktx2" ||
+                   key == "report_html") {
           if (!v.is_boolean()) {
             err(path, "must be true or false");
           } else {
             (key == "half"      ? opt->job.half
              : key == "report"  ? opt->report
              : key == "preview" ? opt->preview
-                                : opt->ktx2) = v.get<bool>();
+             : key == "ktx2"    ? opt->ktx2
+                                : opt->report_html) = v.get<bool>();
           }
         } else if (key == "rotate") {
           if (!ParseRotate(v, &opt->job.env.rotate_ypr_deg)) err(path, kRotateError);
         } else {
           err(path,
               "unknown option (expected epsilon, tolerance, window, verify, kind, size, orders, "
-              "half, "
-              "rotate, report, preview, ktx2)");
+              "half, rotate, report, preview, ktx2, report_html)");
         }
       }
     }
@@ -426,6 +431,7 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
       if (opt->report) job.report = OutputStem(job.output) + ".json";
       if (opt->preview) job.preview = OutputStem(job.output) + ".png";
       if (opt->ktx2) job.ktx2 = OutputStem(job.output) + ".shrm.ktx2";
+      if (opt->report_html) job.report_html = OutputStem(job.output) + ".report.html";
       auto [it, inserted] = seen.emplace(job.output, job.index);
       if (!inserted) {
         err("$.output", absl::StrCat("jobs ", it->second, " and ", job.index, " both write ",
@@ -437,6 +443,45 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
 }
 
 namespace {
+
+// <manifest without .json>.html: the index page of a batch's visual reports.
+std::string ReportIndexPath(const std::string& manifest) {
+  std::string stem = manifest;
+  if (absl::EndsWith(stem, ".json")) stem.resize(stem.size() - 5);
+  return stem + ".html";
+}
+
+// The index page: every job with a link to its report (relative to the page) and a thumbnail of
+// its spheres (a skipped job's from its existing report).
+absl::Status WriteReportIndex(const std::string& index, const std::string& manifest,
+                              const std::vector<BatchJob>& jobs) {
+  const fs::path dir = fs::absolute(fs::path(index)).parent_path();
+  std::vector<jobs::ReportIndexEntry> entries;
+  for (const BatchJob& j : jobs) {
+    jobs::ReportIndexEntry e;
+    e.name = fs::path(j.output).filename().string();
+    std::error_code ec;
+    if (!j.report_html.empty() && fs::exists(j.report_html, ec)) {
+      e.report_href = fs::absolute(j.report_html).lexically_relative(dir).generic_string();
+      e.thumbnail_png_base64 = j.thumbnail_png_base64;
+      if (e.thumbnail_png_base64.empty()) {
+        std::ifstream page(j.report_html, std::ios::binary);
+        std::stringstream text;
+        text << page.rdbuf();
+        e.thumbnail_png_base64 = jobs::ReportThumbnailFromPage(text.str());
+      }
+    }
+    e.status = j.status == "failed" ? absl::StrCat("failed: ", j.message) : j.status;
+    e.summary = absl::StrCat(
+        j.brdf, j.orders.empty() ? "" : absl::StrCat(", (F_B, P_B) = (", j.orders, ")"),
+        j.measured_rms < 0 ? ""
+                           : absl::StrFormat(", measured RMS %.3g%%, largest %.3g%%",
+                                             100 * j.measured_rms, 100 * j.measured_max));
+    entries.push_back(std::move(e));
+  }
+  return WriteFileAtomically(
+      index, jobs::RenderReportIndexHtml(absl::StrCat("shrm batch: ", manifest), entries));
+}
 
 absl::Status RunBatch(const BatchArgs& args) {
   if (args.jobs < 1) return absl::InvalidArgumentError("--jobs must be >= 1");
@@ -459,9 +504,17 @@ absl::Status RunBatch(const BatchArgs& args) {
     return absl::InvalidArgumentError(absl::StrCat(args.manifest, ": ", errors.size(),
                                                    " problem(s) in the manifest; no job was run"));
   }
+  // The index page of the visual reports, next to the manifest: checked before any job runs.
+  const std::string index = opt.report_html ? ReportIndexPath(args.manifest) : "";
+  if (!index.empty()) {
+    absl::Status s = CheckOutputPath(index, "the report index");
+    if (!s.ok()) return s;
+  }
+
   for (const BatchJob& job : jobs) {
     std::error_code ec;
-    for (const std::string& out : {job.output, job.report, job.preview, job.ktx2}) {
+    for (const std::string& out :
+         {job.output, job.report, job.preview, job.ktx2, job.report_html}) {
       const fs::path parent = fs::path(out).parent_path();
       if (!out.empty() && !parent.empty()) fs::create_directories(parent, ec);
     }
@@ -496,6 +549,7 @@ absl::Status RunBatch(const BatchArgs& args) {
       std::string status, message, orders;
       int retries = 0;
       MeasuredError measured;
+      std::string thumbnail;
       std::string reason = "forced";
       if (!args.force) {
         std::string hash;
@@ -542,10 +596,12 @@ absl::Status RunBatch(const BatchArgs& args) {
           run.report = job.report;
           run.preview = job.preview;
           run.ktx2 = job.ktx2;
+          run.report_html = job.report_html;
           PrefilterJobOutcome outcome;
           s = RunPrefilterJob(job.job, run, &outcome);
           retries = outcome.retries;
           measured = outcome.measured;
+          thumbnail = outcome.thumbnail_png_base64;
           orders = absl::StrCat(outcome.f_b, ",", outcome.p_b);
         }
         if (s.ok()) {
@@ -567,6 +623,7 @@ absl::Status RunBatch(const BatchArgs& args) {
       job.retries = retries;
       job.measured_rms = measured.rms;
       job.measured_max = measured.max;
+      job.thumbnail_png_base64 = std::move(thumbnail);
       ++done;
       if (status == "failed") ++failed;
       show();
@@ -627,6 +684,10 @@ absl::Status RunBatch(const BatchArgs& args) {
                 failed, retries);
   }
   std::fflush(stdout);
+  if (!index.empty()) {
+    absl::Status s = WriteReportIndex(index, args.manifest, jobs);
+    if (!s.ok()) return s;
+  }
   if (failed > 0)
     return absl::InternalError(absl::StrCat(failed, " of ", jobs.size(), " jobs failed"));
   return absl::OkStatus();

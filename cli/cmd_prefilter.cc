@@ -23,6 +23,8 @@
 #include "jobs/job_options.h"
 #include "jobs/option_text.h"
 #include "jobs/report.h"
+#include "jobs/report_html.h"
+#include "jobs/report_visuals.h"
 
 namespace shrm::cli {
 namespace {
@@ -35,55 +37,18 @@ absl::Status WriteShrmKtx2(const std::string& tmp, const ShrmCube& cube,
   return WriteFileAtomically(tmp, bytes);
 }
 
-// Preview: three spheres seen from these directions (front, side, above).
+// Preview: three spheres (front, side, above), each this many pixels across.
 constexpr int kPreviewSize = 256;
 
-// Orthographic renders of a unit sphere carrying the SHRM, seen from three views, side by side;
-// exposure chosen so that the mean is mid-grey.
-Image RenderSpheres(const ShrmCube& cube) {
-  const Vec3 views[3] = {{0, 0, 1}, {1, 0, 0}, Vec3{0, 0.7, 0.7}.Normalized()};
-  Image img;
-  img.width = 3 * kPreviewSize;
-  img.height = kPreviewSize;
-  img.channels = 3;
-  img.pixels.assign(static_cast<size_t>(img.width) * img.height * 3, 0.0f);
-  for (int s = 0; s < 3; ++s) {
-    const Vec3 v = views[s];
-    const Vec3 up0 = std::abs(v.y) > 0.99 ? Vec3{0, 0, -1} : Vec3{0, 1, 0};
-    const Vec3 right = up0.Cross(v).Normalized();
-    const Vec3 up = v.Cross(right);
-    for (int y = 0; y < kPreviewSize; ++y)
-      for (int x = 0; x < kPreviewSize; ++x) {
-        const double px = 2 * (x + 0.5) / kPreviewSize - 1, py = 1 - 2 * (y + 0.5) / kPreviewSize;
-        const double r2 = px * px + py * py;
-        if (r2 >= 1) continue;
-        const Vec3 n = right * px + up * py + v * std::sqrt(1 - r2);
-        Vec3 index = n;
-        if (cube.index == ReparamKind::kTangent) {  // hair-like tangents along latitudes
-          const Vec3 t = Vec3{0, 1, 0}.Cross(n);
-          index = t.Norm() > 1e-6 ? t.Normalized() : Vec3{1, 0, 0};
-        }
-        const std::array<double, 3> b = ShrmEval(cube, index, v);
-        for (int c = 0; c < 3; ++c)
-          img.pixels[(static_cast<size_t>(y) * img.width + s * kPreviewSize + x) * 3 + c] =
-              static_cast<float>(b[c]);
-      }
-  }
-  return img;
+absl::Status WritePreview(const std::string& tmp, const ShrmCube& cube) {
+  const Image spheres = jobs::RenderShrmSpheres(cube, kPreviewSize);
+  return WritePreviewPng(tmp, spheres, jobs::MidGreyExposure(spheres));
 }
 
-double AutoExposure(const Image& img) {
-  double sum = 0;
-  size_t n = 0;
-  for (size_t i = 0; i < img.pixels.size(); i += 3) {
-    const double lum =
-        0.2126 * img.pixels[i] + 0.7152 * img.pixels[i + 1] + 0.0722 * img.pixels[i + 2];
-    if (lum > 0) {
-      sum += lum;
-      ++n;
-    }
-  }
-  return n > 0 && sum > 0 ? std::log2(0.18 * n / sum) : 0.0;
+// The visual report: the page (jobs/report_html.h) of the final report and the visuals.
+absl::Status WriteReportHtml(const std::string& tmp, const nlohmann::json& report,
+                             const nlohmann::json& visuals) {
+  return WriteFileAtomically(tmp, jobs::RenderPrefilterReportHtml(report, visuals));
 }
 
 // Prints the summary lines of a run (both modes).
@@ -127,6 +92,7 @@ absl::Status RunPrefilterRemote(const jobs::PrefilterJob& job, const PrefilterRu
     lines.Begin("remote " + p.stage());
   };
   options.on_retry = RetryReporter(run.server, run.quiet);
+  options.report_visuals = !run.report_html.empty();
   int retries = 0;
   absl::StatusOr<client::RemotePrefilterResult> remote =
       client::RunRemotePrefilter(client.get(), run.server, job, options, &retries);
@@ -160,14 +126,20 @@ absl::Status RunPrefilterRemote(const jobs::PrefilterJob& job, const PrefilterRu
     }
     if (!run.preview.empty()) {
       progress.Begin("preview");
-      const Image spheres = RenderSpheres(file.cube);
-      SHRM_RETURN_IF_ERROR(
-          WritePreviewPng(outputs.Temp(run.preview), spheres, AutoExposure(spheres)));
+      SHRM_RETURN_IF_ERROR(WritePreview(outputs.Temp(run.preview), file.cube));
       report["timings"]["preview_ms"] = progress.End();
     }
   }
   if (!run.report.empty())
     SHRM_RETURN_IF_ERROR(jobs::WriteJsonFile(outputs.Temp(run.report), report));
+  if (!run.report_html.empty()) {
+    const nlohmann::json visuals = nlohmann::json::parse(rep.report_visuals_json(), nullptr, false);
+    if (visuals.is_discarded() || !visuals.is_object()) {
+      return absl::DataLossError("the server's visual report data is not a JSON object");
+    }
+    SHRM_RETURN_IF_ERROR(WriteReportHtml(outputs.Temp(run.report_html), report, visuals));
+    if (outcome != nullptr) outcome->thumbnail_png_base64 = jobs::ReportThumbnail(visuals);
+  }
   SHRM_RETURN_IF_ERROR(outputs.Commit());
   if (outcome != nullptr) {
     outcome->f_b = rep.f_b();
@@ -204,8 +176,8 @@ absl::Status RunPrefilterEmbedded(const jobs::PrefilterJob& job, const Prefilter
     progress.Begin(std::string(stage));
     return absl::OkStatus();
   };
-  absl::StatusOr<jobs::PrefilterRun> r =
-      jobs::RunPrefilterJob(job, ResolveThreads(run.threads), on_stage);
+  absl::StatusOr<jobs::PrefilterRun> r = jobs::RunPrefilterJob(
+      job, ResolveThreads(run.threads), on_stage, /*visuals=*/!run.report_html.empty());
   if (!first) progress.End();
   if (!r.ok()) return r.status();
   WarnReplacedNonFinite(r->replaced_non_finite);
@@ -231,14 +203,17 @@ absl::Status RunPrefilterEmbedded(const jobs::PrefilterJob& job, const Prefilter
   }
   if (!run.preview.empty()) {
     progress.Begin("preview");
-    const Image spheres = RenderSpheres(r->result.cube);
-    SHRM_RETURN_IF_ERROR(
-        WritePreviewPng(outputs.Temp(run.preview), spheres, AutoExposure(spheres)));
+    SHRM_RETURN_IF_ERROR(WritePreview(outputs.Temp(run.preview), r->result.cube));
     timings["preview_ms"] = progress.End();
   }
+  if (!run.report_html.empty()) timings["report_ms"] = r->visuals_ms;
   report["timings"] = timings;
   if (!run.report.empty())
     SHRM_RETURN_IF_ERROR(jobs::WriteJsonFile(outputs.Temp(run.report), report));
+  if (!run.report_html.empty()) {
+    SHRM_RETURN_IF_ERROR(WriteReportHtml(outputs.Temp(run.report_html), report, r->visuals));
+    if (outcome != nullptr) outcome->thumbnail_png_base64 = jobs::ReportThumbnail(r->visuals);
+  }
   SHRM_RETURN_IF_ERROR(outputs.Commit());
   if (outcome != nullptr) {
     outcome->f_b = an.f_b;
@@ -321,6 +296,7 @@ absl::Status RunPrefilterJob(const jobs::PrefilterJob& job, const PrefilterRun& 
   SHRM_RETURN_IF_ERROR(CheckOutputPath(run.preview, "--preview"));
   SHRM_RETURN_IF_ERROR(CheckOutputPath(run.ktx2, "--ktx2"));
   SHRM_RETURN_IF_ERROR(CheckOutputPath(run.report, "--report"));
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.report_html, "--report-html"));
   if (!run.server.empty()) return RunPrefilterRemote(job, run, outcome);
   return RunPrefilterEmbedded(job, run, outcome);
 }
@@ -333,6 +309,10 @@ void RegisterPrefilter(CLI::App& app, absl::Status* status) {
   sub->add_option("-o,--output", run->output, "output SHRM file (.shrm.exr)")->required();
   sub->add_option("--report", run->report, "write a JSON report here");
   sub->add_option("--preview", run->preview, "write a PNG preview (three spheres) here");
+  sub->add_option("--report-html", run->report_html,
+                  "write a visual report here: one self-contained HTML file (the map, the "
+                  "BRDF's lobe, why these orders, spheres beside brute force, the error over "
+                  "(N, V), timings; docs/cli.md)");
   sub->add_option("--ktx2", run->ktx2,
                   "also write the SHRM here as KTX2 (a cube-map array: docs/formats.md, for the "
                   "shaders of docs/shaders.md)");

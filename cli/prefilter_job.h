@@ -35,7 +35,8 @@ struct PrefilterRun {
   std::string output;
   std::string report;
   std::string preview;
-  std::string ktx2;  // the SHRM also as KTX2 (docs/formats.md "SHRM in KTX2")
+  std::string report_html;  // the visual report (jobs/report_html.h)
+  std::string ktx2;         // the SHRM also as KTX2 (docs/formats.md "SHRM in KTX2")
   int threads = 0;
   bool json = false;
   bool verbose = false;
@@ -47,6 +48,7 @@ struct PrefilterJobOutcome {
   int f_b = -1, p_b = -1;  // the orders of the written SHRM
   int retries = 0;         // remote: attempts beyond the first (transient errors, missing blobs)
   MeasuredError measured;  // the report's, when --verify measured it
+  std::string thumbnail_png_base64;  // with report_html: the spheres, for a batch's index
 };
 
 // Adds the job's options (jobs/job_options.h) to `sub`.

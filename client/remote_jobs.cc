@@ -75,7 +75,8 @@ absl::StatusOr<RemotePrefilterResult> RunRemotePrefilter(ShrmClient* client,
         if (!brdf.ok()) return brdf.status();
         SHRM_ASSIGN_OR_RETURN(
             out.outcome,
-            client->Prefilter(wire::EncodePrefilterRequest(job, env, *brdf), options.progress));
+            client->Prefilter(wire::EncodePrefilterRequest(job, env, *brdf, options.report_visuals),
+                              options.progress));
         return absl::OkStatus();
       },
       options.on_retry, &out.retries);

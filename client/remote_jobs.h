@@ -42,6 +42,7 @@ struct RemoteJobOptions {
   ProgressCallback progress;  // each server stage
   RetryCallback on_retry;
   std::function<void()> on_upload_start, on_upload_end;
+  bool report_visuals = false;  // prefilter: also the visual report's data
 };
 
 // A prefilter job on the server: the SHRM file it returns is byte-identical to the embedded

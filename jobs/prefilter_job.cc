@@ -1,12 +1,16 @@
 #include "jobs/prefilter_job.h"
 
+#include <unistd.h>
+
 #include <chrono>
 #include <cmath>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "core/base/status_macros.h"
 #include "jobs/report.h"
+#include "jobs/report_visuals.h"
 #include "shrm/version.h"
 
 namespace shrm::jobs {
@@ -50,6 +54,12 @@ absl::Status ValidatePrefilterJob(const PrefilterJob& job) {
         absl::StrCat("size (S_B) must be in [0, ", kMaxFaceSize, "], got ", job.face_size));
   }
   return absl::OkStatus();
+}
+
+double EmbeddedCubeValueLimit() {
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+  if (pages <= 0 || page <= 0) return 0;  // unknown: no limit
+  return 0.5 * static_cast<double>(pages) * static_cast<double>(page) / sizeof(float);
 }
 
 PrefilterOptions CorePrefilterOptions(const PrefilterJob& job, int threads) {
@@ -133,6 +143,7 @@ nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProve
   report["kind"] = ShrmKindName(job.kind);
   report["face_size"] = result.cube.face_size;
   report["window"] = RingingWindowName(result.window);
+  report["order_rule"] = job.orders ? "explicit" : (job.tolerance > 0 ? "tolerance" : "epsilon");
   if (result.verified_pairs > 0) {
     report["measured"] = {{"pairs", result.verified_pairs},
                           {"front", StatsJson(result.measured.front)},
@@ -195,7 +206,7 @@ std::string WhyFileDiffers(const PrefilterJob& job, const std::string& canonical
 }
 
 absl::StatusOr<PrefilterRun> RunPrefilterJob(const PrefilterJob& job, int threads,
-                                             const PrefilterProgress& progress) {
+                                             const PrefilterProgress& progress, bool visuals) {
   SHRM_RETURN_IF_ERROR(ValidatePrefilterJob(job));
   SHRM_ASSIGN_OR_RETURN(std::unique_ptr<Brdf> brdf, ParseBrdfSpec(job.brdf));
   if (progress) SHRM_RETURN_IF_ERROR(progress("decode"));
@@ -209,10 +220,28 @@ absl::StatusOr<PrefilterRun> RunPrefilterJob(const PrefilterJob& job, int thread
   run.replaced_non_finite = env.replaced_non_finite();
   run.provenance.brdf_spec = brdf->spec();
   run.provenance.layout = env.layout();
-  SHRM_ASSIGN_OR_RETURN(run.result,
-                        Prefilter(env, *brdf, CorePrefilterOptions(job, threads), progress));
+  PrefilterOptions options = CorePrefilterOptions(job, threads);
+  options.max_cube_values = EmbeddedCubeValueLimit();
+  absl::StatusOr<PrefilterResult> result = Prefilter(env, *brdf, options, progress);
+  if (!result.ok() && absl::IsInvalidArgument(result.status()) &&
+      absl::StrContains(result.status().message(), "above the limit")) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat(result.status().message(),
+                     " (half this machine's memory): give smaller --orders, a "
+                     "--size, or a larger --epsilon / --tolerance"));
+  }
+  if (!result.ok()) return result.status();
+  run.result = *std::move(result);
   run.attributes = PrefilterFileAttributes(job, run.provenance, run.result);
   run.report = PrefilterReportJson(job, run.provenance, run.result);
+  if (visuals) {
+    if (progress) SHRM_RETURN_IF_ERROR(progress("report"));
+    const auto start = std::chrono::steady_clock::now();
+    SHRM_ASSIGN_OR_RETURN(run.visuals, PrefilterVisuals(env, *brdf, EnvironmentRotation(job.env),
+                                                        run.result.cube, threads));
+    run.visuals_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  }
   return run;
 }
 

@@ -33,6 +33,11 @@ inline constexpr double kDefaultEpsilon = 0.03;
 inline constexpr int kMaxOrderF = kMaxBrdfLmax;
 inline constexpr int kMaxOrderP = 31;
 inline constexpr int kMaxFaceSize = 2048;
+// The largest SHRM cube (6 S_B^2 (P_B + 1)^2 RGB float values) an embedded run allocates: half
+// the machine's physical memory, so that orders too high for the machine (e.g. GGX at the
+// default epsilon, which asks for F_B ~ 100 and P_B ~ 30) are refused with their sizes before
+// the allocation, not killed by it. shrmd has its own limit and budget.
+double EmbeddedCubeValueLimit();
 // Most pairs a job's own check may ask for (about 1 ms each).
 inline constexpr int kMaxVerifyPairs = 100000;
 // shrm:epsilon of a job with explicit orders.
@@ -95,9 +100,9 @@ std::map<std::string, std::string> PrefilterFileAttributes(const PrefilterJob& j
                                                            const PrefilterProvenance& provenance,
                                                            const PrefilterResult& result);
 // The report (docs/cli.md "--report"): the analysis (AnalysisJson) with brdf, kind, face_size,
-// window, source_sha256, layout and shrm_version and, with the tolerance rule, "tolerance" (the
-// targets, the estimate, the reference orders, met). Front ends add what only they know (output,
-// source, timings, cache).
+// window, order_rule ("epsilon", "tolerance" or "explicit"), source_sha256, layout and shrm_version
+// and, with the tolerance rule, "tolerance" (the targets, the estimate, the reference orders, met).
+// Front ends add what only they know (output, source, timings, cache).
 nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProvenance& provenance,
                                    const PrefilterResult& result);
 // The tolerance rule's estimate and, when checked, the measured error against the job's targets,
@@ -120,9 +125,14 @@ struct PrefilterRun {
   nlohmann::json report;                          // PrefilterReportJson, timings not included
   double decode_ms = 0;                           // decode and hash
   int64_t replaced_non_finite = 0;                // pixels set to 0 (replace_non_finite)
+  // With `visuals`: the visual report's pictures and samples (jobs/report_visuals.h), and the
+  // time they took (stage "report", after the pipeline's stages).
+  nlohmann::json visuals;
+  double visuals_ms = 0;
 };
 absl::StatusOr<PrefilterRun> RunPrefilterJob(const PrefilterJob& job, int threads,
-                                             const PrefilterProgress& progress = nullptr);
+                                             const PrefilterProgress& progress = nullptr,
+                                             bool visuals = false);
 
 }  // namespace shrm::jobs
 

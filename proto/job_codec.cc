@@ -142,7 +142,8 @@ absl::StatusOr<WireEnvironment> DecodeEnvironment(const v1::Environment& env) {
 }
 
 v1::PrefilterRequest EncodePrefilterRequest(const jobs::PrefilterJob& job,
-                                            const v1::Environment& env, const WireBrdf& brdf) {
+                                            const v1::Environment& env, const WireBrdf& brdf,
+                                            bool visuals) {
   v1::PrefilterRequest req;
   *req.mutable_environment() = env;
   req.set_brdf(brdf.spec);
@@ -163,6 +164,11 @@ v1::PrefilterRequest EncodePrefilterRequest(const jobs::PrefilterJob& job,
   req.set_face_size(job.face_size);
   req.set_half(job.half);
   req.set_verify(job.verify);
+  if (visuals) {
+    req.add_outputs(v1::OUTPUT_SHRM_FILE);
+    req.add_outputs(v1::OUTPUT_REPORT);
+    req.add_outputs(v1::OUTPUT_REPORT_VISUALS);
+  }
   return req;
 }
 
@@ -208,6 +214,7 @@ absl::StatusOr<WirePrefilter> DecodePrefilterRequest(const v1::PrefilterRequest&
   for (int o : request.outputs()) {
     if (o == v1::OUTPUT_SHRM_FILE) w.want_file = true;
     if (o == v1::OUTPUT_REPORT) w.want_report = true;
+    if (o == v1::OUTPUT_REPORT_VISUALS) w.want_visuals = true;
   }
   if (request.brdf().empty()) return absl::InvalidArgumentError("brdf: a BRDF spec is required");
   SHRM_ASSIGN_OR_RETURN(WireEnvironment env, DecodeEnvironment(request.environment()));

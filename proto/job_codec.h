@@ -45,15 +45,17 @@ struct WireBrdf {
   bool operator==(const WireBrdf&) const = default;
 };
 
+// `visuals`: also ask for the visual report's data (OUTPUT_REPORT_VISUALS).
 shrm::v1::PrefilterRequest EncodePrefilterRequest(const jobs::PrefilterJob& job,
                                                   const shrm::v1::Environment& env,
-                                                  const WireBrdf& brdf);
+                                                  const WireBrdf& brdf, bool visuals = false);
 struct WirePrefilter {
   jobs::PrefilterJob job;  // job.brdf: WireBrdf::spec; job.env: WireEnvironment::spec
   std::vector<std::string> sha256;
   WireBrdf brdf;
   bool want_file = true;
   bool want_report = true;
+  bool want_visuals = false;  // OUTPUT_REPORT_VISUALS
 };
 // Decodes and validates (jobs::ValidatePrefilterJob); errors name the request field.
 absl::StatusOr<WirePrefilter> DecodePrefilterRequest(const shrm::v1::PrefilterRequest& request);

@@ -22,6 +22,7 @@
 #include "jobs/point_jobs.h"
 #include "jobs/prefilter_job.h"
 #include "jobs/report.h"
+#include "jobs/report_visuals.h"
 #include "proto/job_codec.h"
 #include "proto/status_details.h"
 #include "server/metrics.h"
@@ -176,6 +177,8 @@ struct ShrmServiceImpl::PrefilterCall {
   jobs::PrefilterProvenance provenance;
   std::string file;  // the SHRM file (when asked for)
   double write_ms = 0;
+  std::string visuals;  // the visual report's data (JSON, when asked for)
+  double visuals_ms = 0;
 };
 
 // An Ibl call between its stages: the decoded job and its pinned map, then the files.
@@ -430,6 +433,20 @@ absl::Status ShrmServiceImpl::RunPrefilterCall(grpc::ServerContext* context,
   }
   call->write_ms = MsSince(write_start);
   log->AddStage("write", call->write_ms);
+  if (call->request.want_visuals) {
+    // The map again (a lighting-cache hit never decoded it), within the job's memory.
+    SHRM_RETURN_IF_ERROR(hook("report"));
+    const auto start = std::chrono::steady_clock::now();
+    SHRM_ASSIGN_OR_RETURN(const uint64_t map_bytes, MapDecodeBytes(*call->env));
+    SHRM_RETURN_IF_ERROR(call->slot->Reserve(map_bytes, "decoding the map for the report"));
+    SHRM_ASSIGN_OR_RETURN(const EnvMap env, EnvMap::Load(in.env));
+    SHRM_ASSIGN_OR_RETURN(const nlohmann::json visuals,
+                          jobs::PrefilterVisuals(env, *in.brdf, in.options.rotation,
+                                                 call->result.result.cube, options_.job_threads));
+    call->visuals = visuals.dump();
+    call->visuals_ms = MsSince(start);
+    log->AddStage("report", call->visuals_ms);
+  }
   return absl::OkStatus();
 }
 
@@ -460,11 +477,13 @@ absl::Status ShrmServiceImpl::SendPrefilterResult(grpc::ServerContext* context,
     nlohmann::json report = jobs::PrefilterReportJson(call.request.job, call.provenance, r);
     nlohmann::json timings = jobs::TimingsJson(r.timings);
     timings["write_ms"] = call.write_ms;
+    if (call.request.want_visuals) timings["report_ms"] = call.visuals_ms;
     report["timings"] = timings;
     report["cache"] = {{"lighting", call.result.lighting_hit ? "hit" : "miss"},
                        {"brdf", call.result.brdf_hit ? "hit" : "miss"}};
     rep->set_report_json(report.dump(2));
   }
+  if (call.request.want_visuals) rep->set_report_visuals_json(call.visuals);
   SHRM_RETURN_IF_ERROR(WriteOrFail(context, writer, ev, log));
   if (!call.request.want_file) return absl::OkStatus();
   return StreamFile(call.file, writer, log, watch,

@@ -114,6 +114,44 @@ front = json.load(open(job["output"][: -len(".shrm.exr")] + ".json"))["measured"
 assert job["measured"] == {"rms": front["rms"], "max": front["max"]}, (job["measured"], front)
 PY
 
+# Visual reports ("report_html": true): one page per job and the index next to the manifest,
+# linking each page (relative links that resolve) with a thumbnail each; a resumed batch keeps
+# them (thumbnails from the pages it skipped); an index that cannot be written fails up front.
+echo "== visual reports and their index"
+cat >visual.json <<'JSON'
+{"maps": ["maps/courtyard.exr", "maps/city.exr"], "brdfs": ["phong:s=32"],
+ "options": {"epsilon": 0.1, "size": 16, "verify": 32, "report_html": true},
+ "output": "visual/{map}_{brdf}.shrm.exr"}
+JSON
+check_index() {  # check_index LABEL
+  python3 - visual.html <<'PY' || fail "$1 index: $(head -c 300 visual.html)"
+import os, re, sys
+html = open(sys.argv[1], encoding="utf-8").read()
+links = re.findall(r"<a href='([^']*)'>", html)
+assert links == ["visual/courtyard_phong_s_32.report.html", "visual/city_phong_s_32.report.html"], links
+for link in links:
+    page = open(os.path.join(os.path.dirname(sys.argv[1]), link), encoding="utf-8").read()
+    assert "id='shrm-report-data'" in page and "<svg id='accuracy-plot'" in page, link
+thumbs = re.findall(r"<img class='sphere'[^>]*src='data:image/png;base64,", html)
+assert len(thumbs) == 2, len(thumbs)
+assert "Content-Security-Policy" in html
+PY
+}
+"$SHRM" batch visual.json --json >visual.out 2>visual.err || fail "visual batch exit $?: $(cat visual.err)"
+check_index first
+"$SHRM" batch visual.json --json >visual2.out 2>visual2.err || fail "visual rerun exit $?"
+[ "$(count skipped visual2.out)" -eq 2 ] || fail "visual rerun: expected 2 skipped: $(cat visual2.out)"
+check_index resumed
+rm visual/city_phong_s_32.report.html
+"$SHRM" batch visual.json --json >visual3.out 2>visual3.err || fail "visual rerun 3 exit $?"
+grep -q '"message": "recomputed: visual report missing"' visual3.out ||
+  fail "a missing report page is not recomputed: $(cat visual3.out)"
+mkdir ro_manifest && sed 's|"maps/|"../maps/|g' visual.json >ro_manifest/visual.json
+mkdir ro_manifest/visual.html  # a folder where the index page would go
+"$SHRM" batch ro_manifest/visual.json >ro.out 2>ro.err && fail "an unwritable index was accepted"
+grep -q 'visual.html' ro.err || fail "unwritable index: no path in: $(cat ro.err)"
+[ -e ro_manifest/visual ] && fail "unwritable index: jobs ran before the check"
+
 # --- 4. bad manifests are rejected up front -------------------------------------------------
 echo "== bad manifests rejected before any job"
 cat >bad.json <<'JSON'

@@ -292,6 +292,12 @@ expect_error unwritable_ktx2 1 '/nonexistent/x\.shrm\.ktx2' \
   "$SHRM" prefilter --env "$IN/ok.pfm" --brdf phong:s=32 --size 16 -o out.shrm.exr \
   --ktx2 /nonexistent/x.shrm.ktx2
 
+# Orders too high for the machine: refused with the sizes before the cube is allocated (it was a
+# std::bad_alloc abort, or the OOM killer, e.g. for GGX at the default epsilon).
+expect_error cube_too_large 1 'face size 2048 with P_B = 31 needs .* above the limit' \
+  "$SHRM" prefilter --env "$MAP" --brdf microfacet:sigma=0.3 --orders 8,31 --size 2048 \
+  -o big.shrm.exr
+
 # --tolerance on the real map: the orders, window and size chosen for the per-direction error,
 # the estimate in the summary, the report and the header. A forced Lanczos window cannot meet 1%
 # for Phong s = 128 (its blur): the file is written at the most accurate orders and the command

@@ -14,7 +14,9 @@
 #   4. Filament (WASM) in the same browser loads the KTX1 files (--containers ktx1) as it loads
 #      cmgen's and renders spheres: white furnace, orientation, CPU render of its shading;
 #   5. the shipped WGSL (shaders/wgsl/shrm.wgsl) in the same browser's WebGPU evaluates SHRMs
-#      written with `shrm prefilter --ktx2` (ktx-parse reads them) = shrm's CPU evaluation.
+#      written with `shrm prefilter --ktx2` (ktx-parse reads them) = shrm's CPU evaluation;
+#   6. the visual report of `shrm prefilter --report-html` opens in the same browser without
+#      console errors or network requests, its plots drawn.
 # npm packages are pinned in tests/engines/package-lock.json and installed with `npm ci` into
 # CACHE_DIR/engines-node (reused while the lockfile is unchanged); nothing else needs a network.
 # The maps are made here with oiiotool; screenshots land in CACHE_DIR/engines-out.
@@ -221,6 +223,22 @@ if [ "$FAILURES" -eq "$before" ]; then
     "$SHRMS/global.shrm.ktx2" "$SHRMS/global-ref.ktx2" "$SHRMS/local.shrm.ktx2" "$SHRMS/local-ref.ktx2"
 fi
 echo "(shaders done: $(($(date +%s) - START)) s)"
+
+# --- 6. The visual report (shrm prefilter --report-html) in Chromium ------------------------------
+# One self-contained HTML file: no console error, no request beyond the file itself, every plot
+# and picture drawn (element screenshots non-blank), with negative controls.
+# tests/engines/run_report.mjs, docs/cli.md "Visual report".
+if "$SHRM" prefilter --env "$COURTYARD" --brdf ggx:alpha=0.3 --verify 64 --threads 2 \
+  -o "$TMP/report.shrm.exr" --report-html "$TMP/report.html" >"$TMP/shrm-report.log" 2>&1; then
+  echo "PASS: shrm prefilter --report-html (courtyard, GGX alpha 0.3)"
+  mkdir -p "$CACHE/engines-out"
+  CHROMIUM="$CHROMIUM" run_node report run_report.mjs "$TMP/report.html" "$CACHE/engines-out"
+else
+  echo "FAIL: shrm prefilter --report-html:"
+  cat "$TMP/shrm-report.log"
+  FAILURES=$((FAILURES + 1))
+fi
+echo "(report done: $(($(date +%s) - START)) s)"
 
 PASSED=$(cat "$TMP"/*.out | grep -c '^PASS' || true)
 echo "engines_test: $(($(date +%s) - START)) s"

@@ -37,11 +37,12 @@ constexpr char kBrdf[] = "phong:s=8";
 const std::string kMap = std::string(SHRM_SOURCE_DIR) + "/data/envmaps/interior.exr";
 
 // Options of `shrm prefilter` that are not job options: outputs, execution, the connection.
-const std::set<std::string> kRunFlags = {
-    "help",    "output", "report",     "preview", "ktx2",     "threads", "json",
-    "verbose", "server", "token-file", "tls-ca",  "tls-cert", "tls-key", "tls-server-name"};
+const std::set<std::string> kRunFlags = {"help",     "output",  "report",         "report-html",
+                                         "preview",  "ktx2",    "threads",        "json",
+                                         "verbose",  "server",  "token-file",     "tls-ca",
+                                         "tls-cert", "tls-key", "tls-server-name"};
 // Manifest "options" keys that are not job options: which outputs a batch writes.
-const std::set<std::string> kManifestOutputKeys = {"report", "preview", "ktx2"};
+const std::set<std::string> kManifestOutputKeys = {"report", "preview", "ktx2", "report_html"};
 // PrefilterRequest / Environment fields that carry no job option: the blobs and names of the
 // inputs (what EncodeEnvironment is given besides the spec) and the outputs asked for.
 const std::set<std::string> kWireInputFields = {"sha256", "source_names", "brdf_blob_sha256",

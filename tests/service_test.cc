@@ -209,6 +209,41 @@ TEST_F(ServiceTest, RoundTripMatchesEmbeddedRunAndHitsLightingCache) {
   EXPECT_TRUE(r2->shrm_file == local_bytes) << "remote SHRM file differs from the embedded one";
 }
 
+// The visual report's data (OUTPUT_REPORT_VISUALS): never in the default outputs (it costs
+// brute-force sums), and when asked for, the same JSON as the embedded run computes (so
+// `shrm prefilter --server --report-html` writes the embedded page but for the timings).
+TEST_F(ServiceTest, VisualReportDataOnlyWhenAskedAndEqualToTheEmbeddedRun) {
+  auto c = StartServer();
+  const std::string map = MapPath("courtyard.exr");
+  absl::StatusOr<std::string> sha = c->UploadIfMissing(map);
+  ASSERT_TRUE(sha.ok()) << sha.status();
+  auto plain = Request(*sha, "ggx:alpha=0.3");
+  absl::StatusOr<client::PrefilterOutcome> r1 = c->Prefilter(plain);
+  ASSERT_TRUE(r1.ok()) << r1.status();
+  EXPECT_TRUE(r1->report.report_visuals_json().empty());
+  EXPECT_FALSE(r1->shrm_file.empty());
+
+  auto with_visuals = plain;
+  for (auto o : {v1::OUTPUT_SHRM_FILE, v1::OUTPUT_REPORT, v1::OUTPUT_REPORT_VISUALS})
+    with_visuals.add_outputs(o);
+  absl::StatusOr<client::PrefilterOutcome> r2 = c->Prefilter(with_visuals);
+  ASSERT_TRUE(r2.ok()) << r2.status();
+  EXPECT_TRUE(r2->shrm_file == r1->shrm_file);
+  const nlohmann::json remote = nlohmann::json::parse(r2->report.report_visuals_json());
+  EXPECT_NE(r2->report.report_json().find("\"report_ms\""), std::string::npos);
+
+  jobs::PrefilterJob job;
+  job.env.files = {map};
+  job.brdf = "ggx:alpha=0.3";
+  job.orders = jobs::Orders{kTestF, kTestP};
+  job.face_size = kTestFaceSize;
+  absl::StatusOr<jobs::PrefilterRun> local =
+      jobs::RunPrefilterJob(job, /*threads=*/3, nullptr, /*visuals=*/true);
+  ASSERT_TRUE(local.ok()) << local.status();
+  EXPECT_TRUE(remote == local->visuals) << "the server's visual report data differs";
+  EXPECT_EQ(remote["pairs"]["points"].size(), 256u);
+}
+
 // Runs `shrm prefilter` with `args` embedded and with --server on `port`; expects the same file
 // bytes and returns the remote run's report.
 std::string RemoteReportWithEmbeddedBytes(const std::string& args, int port) {
