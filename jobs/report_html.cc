@@ -228,8 +228,10 @@ std::string AccuracyPlot(const json& report) {
       {"min_estimate", "estimate: min(eps_L, eps_rho)"},
       {"bound", "bound (eq. 5.19)"}};
   constexpr double kFloor = 1e-8;  // errors below are drawn at the axis' bottom
-  Plot plot("Accuracy vs order F (SHRM paper Fig. 5.5, as error)", "order F",
-            "error = 1 - accuracy (log)", /*log_y=*/true);
+  std::string map = GetText(report, "source");
+  map = map.substr(map.find_last_of('/') + 1);  // the file name (the whole path is above)
+  Plot plot(absl::StrCat("Fig. 5.5 (as error): ", map, " x ", GetText(report, "brdf")), "order F",
+            "error = 1 - captured energy (log)", /*log_y=*/true);
   double lo = 1, hi = kFloor;
   std::vector<double> x;
   for (const json& p : curves) x.push_back(Get(p, "F", 0));
@@ -303,9 +305,9 @@ std::string LobePlot(const json& lobe, const std::string& brdf) {
                     "'/>", Marker(st, lx + 13, ly), "<text x='", lx + 32, "' y='", ly + 4,
                     "' class='legend'>view ", Num(views[k].get<double>()), " deg</text>");
   }
-  absl::StrAppend(&s, "<text x='", kW / 2, "' y='", kH + 24,
-                  "' class='tick'>transfer (BRDF x cos) in the plane of incidence, / its largest "
-                  "value; dotted: the view</text>");
+  absl::StrAppend(
+      &s, "<text x='", kW / 2, "' y='", kH + 24,
+      "' class='tick'>radius: BRDF x cos / its largest value; dotted: the views</text>");
   absl::StrAppend(&s, "</svg>");
   return s;
 }
@@ -614,15 +616,18 @@ std::string RenderPrefilterReportHtml(const json& report, const json& visuals) {
         "for all. The brute-force sum over every pixel of the map (to a relative ",
         Num(visuals["reference"].value("relative_tolerance", 1e-3)), ") is taken at ",
         sp.value("cells", kReferenceCells), " x ", sp.value("cells", kReferenceCells),
-        " cells per sphere; the error is per cell.</p><div class='row'>", "<figure>",
-        Img(sp.value("shrm_png", ""), "SHRM spheres", "sphere", width),
+        " cells per sphere; the error is per cell. Cells where N.V &lt; 0.3 (the rim) are grazing: "
+        "the horizon cuts the lobe there, and they are counted apart as the job's check "
+        "does.</p><div class='row'>",
+        "<figure>", Img(sp.value("shrm_png", ""), "SHRM spheres", "sphere", width),
         "<figcaption>SHRM (every pixel)</figcaption></figure>", "<figure>",
         Img(sp.value("reference_png", ""), "brute-force spheres", "sphere", width),
         "<figcaption>brute force (one value per cell)</figcaption></figure>", "<figure>",
         Img(sp.value("error_png", ""), "relative error per cell", "sphere", width),
         "<figcaption>relative error per cell</figcaption>", ErrorScaleSvg(),
-        "</figure></div><table><tr><th>view</th><th>cells</th><th>RMS</th><th>largest</th>"
-        "<th>largest at (N; V)</th><th>SHRM</th><th>brute force</th></tr>");
+        "</figure></div><table><tr><th>view</th><th>cells front / grazing</th><th>front "
+        "RMS</th><th>front largest</th><th>grazing RMS</th><th>grazing largest</th><th>largest "
+        "at (N; V)</th><th>SHRM</th><th>brute force</th></tr>");
     for (const json& v : sp.value("views", json::array())) {
       const json& samples = v.value("samples", json::array());
       const json* worst = nullptr;
@@ -632,9 +637,13 @@ std::string RenderPrefilterReportHtml(const json& report, const json& visuals) {
         return absl::StrFormat("%.4f, %.4f, %.4f", a[0].get<double>(), a[1].get<double>(),
                                a[2].get<double>());
       };
+      const json& fr = v.value("front", json::object());
+      const json& gr = v.value("grazing", json::object());
       absl::StrAppend(&h, "<tr><td>", Esc(v.value("name", "")), "</td><td class='num'>",
-                      samples.size(), "</td><td class='num'>", Pct(Get(v, "rms", 0)),
-                      "</td><td class='num'>", Pct(Get(v, "max", 0)), "</td>");
+                      fr.value("cells", 0), " / ", gr.value("cells", 0), "</td><td class='num'>",
+                      Pct(Get(fr, "rms", 0)), "</td><td class='num'>", Pct(Get(fr, "max", 0)),
+                      "</td><td class='num'>", Pct(Get(gr, "rms", 0)), "</td><td class='num'>",
+                      Pct(Get(gr, "max", 0)), "</td>");
       if (worst != nullptr) {
         absl::StrAppend(&h, "<td><code>", vec((*worst)["index"]), "; ", vec((*worst)["view"]),
                         "</code></td><td><code>", vec((*worst)["shrm"]), "</code></td><td><code>",

@@ -250,15 +250,23 @@ absl::StatusOr<nlohmann::json> PrefilterVisuals(const EnvMap& env, const Brdf& b
   Image err_img = BlankImage(kSphereViews * size, size, 3);
   const int cell_px = size / cells;
   std::vector<nlohmann::json> samples(kSphereViews, nlohmann::json::array());
-  std::vector<double> sum_sq(kSphereViews, 0), largest(kSphereViews, 0);
-  std::vector<int> count(kSphereViews, 0);
+  // Per view, front (N.V >= kGrazingCosine) and grazing cells apart, as the job's check.
+  struct Stats {
+    double sum_sq = 0, largest = 0;
+    int count = 0;
+    void Add(double e) { sum_sq += e * e, largest = std::max(largest, e), ++count; }
+    nlohmann::json Json() const {
+      return {
+          {"cells", count}, {"rms", count > 0 ? std::sqrt(sum_sq / count) : 0.0}, {"max", largest}};
+    }
+  };
+  std::vector<Stats> front(kSphereViews), grazing(kSphereViews);
   for (size_t k = 0; k < cell_at.size(); ++k) {
     const auto [s, cx, cy] = cell_at[k];
     const Rgb got_k = ShrmEval(cube, cell_index[k], cell_view[k]);
     const double e = PairError(got_k, cell_ref[k], floor);
-    sum_sq[s] += e * e;
-    largest[s] = std::max(largest[s], e);
-    ++count[s];
+    const Vec3 normal = cube.index == ReparamKind::kTangent ? cell_view[k] : cell_index[k];
+    (normal.Dot(cell_view[k]) >= kGrazingCosine ? front : grazing)[s].Add(e);
     const std::array<uint8_t, 3> colour = ErrorColour(ErrorScalePosition(e));
     for (int y = cy * cell_px; y < (cy + 1) * cell_px; ++y)
       for (int x = cx * cell_px; x < (cx + 1) * cell_px; ++x) {
@@ -288,8 +296,8 @@ absl::StatusOr<nlohmann::json> PrefilterVisuals(const EnvMap& env, const Brdf& b
   for (int s = 0; s < kSphereViews; ++s) {
     view_list.push_back({{"name", views[s].name},
                          {"view", VecJson(views[s].view)},
-                         {"rms", count[s] > 0 ? std::sqrt(sum_sq[s] / count[s]) : 0.0},
-                         {"max", largest[s]},
+                         {"front", front[s].Json()},
+                         {"grazing", grazing[s].Json()},
                          {"samples", samples[s]}});
   }
   out["spheres"] = {{"size", size},

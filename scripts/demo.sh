@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The main job: installs what is missing, builds, and prefilters a bundled real HDR map with a
-# glossy BRDF: writes the SHRM, its JSON report and a PNG preview into out/, then checks the SHRM
-# against brute-force integration at one (N, V).
+# glossy BRDF at a per-direction tolerance of 1%: writes the SHRM, its JSON report, a PNG preview
+# and the visual report (one HTML page: docs/cli.md "Visual report") into out/, then checks the
+# SHRM against brute-force integration at one (N, V).
 # Extra arguments replace the defaults of `shrm prefilter`, e.g.
-#   bash scripts/demo.sh --env data/envmaps/city.exr --brdf ggx:alpha=0.3,f0=0.04 -o out/city.shrm.exr
+#   bash scripts/demo.sh --env data/envmaps/city.exr --brdf ggx:alpha=0.3 --tolerance 0.02 -o out/city.shrm.exr
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
@@ -15,11 +16,13 @@ if [ $# -gt 0 ]; then
 fi
 ENV=data/envmaps/courtyard.exr
 BRDF=microfacet:sigma=0.2
-"$SHRM" prefilter --env "$ENV" --brdf "$BRDF" --epsilon 0.03 \
-  -o out/courtyard.shrm.exr --report out/courtyard.report.json --preview out/courtyard.png
+"$SHRM" prefilter --env "$ENV" --brdf "$BRDF" --tolerance 0.01 --verify 64 --half \
+  -o out/courtyard.shrm.exr --report out/courtyard.report.json --preview out/courtyard.png \
+  --report-html out/courtyard.html
 echo
 echo "SHRM at N = (0.3, 0.8, 0.52), V = (0.1, 0.2, 0.97) vs brute force over the map's pixels:"
 echo "  eval      $("$SHRM" eval --shrm out/courtyard.shrm.exr --normal 0.3,0.8,0.52 --view 0.1,0.2,0.97)"
 echo "  reference $("$SHRM" reference --env "$ENV" --brdf "$BRDF" --normal 0.3,0.8,0.52 --view 0.1,0.2,0.97)"
 echo
-echo "outputs: out/courtyard.shrm.exr (SHRM), out/courtyard.report.json, out/courtyard.png (preview)"
+echo "outputs: out/courtyard.shrm.exr (SHRM), out/courtyard.report.json, out/courtyard.png (preview),"
+echo "         out/courtyard.html (visual report: open it in a browser)"

@@ -228,9 +228,9 @@ echo "(shaders done: $(($(date +%s) - START)) s)"
 # One self-contained HTML file: no console error, no request beyond the file itself, every plot
 # and picture drawn (element screenshots non-blank), with negative controls.
 # tests/engines/run_report.mjs, docs/cli.md "Visual report".
-if "$SHRM" prefilter --env "$COURTYARD" --brdf ggx:alpha=0.3 --verify 64 --threads 2 \
+if "$SHRM" prefilter --env "$COURTYARD" --brdf ggx:alpha=0.3,f0=1 --tolerance 0.02 --verify 64 --threads 2 \
   -o "$TMP/report.shrm.exr" --report-html "$TMP/report.html" >"$TMP/shrm-report.log" 2>&1; then
-  echo "PASS: shrm prefilter --report-html (courtyard, GGX alpha 0.3)"
+  echo "PASS: shrm prefilter --report-html (courtyard, GGX alpha 0.3 f0 1, tolerance 0.02)"
   mkdir -p "$CACHE/engines-out"
   CHROMIUM="$CHROMIUM" run_node report run_report.mjs "$TMP/report.html" "$CACHE/engines-out"
 else
