@@ -494,10 +494,11 @@ std::string Head(const std::string& title, const std::string& icon = "") {
       "<style>", Css(), "</style></head><body>\n");
 }
 
-// The JSON block, safe inside <script>: "</" never appears in it.
+// The JSON block, safe inside <script> whatever the strings hold (a map path with "</script>"
+// or "<!--"): no '<' appears in it, each is the JSON escape \u003c.
 std::string DataBlock(const json& data) {
   return absl::StrCat("<script type='application/json' id='shrm-report-data'>",
-                      absl::StrReplaceAll(data.dump(), {{"</", "<\\/"}}), "</script>\n");
+                      absl::StrReplaceAll(data.dump(), {{"<", "\\u003c"}}), "</script>\n");
 }
 
 std::string MeasuredCell(const json& stats) {

@@ -21,6 +21,7 @@ import base64
 import json
 import os
 import re
+import shutil
 import struct
 import subprocess
 import sys
@@ -178,6 +179,26 @@ def check_unwritable(shrm, root, tmp):
     check(not left, f"unwritable --report-html: no temporaries ({left})")
 
 
+def check_hostile_name(shrm, root, tmp):
+    """A map whose name holds markup: escaped in the page, intact in its data."""
+    name = "<b>x'&<script><!--.exr"  # no '/': it is a file name
+    env = os.path.join(tmp, name)
+    shutil.copyfile(os.path.join(root, "data", "envmaps", "forest.exr"), env)
+    page = os.path.join(tmp, "h.html")
+    p = run([shrm, "prefilter", "--env", env, "--brdf", "phong:s=32", "--size", "16", "-o",
+             os.path.join(tmp, "h.shrm.exr"), "--report-html", page])
+    check(p.returncode == 0, f"markup in the map's name: prefilter exits 0 ({p.stderr.strip()[:200]})")
+    if p.returncode != 0:
+        return
+    with open(page, encoding="utf-8") as f:
+        html = f.read()
+    check("<b>x" not in html and "<!--" not in html,
+          "markup in the map's name: escaped everywhere in the page")
+    data = report_data(html)
+    check(data is not None and data["report"]["source"] == [env],
+          "markup in the map's name: the data block parses and keeps the name")
+
+
 def main():
     if len(sys.argv) != 3:
         print(__doc__)
@@ -185,6 +206,7 @@ def main():
     shrm, root = sys.argv[1], sys.argv[2]
     with tempfile.TemporaryDirectory(prefix="shrm_report_test.") as tmp:
         check_unwritable(shrm, root, tmp)
+        check_hostile_name(shrm, root, tmp)
         check_report(shrm, root, "courtyard.exr", "microfacet:sigma=0.2", [], tmp)
         check_report(shrm, root, "city.exr", "phong:s=128", ["--tolerance", "0.01"], tmp)
     print(f"report_test: {len(FAILURES)} failures")

@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <memory>
 #include <thread>
 #include <vector>
@@ -13,12 +14,15 @@
 #include "core/base/cubemap.h"
 #include "core/brdf/brdf.h"
 #include "core/envmap/envmap.h"
+#include "core/io/image.h"
 #include "core/shrm/prefilter.h"
 #include "core/shrm/shrm_explicit.h"
 #include "core/shrm/shrm_file.h"
 #include "core/shrm/shrm_reference.h"
 #include "core/shrm/shrm_synthesis.h"
+#include "jobs/prefilter_job.h"
 #include "tests/test_maps.h"
+#include "tests/test_paths.h"
 #include "viewer/brdf_edit.h"
 #include "viewer/camera.h"
 #include "viewer/cpu_images.h"
@@ -272,6 +276,48 @@ TEST_F(ViewerShrmTest, ShrmFileSourceHasBothKinds) {
   EXPECT_EQ(d->f_b, 10);
   EXPECT_EQ(d->p_b, 3);
   EXPECT_FALSE(LoadShrmData(path + ".missing", 1).ok());
+}
+
+// The viewer checks each SHRM it computes (issue 16: the overlay shows the measured error, not
+// the eq. 5.19 bound) against a reference built once per map; the figures must be those of the
+// job's own check as `shrm prefilter --verify` makes it (which builds its reference per job).
+TEST_F(ViewerShrmTest, EmbeddedComputeMeasuresItsCubeAsThePrefilterJobDoes) {
+  const std::string path = testing::UniqueTempPath("viewer_verify_map.exr");
+  ASSERT_TRUE(WriteExr(path, *map_).ok());
+  absl::StatusOr<std::shared_ptr<const EnvironmentData>> env = LoadEnvironment(path, 32, 2);
+  ASSERT_TRUE(env.ok()) << env.status();
+  ComputeRequest req;
+  req.brdf_spec = "microfacet:sigma=0.3";
+  req.f = 8;
+  req.p = 3;
+  req.face_size = 16;
+  req.verify = 32;
+  req.threads = 2;
+  absl::StatusOr<ShrmData> d = EmbeddedCompute(*env)(req, nullptr);
+  ASSERT_TRUE(d.ok()) << d.status();
+  absl::StatusOr<jobs::PrefilterRun> cli = jobs::RunPrefilterJob(PrefilterJobFor(req, path), 1);
+  ASSERT_TRUE(cli.ok()) << cli.status();
+  ASSERT_TRUE(cli->attributes.count("shrm:measured_error"));
+  EXPECT_EQ(d->attributes.at("shrm:measured_error"), cli->attributes.at("shrm:measured_error"));
+  EXPECT_EQ(d->measured.pairs, 32);
+  // The attribute holds 6 significant digits (absl::StrCat).
+  constexpr double kAttributeDigits = 1e-5;
+  EXPECT_NEAR(d->measured.front_rms, cli->result.measured.front.rms,
+              kAttributeDigits * cli->result.measured.front.rms);
+  EXPECT_NEAR(d->measured.front_max, cli->result.measured.front.max,
+              kAttributeDigits * cli->result.measured.front.max);
+  const std::string line = ShrmSummaryLine(*d);
+  EXPECT_NE(line.find("measured RMS"), std::string::npos) << line;
+  EXPECT_EQ(line.find("bound"), std::string::npos) << line;
+
+  // Without a check (a file written without --verify) the line says so and names the bound.
+  ShrmData unmeasured = *d;
+  unmeasured.measured = {};
+  unmeasured.eps_bound = 0.5;
+  EXPECT_NE(ShrmSummaryLine(unmeasured).find("not measured (eq. 5.19 energy bound 0.5)"),
+            std::string::npos)
+      << ShrmSummaryLine(unmeasured);
+  std::filesystem::remove(path);
 }
 
 TEST(ViewerAsyncShrmJob, NewerRequestSupersedesTheRunningOne) {

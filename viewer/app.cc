@@ -69,11 +69,7 @@ std::vector<std::string> OverlayLines(const ModeInfo& mode, const SceneData& sce
   if (scene.shrm != nullptr) {
     const ShrmData& d = *scene.shrm;
     lines.push_back(d.brdf_spec.empty() ? "BRDF ?" : d.brdf_spec);
-    std::string s = absl::StrFormat("F_B %d P_B %d (%d coeffs) S_B %d", d.f_b, d.p_b,
-                                    ShCount(d.p_b), d.global.face_size);
-    if (!d.epsilon.empty()) absl::StrAppend(&s, " eps ", d.epsilon);
-    if (d.eps_bound >= 0) absl::StrAppendFormat(&s, " bound %.3g", d.eps_bound);
-    lines.push_back(s);
+    lines.push_back(ShrmSummaryLine(d));
   }
   lines.push_back(absl::StrFormat("%.1f ms", frame_ms));
   lines.push_back(absl::StrFormat("EV %+.1f", exposure));
@@ -379,6 +375,8 @@ class Viewer {
     ComputeRequest req;
     req.brdf_spec = spec;
     req.epsilon = o_.epsilon;
+    req.tolerance = o_.tolerance;
+    req.verify = o_.verify;
     req.f = o_.f;
     req.p = o_.p;
     req.face_size = o_.face_size;

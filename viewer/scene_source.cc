@@ -5,10 +5,14 @@
 #include <cmath>
 #include <cstdlib>
 
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_split.h"
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
 #include "core/export/shrm_ktx2.h"
+#include "core/sh/sh.h"
 #include "core/shrm/shrm_file.h"
 #include "jobs/prefilter_job.h"
 #include "viewer/cube_convert.h"
@@ -68,6 +72,8 @@ absl::StatusOr<std::shared_ptr<const EnvironmentData>> LoadEnvironment(const std
   SHRM_ASSIGN_OR_RETURN(ReferenceIntegrator integrator,
                         ReferenceIntegrator::Create(small.samples()));
   env->reference = std::make_shared<const ReferenceIntegrator>(std::move(integrator));
+  SHRM_ASSIGN_OR_RETURN(FastReference fast, FastReference::Create(env->map.samples()));
+  env->fast_reference = std::make_shared<const FastReference>(std::move(fast));
   return std::shared_ptr<const EnvironmentData>(std::move(env));
 }
 
@@ -94,6 +100,17 @@ absl::StatusOr<ShrmData> ShrmDataFromCube(ShrmCube cube,
   if (auto it = attributes.find("shrm:eps_bound"); it != attributes.end()) {
     d.eps_bound = std::strtod(it->second.c_str(), nullptr);
   }
+  if (auto it = attributes.find("shrm:tolerance"); it != attributes.end()) d.tolerance = it->second;
+  if (auto it = attributes.find("shrm:measured_error"); it != attributes.end()) {
+    // "front_rms,front_max,grazing_rms,grazing_max,pairs" (docs/formats.md).
+    const std::vector<std::string> v = absl::StrSplit(it->second, ',');
+    ShrmData::Measured m;
+    if (v.size() == 5 && absl::SimpleAtod(v[0], &m.front_rms) &&
+        absl::SimpleAtod(v[1], &m.front_max) && absl::SimpleAtod(v[2], &m.grazing_rms) &&
+        absl::SimpleAtod(v[3], &m.grazing_max) && absl::SimpleAtoi(v[4], &m.pairs) && m.pairs > 0) {
+      d.measured = m;
+    }
+  }
   d.attributes = std::move(attributes);
   return d;
 }
@@ -108,12 +125,35 @@ absl::StatusOr<ShrmData> LoadShrmData(const std::string& path, int threads) {
   return d;
 }
 
+std::string ShrmSummaryLine(const ShrmData& d) {
+  std::string s = absl::StrFormat("F_B %d P_B %d (%d coeffs) S_B %d", d.f_b, d.p_b, ShCount(d.p_b),
+                                  d.global.face_size);
+  if (!d.tolerance.empty()) {
+    absl::StrAppend(&s, " tolerance ", d.tolerance);
+  } else if (!d.epsilon.empty()) {
+    absl::StrAppend(&s, " eps ", d.epsilon);
+  }
+  if (d.measured.pairs > 0) {
+    absl::StrAppendFormat(&s, " | measured RMS %.2g%% max %.2g%%, grazing RMS %.2g%% (%d pairs)",
+                          100 * d.measured.front_rms, 100 * d.measured.front_max,
+                          100 * d.measured.grazing_rms, d.measured.pairs);
+  } else if (d.eps_bound >= 0) {
+    absl::StrAppendFormat(&s, " | not measured (eq. 5.19 energy bound %.3g)", d.eps_bound);
+  }
+  return s;
+}
+
 jobs::PrefilterJob PrefilterJobFor(const ComputeRequest& req, const std::string& env_path) {
   jobs::PrefilterJob job;
   job.env.files = {env_path};
   job.brdf = req.brdf_spec;
   job.epsilon = req.epsilon;
-  if (req.f >= 0 || req.p >= 0) job.orders = jobs::Orders{req.f, req.p};
+  job.verify = req.verify;
+  if (req.f >= 0 || req.p >= 0) {
+    job.orders = jobs::Orders{req.f, req.p};
+  } else if (req.tolerance > 0) {
+    job.tolerance = req.tolerance;
+  }
   job.kind = ShrmKind::kGlobal;
   job.face_size = req.face_size;
   return job;
@@ -126,8 +166,16 @@ ShrmComputeFn EmbeddedCompute(std::shared_ptr<const EnvironmentData> env) {
     SHRM_ASSIGN_OR_RETURN(std::unique_ptr<Brdf> brdf, ParseBrdfSpec(req.brdf_spec));
     const jobs::PrefilterJob job = PrefilterJobFor(req, env->path);
     SHRM_RETURN_IF_ERROR(jobs::ValidatePrefilterJob(job));
-    const PrefilterOptions opt = jobs::CorePrefilterOptions(job, std::max(1, req.threads));
+    PrefilterOptions opt = jobs::CorePrefilterOptions(job, std::max(1, req.threads));
+    opt.max_cube_values = jobs::EmbeddedCubeValueLimit();
+    opt.verify = 0;  // measured below against the map's reference, built once
     SHRM_ASSIGN_OR_RETURN(PrefilterResult r, Prefilter(env->map, *brdf, opt, progress));
+    if (job.verify > 0 && env->fast_reference != nullptr) {
+      if (progress) SHRM_RETURN_IF_ERROR(progress("verify"));
+      SHRM_ASSIGN_OR_RETURN(r.measured, MeasureCubeError(*env->fast_reference, *brdf, opt.rotation,
+                                                         r.cube, job.verify, opt.threads));
+      r.verified_pairs = job.verify;
+    }
     if (progress) SHRM_RETURN_IF_ERROR(progress("convert"));
     // As `shrm prefilter` writes them, without hashing the file again (the map is loaded).
     const jobs::PrefilterProvenance provenance{brdf->spec(), {env->path, ""}, env->map.layout()};

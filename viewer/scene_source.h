@@ -25,6 +25,7 @@
 #include "core/brdf/brdf.h"
 #include "core/envmap/envmap.h"
 #include "core/io/image.h"
+#include "core/shrm/fast_reference.h"
 #include "core/shrm/prefilter.h"
 #include "core/shrm/shrm_map.h"
 #include "core/shrm/shrm_reference.h"
@@ -46,6 +47,9 @@ struct EnvironmentData {
   std::vector<double> sh;         // RGB real SH L_lm, sh[ShIndex(l, m) * 3 + c], SH frame
   int reference_width = 0;        // lat-long width of the reference's samples
   std::shared_ptr<const ReferenceIntegrator> reference;
+  // The brute-force sum over the full map, built once: each computed SHRM's own check
+  // (ComputeRequest::verify) then costs ~1 ms per pair instead of the hierarchy's build.
+  std::shared_ptr<const FastReference> fast_reference;
   double mean_luminance = 0;  // of the lat-long map, for the automatic exposure
 };
 
@@ -66,7 +70,14 @@ struct ShrmData {
   int f_b = -1, p_b = -1;
   std::string epsilon;  // "0.03" or "explicit orders" (or "" when unknown)
   double eps_bound = -1;
-  std::string origin;  // "file PATH", "embedded", "server HOST"
+  // shrm:measured_error (the job's check against the brute-force sum): relative RMS and largest
+  // error over the front (N.V >= 0.3) and grazing pairs; pairs = 0 when not measured.
+  struct Measured {
+    double front_rms = 0, front_max = 0, grazing_rms = 0, grazing_max = 0;
+    int pairs = 0;
+  } measured;
+  std::string tolerance;  // shrm:tolerance ("" without the per-direction tolerance rule)
+  std::string origin;     // "file PATH", "embedded", "server HOST"
   double compute_ms = 0;
 };
 
@@ -76,12 +87,21 @@ struct ShrmData {
     ShrmCube cube, std::map<std::string, std::string> attributes, std::string origin, int threads);
 [[nodiscard]] absl::StatusOr<ShrmData> LoadShrmData(const std::string& path, int threads);
 
+// The overlay's SHRM line: orders, size, the rule, and the measured error of the job's check
+// (or, for an unchecked file, the eq. 5.19 bound, labelled as such).
+std::string ShrmSummaryLine(const ShrmData& d);
+
+// Pairs a computed SHRM is checked at by default (~1 ms each with the cached reference).
+inline constexpr int kViewerVerifyPairs = 64;
+
 // What to compute: the `shrm prefilter` options the viewer exposes.
 struct ComputeRequest {
   std::string brdf_spec;
   double epsilon = jobs::kDefaultEpsilon;
-  int f = -1, p = -1;  // explicit orders (both or neither)
-  int face_size = 0;   // 0 = automatic (about 10 F_B)
+  double tolerance = 0;             // > 0: the per-direction tolerance rule instead of epsilon
+  int f = -1, p = -1;               // explicit orders (both or neither)
+  int verify = kViewerVerifyPairs;  // pairs of the SHRM's own check (0: none)
+  int face_size = 0;                // 0 = automatic (about 10 F_B)
   int threads = 1;
 };
 

@@ -54,8 +54,17 @@ int ParseViewerOptions(int argc, char** argv, ViewerOptions* o) {
   app.add_option("--epsilon", o->epsilon, "tolerance for the orders, in (0, 1)")
       ->capture_default_str()
       ->check(jobs::kOpenUnitInterval);
-  app.add_option("--orders", orders, "explicit orders F,P instead of --epsilon")
-      ->check(jobs::kOrders);
+  auto* orders_opt = app.add_option("--orders", orders, "explicit orders F,P instead of --epsilon")
+                         ->check(jobs::kOrders);
+  app.add_option("--tolerance", o->tolerance,
+                 "per-direction tolerance instead of --epsilon (docs/shrm.md), e.g. 0.01")
+      ->check(jobs::kOpenUnitInterval)
+      ->excludes(orders_opt);
+  app.add_option("--verify", o->verify,
+                 "pairs each computed SHRM is checked at against the brute-force sum; the overlay "
+                 "shows the measured error (0: none)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, jobs::kMaxVerifyPairs));
   app.add_option("--face-size", o->face_size, "cube face size S_B of computed SHRMs (0: ~10 F_B)")
       ->capture_default_str()
       ->check(CLI::Range(0, 2048));

@@ -8,6 +8,7 @@
 
 #include "jobs/prefilter_job.h"
 #include "viewer/camera.h"
+#include "viewer/scene_source.h"
 
 namespace shrm::viewer {
 
@@ -25,9 +26,11 @@ struct ViewerOptions {
   std::string brdf;       // BRDF spec; default: the file's shrm:brdf
   std::string server;     // compute through shrmd (host:port)
   double epsilon = jobs::kDefaultEpsilon;
-  int f = -1, p = -1;           // --orders F,P
-  int face_size = 0;            // --face-size S_B (0 = about 10 F_B)
-  std::string mesh = "sphere";  // sphere | torus | PATH.obj
+  double tolerance = 0;             // --tolerance (0: --epsilon)
+  int verify = kViewerVerifyPairs;  // --verify N: each computed SHRM's own check
+  int f = -1, p = -1;               // --orders F,P
+  int face_size = 0;                // --face-size S_B (0 = about 10 F_B)
+  std::string mesh = "sphere";      // sphere | torus | PATH.obj
   int mode = 1;
   bool diff = false;
   OrbitView view;

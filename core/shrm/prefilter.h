@@ -79,6 +79,12 @@ struct PrefilterResult {
 absl::StatusOr<DirectionalError> MeasureCubeError(const EnvMap& env, const Brdf& brdf,
                                                   const Mat3& rotation, const ShrmCube& cube,
                                                   int pairs, int threads);
+class FastReference;
+// The same against a reference built once (FastReference::Create of the map's samples), for
+// callers that check many cubes of one map (the viewer).
+absl::StatusOr<DirectionalError> MeasureCubeError(const FastReference& reference, const Brdf& brdf,
+                                                  const Mat3& rotation, const ShrmCube& cube,
+                                                  int pairs, int threads);
 
 // Called at the start of each stage with its name ("brdf", "lighting", "analysis", "synthesis");
 // a non-OK status (e.g. a cancelled or expired request) stops the pipeline with that status.
