@@ -118,8 +118,14 @@ PY
 # linking each page (relative links that resolve) with a thumbnail each; a resumed batch keeps
 # them (thumbnails from the pages it skipped); an index that cannot be written fails up front.
 echo "== visual reports and their index"
+# Small constant maps (PFM of ones): the pages' numbers are report_test's; this is the index,
+# and the pages' brute-force sums stay cheap under the sanitizers.
+mkdir -p small
+for m in white grey; do
+  { printf 'PF\n64 32\n-1.0\n'; head -c $((64 * 32 * 3 * 4)) /dev/zero | tr '\0' '\1'; } >small/$m.pfm
+done
 cat >visual.json <<'JSON'
-{"maps": ["maps/courtyard.exr", "maps/city.exr"], "brdfs": ["phong:s=32"],
+{"maps": ["small/white.pfm", "small/grey.pfm"], "brdfs": ["phong:s=32"],
  "options": {"epsilon": 0.1, "size": 16, "verify": 32, "report_html": true},
  "output": "visual/{map}_{brdf}.shrm.exr"}
 JSON
@@ -128,7 +134,7 @@ check_index() {  # check_index LABEL
 import os, re, sys
 html = open(sys.argv[1], encoding="utf-8").read()
 links = re.findall(r"<a href='([^']*)'>", html)
-assert links == ["visual/courtyard_phong_s_32.report.html", "visual/city_phong_s_32.report.html"], links
+assert links == ["visual/white_phong_s_32.report.html", "visual/grey_phong_s_32.report.html"], links
 for link in links:
     page = open(os.path.join(os.path.dirname(sys.argv[1]), link), encoding="utf-8").read()
     assert "id='shrm-report-data'" in page and "<svg id='accuracy-plot'" in page, link
@@ -142,11 +148,11 @@ check_index first
 "$SHRM" batch visual.json --json >visual2.out 2>visual2.err || fail "visual rerun exit $?"
 [ "$(count skipped visual2.out)" -eq 2 ] || fail "visual rerun: expected 2 skipped: $(cat visual2.out)"
 check_index resumed
-rm visual/city_phong_s_32.report.html
+rm visual/grey_phong_s_32.report.html
 "$SHRM" batch visual.json --json >visual3.out 2>visual3.err || fail "visual rerun 3 exit $?"
 grep -q '"message": "recomputed: visual report missing"' visual3.out ||
   fail "a missing report page is not recomputed: $(cat visual3.out)"
-mkdir ro_manifest && sed 's|"maps/|"../maps/|g' visual.json >ro_manifest/visual.json
+mkdir ro_manifest && sed 's|"small/|"../small/|g' visual.json >ro_manifest/visual.json
 mkdir ro_manifest/visual.html  # a folder where the index page would go
 "$SHRM" batch ro_manifest/visual.json >ro.out 2>ro.err && fail "an unwritable index was accepted"
 grep -q 'visual.html' ro.err || fail "unwritable index: no path in: $(cat ro.err)"
