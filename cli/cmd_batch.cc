@@ -325,6 +325,12 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
             err(path, "must be a number in (0, 1)");
           else
             opt->job.tolerance = v.get<double>();
+        } else if (key == "max_size") {
+          if (!v.is_number() || !(v.get<double>() >= 0 && v.get<double>() <= jobs::kMaxSizeMbLimit))
+            err(path, absl::StrCat("must be a number of MB in [0, ", jobs::kMaxSizeMbLimit,
+                                   "] (0: no budget)"));
+          else
+            opt->job.max_size_mb = v.get<double>();
         } else if (key == "verify") {
           if (!v.is_number_integer() || v.get<long long>() < 0 ||
               v.get<long long>() > jobs::kMaxVerifyPairs)
@@ -375,7 +381,7 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
         } else {
           err(path,
               "unknown option (expected epsilon, tolerance, window, verify, kind, size, orders, "
-              "half, rotate, report, preview, ktx2, report_html)");
+              "half, max_size, rotate, report, preview, ktx2, report_html)");
         }
       }
     }

@@ -257,6 +257,9 @@ void AddPrefilterJobOptions(CLI::App* sub, PrefilterArgs* args) {
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   sub->add_flag("--half", args->half, Help("half"));
+  sub->add_option("--max-size", args->max_size_mb, Help("max_size"))
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, jobs::kMaxSizeMbLimit));
 }
 
 absl::StatusOr<jobs::PrefilterJob> PrefilterJobFromArgs(const PrefilterArgs& a) {
@@ -278,6 +281,7 @@ absl::StatusOr<jobs::PrefilterJob> PrefilterJobFromArgs(const PrefilterArgs& a) 
   job.kind = *kind;
   job.face_size = a.size;
   job.half = a.half;
+  job.max_size_mb = a.max_size_mb;
   return job;
 }
 

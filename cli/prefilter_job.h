@@ -28,6 +28,7 @@ struct PrefilterArgs {
   std::string kind = jobs::ShrmKindName(ShrmKind::kGlobal);
   int size = 0;
   bool half = false;
+  double max_size_mb = jobs::kDefaultMaxSizeMb;
 };
 
 // What the command does with a job besides computing it.

@@ -64,7 +64,7 @@ const Option* FindOption(const std::array<Option, N>& table, std::string_view na
 }
 
 // The prefilter job's own options (after the environment's).
-const std::array<JobOption, 9> kPrefilterJobOptions = {{
+const std::array<JobOption, 10> kPrefilterJobOptions = {{
     {"brdf", "BRDF spec, e.g. microfacet:sigma=0.2 (docs/brdf.md)", kCommandLine | kWire,
      "--brdf ggx:alpha=0.3", "", [](PrefilterJob* j) { j->brdf = "ggx:alpha=0.3"; },
      "manifest: \"brdfs\" lists the specs, one job each"},
@@ -72,8 +72,7 @@ const std::array<JobOption, 9> kPrefilterJobOptions = {{
      [](PrefilterJob* j) { j->epsilon = 0.05; }, ""},
     {"tolerance",
      "per-direction relative RMS tolerance, in (0, 1): orders, window and size chosen for the "
-     "error "
-     "seen per direction (docs/shrm.md); instead of --epsilon",
+     "error seen per direction (docs/shrm.md); instead of --epsilon",
      kEverywhere, "--tolerance 0.02", "0.02", [](PrefilterJob* j) { j->tolerance = 0.02; }, ""},
     {"window", "ringing window on the lighting bands: none, lanczos, or auto (--tolerance chooses)",
      kEverywhere, "--window lanczos", "\"lanczos\"",
@@ -88,12 +87,17 @@ const std::array<JobOption, 9> kPrefilterJobOptions = {{
      ""},
     {"kind", "global or local SHRM", kEverywhere, "--kind local", "\"local\"",
      [](PrefilterJob* j) { j->kind = ShrmKind::kLocal; }, ""},
-    {"size", "cube face size S_B (0: about 10 F_B)", kEverywhere, "--size 40", "40",
-     [](PrefilterJob* j) { j->face_size = 40; }, ""},
+    {"size",
+     "cube face size S_B (0: about 10 F_B; with --tolerance chosen by its interpolation estimate)",
+     kEverywhere, "--size 40", "40", [](PrefilterJob* j) { j->face_size = 40; }, ""},
     {"half", "store half floats instead of float32", kEverywhere, "--half", "true",
      [](PrefilterJob* j) { j->half = true; }, ""},
+    {"max_size",
+     "size budget of the SHRM file in MB with --tolerance (0: none): the most accurate choice "
+     "within it, reported, when the tolerance needs more",
+     kEverywhere, "--max-size 32", "32", [](PrefilterJob* j) { j->max_size_mb = 32; }, ""},
 }};
-const std::array<JobOption, 16> kPrefilterOptions =
+const std::array<JobOption, 17> kPrefilterOptions =
     Concat(EnvironmentOptions<PrefilterJob>(), kPrefilterJobOptions);
 
 // The IBL job's own options (after the environment's).

@@ -7,6 +7,7 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "core/base/status_macros.h"
 #include "jobs/report.h"
@@ -37,6 +38,10 @@ absl::Status ValidatePrefilterJob(const PrefilterJob& job) {
     return absl::InvalidArgumentError(
         absl::StrCat("verify must be in [0, ", kMaxVerifyPairs, "] pairs, got ", job.verify));
   }
+  if (!(job.max_size_mb >= 0 && job.max_size_mb <= kMaxSizeMbLimit)) {
+    return absl::InvalidArgumentError(absl::StrCat("max_size must be in [0, ", kMaxSizeMbLimit,
+                                                   "] MB (0: no budget), got ", job.max_size_mb));
+  }
   if (job.tolerance > 0 && job.orders) {
     return absl::InvalidArgumentError(
         "tolerance and orders exclude each other (the tolerance chooses the orders)");
@@ -56,6 +61,10 @@ absl::Status ValidatePrefilterJob(const PrefilterJob& job) {
   return absl::OkStatus();
 }
 
+double SizeBudgetValues(const PrefilterJob& job) {
+  return job.max_size_mb * 1e6 / (job.half ? 2.0 : 4.0);
+}
+
 double EmbeddedCubeValueLimit() {
   const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
   if (pages <= 0 || page <= 0) return 0;  // unknown: no limit
@@ -70,6 +79,7 @@ PrefilterOptions CorePrefilterOptions(const PrefilterJob& job, int threads) {
     opt.p = job.orders->p;
   }
   opt.tolerance = job.tolerance;
+  if (job.tolerance > 0) opt.size_budget_values = SizeBudgetValues(job);
   opt.window = job.window;
   opt.verify = job.verify;
   opt.kind = job.kind;
@@ -127,6 +137,7 @@ std::map<std::string, std::string> PrefilterFileAttributes(const PrefilterJob& j
   if (job.env.rotate_ypr_deg) attrs["shrm:rotate_ypr_deg"] = RotationAttribute(job.env);
   if (result.tolerance_rule) {
     attrs["shrm:tolerance"] = absl::StrCat(job.tolerance);
+    attrs["shrm:max_size_mb"] = absl::StrCat(job.max_size_mb);
     attrs["shrm:estimated_error"] = EstimateText(TotalEstimate(result.choice));
   }
   if (result.verified_pairs > 0) {
@@ -153,6 +164,7 @@ nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProve
   if (result.tolerance_rule) {
     const ToleranceChoice& c = result.choice;
     const ToleranceTargets t = TargetsForTolerance(job.tolerance);
+    const double bytes = job.half ? 2.0 : 4.0;
     const DirectionalError total = TotalEstimate(c);
     report["tolerance"] = {
         {"tolerance", job.tolerance},
@@ -167,7 +179,12 @@ nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProve
            {{"front", StatsJson(c.interpolation.front)},
             {"grazing", StatsJson(c.interpolation.grazing)}}}}},
         {"reference_orders", {c.f_ref, c.p_ref}},
-        {"met", c.met}};
+        {"met", c.met},
+        {"size_mb", CubeValues(result.cube.face_size, result.analysis.p_b) * bytes / 1e6},
+        {"max_size_mb", job.max_size_mb},
+        {"budget_limited", c.budget_limited}};
+    if (c.budget_limited)
+      report["tolerance"]["unlimited_size_mb"] = c.unlimited_values * bytes / 1e6;
   }
   report["source_sha256"] = provenance.source.sha256;
   report["layout"] = EnvLayoutName(provenance.layout);
@@ -188,6 +205,9 @@ std::string WhyFileDiffers(const PrefilterJob& job, const std::string& canonical
   if (!differs("shrm:source_sha256", source_sha256).empty()) return "source changed";
   if (!(why = differs("shrm:epsilon", EpsilonAttribute(job))).empty()) return why;
   if (job.tolerance > 0 && !(why = differs("shrm:tolerance", absl::StrCat(job.tolerance))).empty())
+    return why;
+  if (job.tolerance > 0 &&
+      !(why = differs("shrm:max_size_mb", absl::StrCat(job.max_size_mb))).empty())
     return why;
   if (job.window != RingingWindow::kAuto &&
       !(why = differs("shrm:window", RingingWindowName(job.window))).empty())
@@ -245,6 +265,11 @@ absl::StatusOr<PrefilterRun> RunPrefilterJob(const PrefilterJob& job, int thread
   return run;
 }
 
+namespace {
+// Megabytes, rounded up to 0.1.
+std::string FormatMb(double mb) { return absl::StrFormat("%.1f", std::ceil(mb * 10) / 10); }
+}  // namespace
+
 absl::Status ToleranceOutcome(const PrefilterJob& job, const nlohmann::json& report) {
   if (job.tolerance <= 0 || !report.contains("tolerance")) return absl::OkStatus();
   const nlohmann::json& t = report["tolerance"];
@@ -254,12 +279,19 @@ absl::Status ToleranceOutcome(const PrefilterJob& job, const nlohmann::json& rep
                    "), S_B ", report.value("face_size", 0));
   if (!t.value("met", false)) {
     const nlohmann::json& front = t["estimate"]["front"];
+    const std::string within =
+        t.value("budget_limited", false)
+            ? absl::StrCat("the most accurate within the size budget of ", job.max_size_mb,
+                           " MB (the tolerance's choice needs ",
+                           FormatMb(t.value("unlimited_size_mb", 0.0)),
+                           " MB: raise --max-size, or give --half)")
+            : absl::StrCat("the most accurate within the reference orders (",
+                           t["reference_orders"][0].get<int>(), ", ",
+                           t["reference_orders"][1].get<int>(), ")");
     return absl::FailedPreconditionError(absl::StrCat(
         "tolerance ", job.tolerance, " not met: estimated front RMS ", front.value("rms", 0.0),
         " (target ", targets.rms, "), largest ", front.value("max", 0.0), " (target ", targets.max,
-        ")", where, ": the most accurate within the reference orders (",
-        t["reference_orders"][0].get<int>(), ", ", t["reference_orders"][1].get<int>(),
-        "); the outputs were written"));
+        ")", where, ": ", within, "; the outputs were written"));
   }
   if (report.contains("measured")) {
     const nlohmann::json& front = report["measured"]["front"];

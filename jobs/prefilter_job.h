@@ -38,6 +38,12 @@ inline constexpr int kMaxFaceSize = 2048;
 // default epsilon, which asks for F_B ~ 100 and P_B ~ 30) are refused with their sizes before
 // the allocation, not killed by it. shrmd has its own limit and budget.
 double EmbeddedCubeValueLimit();
+// The size budget of the tolerance rule when none is given: the SHRM file's stored values (6 S_B^2
+// (P_B + 1)^2 RGB at 4 bytes, 2 with --half) within this many MB (10^6 bytes). The tolerance
+// is met within it when it can be; otherwise the most accurate choice within it is written and
+// reported as missing the tolerance (docs/shrm.md "Size budget").
+inline constexpr double kDefaultMaxSizeMb = 256;
+inline constexpr double kMaxSizeMbLimit = 1e6;
 // Most pairs a job's own check may ask for (about 1 ms each).
 inline constexpr int kMaxVerifyPairs = 100000;
 // shrm:epsilon of a job with explicit orders.
@@ -67,6 +73,8 @@ struct PrefilterJob {
   ShrmKind kind = ShrmKind::kGlobal;
   int face_size = 0;  // S_B; 0 = about 10 F_B in [16, 512]
   bool half = false;  // half floats in the SHRM file
+  // Tolerance rule only: the size budget of the file in MB (0: none).
+  double max_size_mb = kDefaultMaxSizeMb;
 
   bool operator==(const PrefilterJob&) const = default;
 };
@@ -78,6 +86,8 @@ absl::StatusOr<ShrmKind> ParseShrmKind(absl::string_view name);
 // Every option within its range (names as in docs/cli.md without the dashes); the BRDF spec is
 // checked when it is parsed (ParseBrdfSpec).
 [[nodiscard]] absl::Status ValidatePrefilterJob(const PrefilterJob& job);
+// The size budget in stored values (max_size_mb over 4 bytes a value, 2 with half).
+double SizeBudgetValues(const PrefilterJob& job);
 // The core pipeline's options for the job.
 PrefilterOptions CorePrefilterOptions(const PrefilterJob& job, int threads);
 

@@ -164,6 +164,7 @@ v1::PrefilterRequest EncodePrefilterRequest(const jobs::PrefilterJob& job,
   req.set_face_size(job.face_size);
   req.set_half(job.half);
   req.set_verify(job.verify);
+  req.set_max_size_mb(job.max_size_mb);
   if (visuals) {
     req.add_outputs(v1::OUTPUT_SHRM_FILE);
     req.add_outputs(v1::OUTPUT_REPORT);
@@ -210,6 +211,7 @@ absl::StatusOr<WirePrefilter> DecodePrefilterRequest(const v1::PrefilterRequest&
   w.job.face_size = request.face_size();
   w.job.half = request.half();
   w.job.verify = request.verify();
+  if (request.has_max_size_mb()) w.job.max_size_mb = request.max_size_mb();
   w.want_file = w.want_report = request.outputs_size() == 0;
   for (int o : request.outputs()) {
     if (o == v1::OUTPUT_SHRM_FILE) w.want_file = true;

@@ -186,6 +186,7 @@ expect_error missing_output 2 'output' \
 expect_error malformed_size 2 'size' \
   "$SHRM" prefilter --env "$IN/ok.pfm" --brdf phong:s=32 --size abc -o out.shrm.exr
 expect_error malformed_orders 2 'orders' "$SHRM" "${PF[@]}" --env "$IN/ok.pfm" --orders x,y
+expect_error negative_max_size 2 'max-size' "$SHRM" "${PF[@]}" --env "$IN/ok.pfm" --max-size -1
 expect_error malformed_direction 2 'normal' \
   "$SHRM" reference --env "$IN/ok.pfm" --brdf phong:s=32 --normal 1,2 --view 0,1,0
 
@@ -315,6 +316,20 @@ if "$SHRM" prefilter --env "$MAP" --brdf phong:s=32 --tolerance 0.01 -o t.shrm.e
   echo "ok: tolerance: $(head -n 1 t.stdout)"
 else
   fail "tolerance: prefilter failed: $(cat t.stderr)"
+fi
+# The size budget: Phong s = 512 needs about 2.6 MB for 1% (F_B ~ 79, S_B ~ 190); within 0.5 MB
+# the most accurate cube that fits is written, and the command says what the tolerance needs.
+CHECKS=$((CHECKS + 1))
+"$SHRM" prefilter --env "$MAP" --brdf phong:s=512 --tolerance 0.01 --max-size 0.5 \
+  -o tb.shrm.exr --report tb.json >tb.stdout 2>tb.stderr
+rc=$?
+if [ "$rc" -eq 1 ] && grep -Eq 'within the size budget of 0\.5 MB \(the tolerance.s choice needs [0-9.]+ MB' tb.stderr &&
+  grep -q '"budget_limited": true' tb.json &&
+  awk '/"size_mb"/ { gsub(/[",]/, "", $2); exit !($2 <= 0.5) }' tb.json &&
+  [ -s tb.shrm.exr ]; then
+  echo "ok: size budget (exit 1, file written): $(head -c 240 tb.stderr)"
+else
+  fail "size budget: exit $rc, stderr $(head -c 300 tb.stderr), report $(grep -E 'size_mb|budget' tb.json)"
 fi
 CHECKS=$((CHECKS + 1))
 "$SHRM" prefilter --env "$MAP" --brdf phong:s=128 --tolerance 0.01 --window lanczos \

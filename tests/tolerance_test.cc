@@ -16,6 +16,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "core/brdf/brdf.h"
@@ -161,6 +162,85 @@ TEST(ToleranceTest, LanczosWindowWeightsAndTheirBiasInTheEstimate) {
   EXPECT_NEAR(w[2], std::sin(kPi / 2) / (kPi / 2), 1e-15);
   for (double x : WindowWeights(RingingWindow::kNone, 5)) EXPECT_EQ(x, 1.0);
   EXPECT_FALSE(ParseRingingWindow("hann").ok());
+}
+
+// The size budget (ChooseOrdersWithinBudget) on a real map with a view-dependent BRDF: the cube
+// fits the budget, the estimate still predicts the brute-force measurement, and the choice beats
+// the two obvious cubes of the same budget (all of it spent on the view order at the smallest
+// face, or none of it: P = 0 at the largest face), each measured against the same brute force.
+TEST(ToleranceTest, BudgetLimitedChoiceFitsAndBeatsTheObviousSplitsOfTheBudget) {
+  const Image img = LoadBundledMap("courtyard.exr", kMapWidth);
+  const EnvMap env = EnvMap::FromLatLong(img);
+  const std::vector<EnvSample> samples = LatLongSamples(img);
+  auto brdf = ParseOrDie("microfacet:sigma=0.2");
+  ASSERT_NE(brdf, nullptr);
+  PrefilterOptions opt;
+  opt.tolerance = kTolerance;
+  opt.threads = 2;
+  opt.synthesize = false;
+  auto free_choice = Prefilter(env, *brdf, opt);
+  ASSERT_TRUE(free_choice.ok()) << free_choice.status();
+  const ToleranceChoice& c0 = free_choice->choice;
+  const double need = CubeValues(c0.face_size, c0.p);
+  EXPECT_FALSE(c0.budget_limited);
+
+  // A budget above the need changes nothing.
+  opt.size_budget_values = 2 * need;
+  auto roomy = Prefilter(env, *brdf, opt);
+  ASSERT_TRUE(roomy.ok()) << roomy.status();
+  EXPECT_FALSE(roomy->choice.budget_limited);
+  EXPECT_EQ(roomy->choice.f, c0.f);
+  EXPECT_EQ(roomy->choice.p, c0.p);
+  EXPECT_EQ(roomy->choice.face_size, c0.face_size);
+
+  // A quarter of it.
+  const double budget = need / 4;
+  opt.size_budget_values = budget;
+  opt.synthesize = true;
+  auto r = Prefilter(env, *brdf, opt);
+  ASSERT_TRUE(r.ok()) << r.status();
+  const ToleranceChoice& ch = r->choice;
+  EXPECT_TRUE(ch.budget_limited);
+  EXPECT_EQ(ch.unlimited_values, need);
+  EXPECT_EQ(r->cube.face_size, ch.face_size);
+  EXPECT_EQ(r->analysis.p_b, ch.p);
+  EXPECT_LE(CubeValues(r->cube.face_size, r->analysis.p_b), budget);
+
+  const std::vector<DirectionPair> pairs =
+      SeededDirectionPairs(kVerifySeed, kPairs, brdf->reparam());
+  std::vector<Rgb> ref;
+  for (const DirectionPair& p : pairs) ref.push_back(BruteForce(samples, *brdf, p.index, p.view));
+  auto measure = [&](const ShrmCube& cube) {
+    std::vector<Rgb> got;
+    for (const DirectionPair& p : pairs) got.push_back(ShrmEval(cube, p.index, p.view));
+    return MeasureDirectionalError(pairs, got, ref);
+  };
+  const DirectionalError e = measure(r->cube);
+  const double estimate = std::hypot(ch.truncation.front.rms, ch.interpolation.front.rms);
+  EXPECT_LE(e.front.rms, kEstimateFactor * estimate + kEstimateSlack);
+
+  // The obvious splits, at explicit orders within the same budget.
+  auto largest_face = [&](int p) {
+    return 8 * static_cast<int>(std::floor(std::sqrt(budget / CubeValues(1, p)) / 8));
+  };
+  int p_all = 0;  // the largest P that fits at S = 16
+  while (p_all < 31 && CubeValues(16, p_all + 1) <= budget) ++p_all;
+  const int s0 = std::min(largest_face(0), 512);
+  for (const auto [f, p, size] :
+       {std::tuple{std::min(s0 / 2 - 1, (kMapWidth - 1) / 2), 0, s0}, std::tuple{7, p_all, 16}}) {
+    PrefilterOptions alt;
+    alt.f = f;
+    alt.p = p;
+    alt.face_size = size;
+    alt.threads = 2;
+    ASSERT_LE(CubeValues(size, p), budget);
+    auto a = Prefilter(env, *brdf, alt);
+    ASSERT_TRUE(a.ok()) << a.status();
+    const DirectionalError ea = measure(a->cube);
+    std::printf("budget %.3g values: chosen (%d, %d) S %d front rms %.4f; (%d, %d) S %d: %.4f\n",
+                budget, ch.f, ch.p, ch.face_size, e.front.rms, f, p, size, ea.front.rms);
+    EXPECT_LT(e.front.rms, ea.front.rms) << "(F, P) = (" << f << ", " << p << "), S " << size;
+  }
 }
 
 struct RealCase {

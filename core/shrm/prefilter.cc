@@ -1,7 +1,9 @@
 #include "core/shrm/prefilter.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
+#include <cmath>
 
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
@@ -56,6 +58,10 @@ absl::Status ValidatePrefilterOptions(const PrefilterOptions& options) {
   if (options.verify < 0) {
     return absl::InvalidArgumentError(
         absl::StrCat("verify must be >= 0 pairs, got ", options.verify));
+  }
+  if (!(options.size_budget_values >= 0 && std::isfinite(options.size_budget_values))) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("the size budget must be >= 0 values, got ", options.size_budget_values));
   }
   if (options.face_size < 0 || options.threads < 1) {
     return absl::InvalidArgumentError("face size must be >= 0 and threads >= 1");
@@ -143,6 +149,8 @@ constexpr double kReferenceMargin = 0.75;
 constexpr int kMaxReferenceF = 256;
 constexpr int kMaxReferenceP = 31;
 constexpr int kMaxReferenceRounds = 3;
+// The F tried under a size budget, as multiples of ChooseOrdersWithinBudget's (S_max / 2 - 1).
+constexpr std::array<double, 4> kBudgetFGrowth = {1.0, 1.4, 2.0, 2.8};
 
 // Highest lighting degree the map resolves (lat-long: the SHT's limit; other layouts are
 // resampled by LightingCoefficients).
@@ -181,6 +189,7 @@ absl::Status ChooseOrdersForTolerance(const EnvMap& env, const Brdf& brdf,
   topt.tolerance = options.tolerance;
   topt.window = options.window;
   topt.threads = options.threads;
+  BandTable table_of_last_round;
   for (int round = 0;; ++round) {
     SHRM_RETURN_IF_ERROR(clock.Begin("brdf"));
     SHRM_ASSIGN_OR_RETURN(b->coefficients, ComputeBrdfCoefficients(brdf, f_ref, p_ref));
@@ -193,8 +202,8 @@ absl::Status ChooseOrdersForTolerance(const EnvMap& env, const Brdf& brdf,
     SHRM_ASSIGN_OR_RETURN(
         ShrmSynthesizer reference,
         ShrmSynthesizer::Create(f_ref, 3, l->light, b->coefficients, f_ref, p_ref));
-    const BandTable table = BandTable::Compute(reference, pairs, options.threads);
-    *choice = ChooseOrders(table, topt);
+    table_of_last_round = BandTable::Compute(reference, pairs, options.threads);
+    *choice = ChooseOrders(table_of_last_round, topt);
     clock.End();
     const bool grow_f = f_ref < f_cap && (choice->f > kReferenceMargin * f_ref || !choice->met);
     const bool grow_p = p_ref < p_cap && (choice->p > kReferenceMargin * p_ref || !choice->met);
@@ -202,15 +211,54 @@ absl::Status ChooseOrdersForTolerance(const EnvMap& env, const Brdf& brdf,
     if (grow_f) f_ref = std::min(f_cap, 2 * f_ref);
     if (grow_p) p_ref = std::min(p_cap, 2 * p_ref);
   }
-  b->f_rho = choice->f;
-  b->p_rho = choice->p;
+  SHRM_RETURN_IF_ERROR(clock.Begin("orders"));
   if (options.face_size > 0) {
     choice->face_size = options.face_size;
-    return absl::OkStatus();
+  } else {
+    SHRM_RETURN_IF_ERROR(ChooseFaceSize(pairs, f_ref, 3, l->light, b->coefficients, topt, choice));
   }
-  SHRM_RETURN_IF_ERROR(clock.Begin("orders"));
-  SHRM_RETURN_IF_ERROR(ChooseFaceSize(pairs, f_ref, 3, l->light, b->coefficients, topt, choice));
+  // The size budget: the most accurate choice within it when this one needs more.
+  const double needed = CubeValues(choice->face_size, choice->p);
+  if (options.size_budget_values > 0 && needed > options.size_budget_values) {
+    topt.max_cube_values = options.size_budget_values;
+    topt.face_size = options.face_size;
+    int max_face_size = 0;
+    SHRM_ASSIGN_OR_RETURN(ToleranceChoice within,
+                          ChooseOrdersWithinBudget(table_of_last_round, topt, &max_face_size));
+    within.unlimited_values = needed;
+    *choice = within;
+    if (options.face_size > 0) {
+      choice->face_size = options.face_size;
+    } else {
+      // F beyond S_max / 2 - 1 can still pay when truncation dominates (a sharp lobe in a small
+      // budget): a few larger F, each with its face size and interpolation estimate; the
+      // smallest estimated front RMS in total wins.
+      topt.max_face_size = max_face_size;
+      const ToleranceTargets targets = TargetsForTolerance(options.tolerance);
+      int f_top = table_of_last_round.SmallestF(within.p, targets, kTruncationShare, topt.window);
+      if (f_top < 0) f_top = table_of_last_round.f_ref();
+      double best_rms = -1;
+      for (const double growth : kBudgetFGrowth) {
+        const int f = std::min(f_top, static_cast<int>(std::lround(within.f * growth)));
+        if (growth > 1 && f <= within.f) break;
+        ToleranceChoice trial = within;
+        trial.f = f;
+        trial.truncation = table_of_last_round.Estimate(f, trial.p, trial.window);
+        trial.met = MeetsTargets(trial.truncation, targets, kTruncationShare);
+        SHRM_RETURN_IF_ERROR(
+            ChooseFaceSize(pairs, f_ref, 3, l->light, b->coefficients, topt, &trial));
+        const double rms = std::hypot(trial.truncation.front.rms, trial.interpolation.front.rms);
+        if (best_rms < 0 || rms < best_rms) {
+          best_rms = rms;
+          *choice = trial;
+        }
+        if (f == f_top) break;
+      }
+    }
+  }
   clock.End();
+  b->f_rho = choice->f;
+  b->p_rho = choice->p;
   return absl::OkStatus();
 }
 

@@ -43,6 +43,9 @@ struct PrefilterOptions {
   RingingWindow window = RingingWindow::kNone;
   // Pairs of the tolerance rule's estimate (seeded: kSelectionSeed).
   int selection_pairs = 256;
+  // Tolerance rule only, > 0: the size budget on CubeValues(S_B, P_B) (ToleranceOptions::
+  // max_cube_values): the most accurate choice within it when the tolerance's needs more.
+  double size_budget_values = 0;
   // Prefilter() only (FinishPrefilter takes it as an argument): > 0 bounds 6 S_B^2 (P_B + 1)^2 3.
   double max_cube_values = 0;
   // Prefilter() only (FinishPrefilter takes it as an argument): called with S_B and P_B once they

@@ -38,6 +38,31 @@ constexpr int kFaceSizeRounds = 4;
 
 }  // namespace
 
+double CubeValues(int face_size, int p) {
+  return 6.0 * face_size * face_size * (p + 1.0) * (p + 1.0) * 3;
+}
+
+namespace {
+
+// The window of a choice at its orders: none unless asked, or (auto) Lanczos when it lowers the
+// estimated largest error without raising the RMS; the estimate and `met` follow it.
+void ChooseWindow(const BandTable& table, const ToleranceOptions& options, ToleranceChoice* c) {
+  c->window =
+      options.window == RingingWindow::kLanczos ? RingingWindow::kLanczos : RingingWindow::kNone;
+  c->truncation = table.Estimate(c->f, c->p, c->window);
+  if (options.window == RingingWindow::kAuto) {
+    const DirectionalError windowed = table.Estimate(c->f, c->p, RingingWindow::kLanczos);
+    if (windowed.front.max < c->truncation.front.max &&
+        windowed.front.rms <= c->truncation.front.rms) {
+      c->window = RingingWindow::kLanczos;
+      c->truncation = windowed;
+    }
+  }
+  c->met = MeetsTargets(c->truncation, TargetsForTolerance(options.tolerance), kTruncationShare);
+}
+
+}  // namespace
+
 std::vector<DirectionPair> SeededDirectionPairs(uint64_t seed, int count, ReparamKind reparam) {
   std::mt19937_64 rng(seed);
   std::vector<DirectionPair> pairs;
@@ -266,19 +291,50 @@ ToleranceChoice ChooseOrders(const BandTable& table, const ToleranceOptions& opt
     best.f = table.f_ref();
     best.p = table.p_ref();
   }
-  // The window: none unless asked, or (auto) when it lowers the estimated largest error.
-  best.window =
-      options.window == RingingWindow::kLanczos ? RingingWindow::kLanczos : RingingWindow::kNone;
-  best.truncation = table.Estimate(best.f, best.p, best.window);
-  if (options.window == RingingWindow::kAuto) {
-    const DirectionalError windowed = table.Estimate(best.f, best.p, RingingWindow::kLanczos);
-    if (windowed.front.max < best.truncation.front.max &&
-        windowed.front.rms <= best.truncation.front.rms) {
-      best.window = RingingWindow::kLanczos;
-      best.truncation = windowed;
+  ChooseWindow(table, options, &best);
+  return best;
+}
+
+absl::StatusOr<ToleranceChoice> ChooseOrdersWithinBudget(const BandTable& table,
+                                                         const ToleranceOptions& options,
+                                                         int* max_face_size) {
+  const ToleranceTargets targets = TargetsForTolerance(options.tolerance);
+  ToleranceChoice best;
+  best.f_ref = table.f_ref();
+  best.p_ref = table.p_ref();
+  best.budget_limited = true;
+  bool found = false;
+  for (int p = 0; p <= table.p_ref(); ++p) {
+    // The largest S (a multiple of 8) with 6 S^2 (p + 1)^2 3 within the budget.
+    int s = 8 * static_cast<int>(
+                    std::floor(std::sqrt(options.max_cube_values / CubeValues(1, p)) / 8 + 1e-9));
+    s = std::min(s, std::max(kMinFaceSize, options.max_face_size));
+    if (options.face_size > 0) {
+      if (s < options.face_size) break;  // larger p only shrinks it
+      s = options.face_size;
+    }
+    if (s < kMinFaceSize) break;
+    const int f_cap =
+        std::clamp(static_cast<int>(s / kFirstFaceSizePerOrder) - 1, 0, table.f_ref());
+    int f = table.SmallestF(p, targets, kTruncationShare, options.window);
+    if (f < 0 || f > f_cap) f = f_cap;
+    const DirectionalError e = table.Estimate(f, p, RingingWindow::kNone);
+    if (!found || e.front.rms < best.truncation.front.rms ||
+        (e.front.rms == best.truncation.front.rms && e.front.max < best.truncation.front.max)) {
+      found = true;
+      best.f = f;
+      best.p = p;
+      best.truncation = e;
+      *max_face_size = s;
     }
   }
-  best.met = MeetsTargets(best.truncation, targets, kTruncationShare);
+  if (!found) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "the size budget of ", options.max_cube_values, " values is below the smallest cube (",
+        CubeValues(std::max(kMinFaceSize, options.face_size), 0), " values: face size ",
+        std::max(kMinFaceSize, options.face_size), ", P = 0)"));
+  }
+  ChooseWindow(table, options, &best);
   return best;
 }
 

@@ -140,18 +140,45 @@ struct ToleranceChoice {
   DirectionalError interpolation;  // estimated at face_size
   bool met = false;                // both estimates within their shares of the targets
   int f_ref = 0, p_ref = 0;
+  // The size budget (ToleranceOptions::max_cube_values): when the choice above the budget needs
+  // more values, the most accurate (F, P, S) within it (ChooseOrdersWithinBudget) replaces it;
+  // unlimited_values is then what the unconstrained choice needed (0 when the budget did not bind).
+  bool budget_limited = false;
+  double unlimited_values = 0;
 };
+
+// Values a cube of face size S and view order P stores: 6 S^2 (P + 1)^2 x 3 channels.
+double CubeValues(int face_size, int p);
 
 struct ToleranceOptions {
   double tolerance = 0.01;
   RingingWindow window = RingingWindow::kAuto;
   int max_face_size = 1024;
   int threads = 1;
+  // > 0: a size budget on CubeValues(S, P) (the file's size over the bytes per value). The
+  // tolerance is met within it when it can be; otherwise the most accurate choice within it is
+  // taken and reported (ToleranceChoice::budget_limited).
+  double max_cube_values = 0;
+  // > 0: the face size is given (the budget then bounds P only).
+  int face_size = 0;
 };
 // (F, P, window) from a band table at the reference orders (face_size and interpolation are left
 // for ChooseFaceSize). P is 0 for radially symmetric BRDFs (their table has p_ref = 0). When no
 // (F, P) below the reference meets the targets, the reference orders themselves (met = false).
 ToleranceChoice ChooseOrders(const BandTable& table, const ToleranceOptions& options);
+// The most accurate (F, P, window) whose cube can fit options.max_cube_values, for a choice that
+// does not: per view order P, the largest face size S_max(P) the budget allows (a multiple of 8,
+// >= 16; or options.max_face_size when that is smaller), F capped at S_max / 2 - 1 (texel
+// interpolation needs S ~ 2 F: a higher F is lost between the texels), the smallest F meeting the
+// targets below that cap; the P with the smallest estimated front RMS (then largest error) wins.
+// choice->face_size is left for ChooseFaceSize with max_face_size = S_max(P), returned in
+// *max_face_size (Prefilter then also tries larger F with their interpolation estimates,
+// docs/shrm.md "Size budget"). Errors: InvalidArgument when even P = 0 at S = 16 is above the
+// budget.
+absl::StatusOr<ToleranceChoice> ChooseOrdersWithinBudget(const BandTable& table,
+                                                         const ToleranceOptions& options,
+                                                         int* max_face_size);
+
 // S for a choice: the interpolation estimate of the synthesizer made from `light` (degree
 // light_lmax, the choice's window applied here) and `brdf` at the chosen orders, at S ~ 2 F,
 // scaled by the h^2 law and grown until it meets its share (or options.max_face_size).
