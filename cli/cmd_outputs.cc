@@ -40,6 +40,7 @@ struct OutputArgs {
   int threads = 0;
   bool json = false;
   std::string server;
+  int verify = jobs::kDefaultIrradianceVerify;  // irradiance: normals of the check
 };
 
 absl::Status RunRender(const OutputArgs& a) {
@@ -110,11 +111,13 @@ absl::Status RunIrradiance(const OutputArgs& a) {
   SHRM_RETURN_IF_ERROR(CheckOutputPath(a.output, "--output"));
   SHRM_ASSIGN_OR_RETURN(const jobs::EnvironmentSpec spec, EnvSpecFromArgs(a.env));
   std::vector<double> e9;
+  ibl::LevelError measured;
   if (!a.server.empty()) {
     // The coefficients from shrmd (decode + transform there); the cube is built here from them,
     // so the files equal the embedded run's.
     SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> c, ConnectServer(a.server));
     v1::IrradianceRequest req;
+    req.set_verify(a.verify);
     v1::IrradianceResponse resp;
     SHRM_RETURN_IF_ERROR(client::RunRemoteJob(
         c.get(), spec, a.server,
@@ -129,10 +132,12 @@ absl::Status RunIrradiance(const OutputArgs& a) {
                                               " irradiance values, expected 27"));
     }
     e9.assign(resp.coefficients().begin(), resp.coefficients().end());
+    measured = {resp.measured_count(), resp.measured_rms(), resp.measured_max()};
   } else {
     SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(spec));
-    SHRM_ASSIGN_OR_RETURN(
-        e9, jobs::IrradianceSh9(env, jobs::EnvironmentRotation(spec), ResolveThreads(a.threads)));
+    const Mat3 rotation = jobs::EnvironmentRotation(spec);
+    SHRM_ASSIGN_OR_RETURN(e9, jobs::IrradianceSh9(env, rotation, ResolveThreads(a.threads)));
+    measured = jobs::MeasureIrradianceSh9(env, rotation, e9, a.verify, ResolveThreads(a.threads));
   }
   if (!a.output.empty()) {
     SHRM_ASSIGN_OR_RETURN(RadianceCube cube, IrradianceCube(e9, 3, a.size));
@@ -147,6 +152,8 @@ absl::Status RunIrradiance(const OutputArgs& a) {
         co.push_back({{"l", l}, {"m", m}, {"rgb", {c[0], c[1], c[2]}}});
       }
     j["irradiance_coefficients"] = co;
+    if (measured.count > 0)
+      j["measured"] = {{"normals", measured.count}, {"rms", measured.rms}, {"max", measured.max}};
     if (!a.output.empty()) j["output"] = a.output;
     std::printf("%s\n", j.dump(2).c_str());
     return absl::OkStatus();
@@ -158,6 +165,12 @@ absl::Status RunIrradiance(const OutputArgs& a) {
       const double* c = &e9[static_cast<size_t>(ShIndex(l, m)) * 3];
       std::printf("  %3d %4d %14.6g %14.6g %14.6g\n", l, m, c[0], c[1], c[2]);
     }
+  if (measured.count > 0) {
+    std::printf(
+        "measured at %d normals against the pixel sum: relative RMS %.3g, largest %.3g (the l <= 2 "
+        "truncation)\n",
+        measured.count, measured.rms, measured.max);
+  }
   if (!a.output.empty())
     std::printf("wrote %s (irradiance by normal, horizontal cross)\n", a.output.c_str());
   return absl::OkStatus();
@@ -208,6 +221,10 @@ void RegisterIrradiance(CLI::App& app, absl::Status* status) {
   sub->add_option("-o,--output", args->output, "output EXR (horizontal cross), optional");
   sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
       ->check(CLI::NonNegativeNumber);
+  sub->add_option("--verify", args->verify,
+                  "check the coefficients at N seeded normals against the pixel sum (0: no check)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, jobs::kMaxIrradianceVerify));
   sub->add_flag("--json", args->json, "machine-readable output");
   AddServerOption(sub, &args->server);
   sub->callback([args, status] { *status = RunIrradiance(*args); });

@@ -1,6 +1,7 @@
 #include "jobs/ibl_job.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <string_view>
@@ -8,10 +9,12 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
+#include "core/base/constants.h"
 #include "core/base/cubemap.h"
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
 #include "core/sh/sh.h"
+#include "jobs/point_jobs.h"
 #include "shrm/version.h"
 
 namespace shrm::jobs {
@@ -34,33 +37,6 @@ absl::Status Measure(const EnvMap& map, const Mat3& rotation, ibl::SpecularLobe 
                                                    seed + k, threads));
   }
   return absl::OkStatus();
-}
-
-// The l <= 2 irradiance / pi of `sh9` (radiance L_lm) against the pixel sum at `count` seeded
-// normals, as a one-level cube would be measured.
-ibl::LevelError MeasureSh9(const EnvMap& map, const Mat3& rotation, const std::vector<double>& sh9,
-                           int count, int threads) {
-  constexpr int kFace = 16;
-  ibl::SpecularLevel level;
-  level.face_size = kFace;
-  level.roughness = level.alpha = 1;
-  level.cube.face_size = kFace;
-  level.cube.data.resize(level.cube.size());
-  std::vector<double> y(ShCount(2));
-  const double a[3] = {1.0, 2.0 / 3.0, 0.25};  // A_l / pi
-  for (int f = 0; f < kCubeFaceCount; ++f)
-    for (int v = 0; v < kFace; ++v)
-      for (int u = 0; u < kFace; ++u) {
-        EvalSh(2, ShFrameFromWorld(CubeTexelDirection(f, u, v, kFace)), y);
-        for (int c = 0; c < 3; ++c) {
-          double e = 0;
-          for (int l = 0; l <= 2; ++l)
-            for (int m = -l; m <= l; ++m) e += a[l] * sh9[ShIndex(l, m) * 3 + c] * y[ShIndex(l, m)];
-          level.cube.data[level.cube.Index(f, u, v, c)] = static_cast<float>(e);
-        }
-      }
-  return ibl::MeasureLevelError(map, ibl::SpecularLobe::kLambert, level, rotation, count,
-                                kIrradianceVerifySeed + 1000, threads);
 }
 
 // Clamps negatives to 0 and rounds every texel as `format` stores it.
@@ -414,7 +390,13 @@ absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
     }
     SHRM_RETURN_IF_ERROR(Measure(map, rotation, ibl::SpecularLobe::kLambert, job.verify,
                                  kIrradianceVerifySeed, threads, run.irradiance));
-    run.sh9_measured = MeasureSh9(map, rotation, run.radiance_sh9, job.verify, threads);
+    // The check of E_lm = A_l L_lm, the form `shrm irradiance` states (A_l / pi = 1, 2/3, 1/4).
+    std::vector<double> e9(run.radiance_sh9.begin(), run.radiance_sh9.end());
+    for (int l = 0; l <= 2; ++l)
+      for (int m = -l; m <= l; ++m)
+        for (int c = 0; c < 3; ++c)
+          e9[ShIndex(l, m) * 3 + c] *= kPi * std::array{1.0, 2.0 / 3, 0.25}[l];
+    run.sh9_measured = MeasureIrradianceSh9(map, rotation, e9, job.verify, threads);
     run.timings.push_back({"verify", MsSince(t0)});
   }
   run.report = IblReportJson(job, run);

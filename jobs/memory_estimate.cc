@@ -11,7 +11,7 @@ uint64_t MapBytes(int64_t pixels) {
 uint64_t ShrmCubeBytes(int face_size, int p_b) {
   const uint64_t s = static_cast<uint64_t>(std::max(face_size, 0));
   const uint64_t coeffs = static_cast<uint64_t>(p_b + 1) * static_cast<uint64_t>(p_b + 1);
-  return 6 * s * s * coeffs * 3 * kCubeBytesPerValue;
+  return 6 * s * s * coeffs * 3 * kCubeBytesPerValue + (p_b > 0 ? kGridSlabBytes : 0);
 }
 
 uint64_t IblOutputBytes(const IblJob& job) {

@@ -29,7 +29,12 @@ inline constexpr uint64_t kChainBytesPerTexel = 72;
 
 // Decoding and transforming a map of `pixels` input pixels (all files of a cube together).
 uint64_t MapBytes(int64_t pixels);
-// Synthesizing and encoding an SHRM cube of face size S_B and order P_B.
+// The synthesis grid's slab (ShrmGridOptions::max_grid_bytes: the (alpha, beta) grid of F_B +
+// P_B is made and resampled in slabs within it; before, the whole grid was held: 0.8 GB at
+// (42, 21) even for a 16 x 16 cube).
+inline constexpr uint64_t kGridSlabBytes = uint64_t{64} << 20;
+// Synthesizing and encoding an SHRM cube of face size S_B and order P_B (P_B > 0: with the grid's
+// slab).
 uint64_t ShrmCubeBytes(int face_size, int p_b);
 // An IBL job's outputs (the chains, the irradiance cube, the DFG table and their files), beyond
 // its map. The job must be valid (ValidateIblJob).

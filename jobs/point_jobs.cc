@@ -3,8 +3,11 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/constants.h"
+#include "core/base/cubemap.h"
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
+#include "core/sh/sh.h"
 #include "core/shrm/shrm_explicit.h"
 
 namespace shrm::jobs {
@@ -22,6 +25,31 @@ absl::StatusOr<std::vector<double>> IrradianceSh9(const EnvMap& map, const Mat3&
                                                   int threads) {
   SHRM_ASSIGN_OR_RETURN(std::vector<double> light, LightingCoefficients(map, 2, rotation, threads));
   return IrradianceCoefficients(2, 3, light);
+}
+
+ibl::LevelError MeasureIrradianceSh9(const EnvMap& map, const Mat3& rotation,
+                                     std::span<const double> e9, int count, int threads) {
+  // The check's seed (the IBL job's SH9 check uses the same normals).
+  constexpr uint64_t kSeed = 0x5eed'1b10'0003 + 1000;
+  constexpr int kFace = 16;
+  ibl::SpecularLevel level;
+  level.face_size = kFace;
+  level.roughness = level.alpha = 1;
+  level.cube.face_size = kFace;
+  level.cube.data.resize(level.cube.size());
+  std::vector<double> y(ShCount(2));
+  for (int f = 0; f < kCubeFaceCount; ++f)
+    for (int v = 0; v < kFace; ++v)
+      for (int u = 0; u < kFace; ++u) {
+        EvalSh(2, ShFrameFromWorld(CubeTexelDirection(f, u, v, kFace)), y);
+        for (int c = 0; c < 3; ++c) {
+          double e = 0;
+          for (int k = 0; k < ShCount(2); ++k) e += e9[static_cast<size_t>(k) * 3 + c] * y[k];
+          level.cube.data[level.cube.Index(f, u, v, c)] = static_cast<float>(e / kPi);
+        }
+      }
+  return ibl::MeasureLevelError(map, ibl::SpecularLobe::kLambert, level, rotation, count, kSeed,
+                                threads);
 }
 
 }  // namespace shrm::jobs

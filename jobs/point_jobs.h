@@ -5,6 +5,7 @@
 #ifndef SHRM_JOBS_POINT_JOBS_H_
 #define SHRM_JOBS_POINT_JOBS_H_
 
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -12,6 +13,7 @@
 #include "absl/strings/string_view.h"
 #include "core/base/geometry.h"
 #include "core/envmap/envmap.h"
+#include "core/ibl/split_sum.h"
 
 namespace shrm::jobs {
 
@@ -27,6 +29,19 @@ absl::StatusOr<Vec3> UnitDirection(const Vec3& v, absl::string_view what);
 inline constexpr int kIrradianceCoefficientCount = 27;
 absl::StatusOr<std::vector<double>> IrradianceSh9(const EnvMap& map, const Mat3& rotation,
                                                   int threads);
+
+// Normals the irradiance job checks its coefficients at when none is given (`shrm irradiance
+// --verify`, IrradianceRequest.verify), and the most it may ask for.
+inline constexpr int kDefaultIrradianceVerify = 64;
+inline constexpr int kMaxIrradianceVerify = 100000;
+// The measured error of irradiance coefficients E_lm (IrradianceSh9's layout): E(n) / pi =
+// sum_lm E_lm Y_lm(n) / pi, sampled on a 16 x 16 cube and looked up bilinearly, against the
+// Lambertian pixel sum of the map (rotated by `rotation`) at `count` seeded normals
+// (ibl::MeasureLevelError: relative per channel, with the floor of the split-sum checks). This is
+// the l <= 2 truncation itself (Ramamoorthi & Hanrahan's 1-3% "on average" is an energy figure;
+// per normal, 3-10% on the bundled maps): stated, not a tolerance. count = 0 gives zeros.
+ibl::LevelError MeasureIrradianceSh9(const EnvMap& map, const Mat3& rotation,
+                                     std::span<const double> e9, int count, int threads);
 
 }  // namespace shrm::jobs
 

@@ -616,10 +616,21 @@ grpc::Status ShrmServiceImpl::Irradiance(grpc::ServerContext* context,
       context, request->environment(), blobs_.get(), &decode_guard_, "lighting",
       [&](uint64_t bytes, std::string_view what) { return (*slot)->Reserve(bytes, what); });
   if (!env.ok()) return fail(env.status());
-  absl::StatusOr<std::vector<double>> e9 = jobs::IrradianceSh9(
-      env->map, jobs::EnvironmentRotation(env->pinned.spec), options_.job_threads);
+  const int verify = request->has_verify() ? request->verify() : jobs::kDefaultIrradianceVerify;
+  if (verify < 0 || verify > jobs::kMaxIrradianceVerify) {
+    return fail(absl::InvalidArgumentError(absl::StrCat(
+        "verify must be in [0, ", jobs::kMaxIrradianceVerify, "] normals, got ", verify)));
+  }
+  const Mat3 rotation = jobs::EnvironmentRotation(env->pinned.spec);
+  absl::StatusOr<std::vector<double>> e9 =
+      jobs::IrradianceSh9(env->map, rotation, options_.job_threads);
   if (!e9.ok()) return fail(e9.status());
   for (double c : *e9) response->add_coefficients(c);
+  const ibl::LevelError measured =
+      jobs::MeasureIrradianceSh9(env->map, rotation, *e9, verify, options_.job_threads);
+  response->set_measured_count(measured.count);
+  response->set_measured_rms(measured.rms);
+  response->set_measured_max(measured.max);
   return log.Finish(grpc::Status::OK);
 }
 

@@ -317,6 +317,19 @@ if "$SHRM" prefilter --env "$MAP" --brdf phong:s=32 --tolerance 0.01 -o t.shrm.e
 else
   fail "tolerance: prefilter failed: $(cat t.stderr)"
 fi
+# shrm irradiance states the measured error of its coefficients (the l <= 2 truncation) against
+# the pixel sum at --verify normals; --verify 0 skips the check.
+CHECKS=$((CHECKS + 1))
+if "$SHRM" irradiance --env "$MAP" --verify 16 --json >irr.json 2>irr.stderr &&
+  grep -q '"normals": 16' irr.json && "$SHRM" irradiance --env "$MAP" --verify 0 --json >irr0.json &&
+  ! grep -q '"measured"' irr0.json && "$SHRM" irradiance --env "$MAP" >irr.txt &&
+  grep -Eq '^measured at 64 normals against the pixel sum: relative RMS' irr.txt; then
+  echo "ok: irradiance measured: $(grep measured irr.txt)"
+else
+  fail "irradiance measured: $(cat irr.stderr irr.json irr.txt 2>&1 | head -c 400)"
+fi
+expect_error irradiance_bad_verify 2 'verify' "$SHRM" irradiance --env "$MAP" --verify -1
+
 # The size budget: Phong s = 512 needs about 2.6 MB for 1% (F_B ~ 79, S_B ~ 190); within 0.5 MB
 # the most accurate cube that fits is written, and the command says what the tolerance needs.
 CHECKS=$((CHECKS + 1))

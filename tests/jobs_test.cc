@@ -3,17 +3,24 @@
 // syntax shared by the command-line front ends.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <map>
+#include <random>
 #include <string>
 
+#include "core/envmap/envmap.h"
 #include "core/io/sha256.h"
+#include "core/sh/sh.h"
 #include "jobs/analyze_job.h"
 #include "jobs/environment.h"
 #include "jobs/option_text.h"
 #include "jobs/point_jobs.h"
 #include "jobs/prefilter_job.h"
 #include "shrm/version.h"
+#include "tests/test_maps.h"
 
 namespace shrm {
 namespace {
@@ -249,6 +256,60 @@ TEST(AnalyzeJob, DefaultsAndValidation) {
   EXPECT_EQ(j["F_B"], 8);
   EXPECT_EQ(j["P_B"], 2);
   EXPECT_TRUE(j["F_L"].is_null());
+}
+
+// The irradiance job's check (MeasureIrradianceSh9): zero up to the 16 x 16 lookup for a map of
+// degree <= 2 (nothing truncated), and on a real map with a sun the l <= 2 truncation this test
+// measures itself at its own normals (a double sum over every pixel, sum L dOmega max(n.w, 0)).
+TEST(IrradianceJob, MeasuredErrorIsTheTruncationAgainstThePixelSum) {
+  // Bilinear lookup of a degree-2 function on 16 x 16 faces: ~h^2 / 8 x |f''| ~ 1e-3.
+  constexpr double kLookupTol = 5e-3;
+  // Two sets of 200 normals estimate the same RMS: within this factor of each other.
+  constexpr double kSamplingFactor = 1.5;
+  constexpr int kNormals = 200;
+  const EnvMap smooth = EnvMap::FromLatLong(testing::BandLimitedLatLong(2, 3, 64, 32));
+  auto e_smooth = jobs::IrradianceSh9(smooth, Mat3::Identity(), 2);
+  ASSERT_TRUE(e_smooth.ok()) << e_smooth.status();
+  const ibl::LevelError m0 =
+      jobs::MeasureIrradianceSh9(smooth, Mat3::Identity(), *e_smooth, kNormals, 2);
+  EXPECT_EQ(m0.count, kNormals);
+  EXPECT_LT(m0.rms, kLookupTol);
+  EXPECT_EQ(jobs::MeasureIrradianceSh9(smooth, Mat3::Identity(), *e_smooth, 0, 2).count, 0);
+
+  const Image img = testing::LoadBundledMap("courtyard.exr", 256);
+  const EnvMap env = EnvMap::FromLatLong(img);
+  auto e9 = jobs::IrradianceSh9(env, Mat3::Identity(), 2);
+  ASSERT_TRUE(e9.ok()) << e9.status();
+  const ibl::LevelError m = jobs::MeasureIrradianceSh9(env, Mat3::Identity(), *e9, kNormals, 2);
+  const std::vector<EnvSample> samples = testing::LatLongSamples(img);
+  std::mt19937 rng(21);
+  std::normal_distribution<double> g;
+  std::vector<std::array<double, 3>> got, ref;
+  double mean = 0;
+  for (int k = 0; k < kNormals; ++k) {
+    const Vec3 n = Vec3{g(rng), g(rng), g(rng)}.Normalized();
+    std::array<double, 3> sum{0, 0, 0}, sh{0, 0, 0};
+    for (const EnvSample& s : samples)
+      for (int c = 0; c < 3; ++c) sum[c] += s.rgb[c] * s.solid_angle * std::max(0.0, n.Dot(s.dir));
+    const std::vector<double> y = EvalSh(2, ShFrameFromWorld(n));
+    for (int i = 0; i < ShCount(2); ++i)
+      for (int c = 0; c < 3; ++c) sh[c] += (*e9)[static_cast<size_t>(i) * 3 + c] * y[i];
+    got.push_back(sh);
+    ref.push_back(sum);
+    for (int c = 0; c < 3; ++c) mean += std::abs(sum[c]) / (3.0 * kNormals);
+  }
+  double sq = 0;
+  for (int k = 0; k < kNormals; ++k)
+    for (int c = 0; c < 3; ++c) {
+      const double e = std::abs(got[k][c] - ref[k][c]) / std::max(std::abs(ref[k][c]), 0.01 * mean);
+      sq += e * e;
+    }
+  const double rms = std::sqrt(sq / (3.0 * kNormals));
+  std::printf("courtyard SH9 irradiance: measured RMS %.4f largest %.4f; this test's RMS %.4f\n",
+              m.rms, m.max, rms);
+  EXPECT_GT(m.rms, 10 * kLookupTol);  // a sun: the truncation is visible
+  EXPECT_LT(m.rms, kSamplingFactor * rms);
+  EXPECT_GT(m.rms, rms / kSamplingFactor);
 }
 
 }  // namespace

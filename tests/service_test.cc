@@ -326,6 +326,8 @@ TEST_F(ServiceTest, CliReferenceAndIrradianceRunRemotelyWithTheEmbeddedResults) 
   const std::string remote_irr = CliOutput(absl::StrCat(irr, " -o ", b, server));
   EXPECT_EQ(remote_irr.substr(0, remote_irr.find("\"output\"")),
             embedded_irr.substr(0, embedded_irr.find("\"output\"")));
+  // Both state the coefficients' measured error (the server's check at the default normals).
+  EXPECT_NE(embedded_irr.find("\"normals\": 64"), std::string::npos) << embedded_irr;
   EXPECT_FALSE(ReadFile(a).empty());
   EXPECT_TRUE(ReadFile(a) == ReadFile(b)) << "remote irradiance cube differs";
   for (const auto& f : {a, b}) std::filesystem::remove(f);
@@ -347,6 +349,15 @@ TEST_F(ServiceTest, CliReferenceAndIrradianceRunRemotelyWithTheEmbeddedResults) 
   ir.mutable_environment()->add_sha256(std::string(64, 'a'));
   absl::StatusOr<v1::IrradianceResponse> e = c->Irradiance(ir);
   EXPECT_EQ(e.status().code(), absl::StatusCode::kNotFound) << e.status();
+  ir.mutable_environment()->set_sha256(0, *sha);
+  ir.set_verify(-1);
+  e = c->Irradiance(ir);
+  EXPECT_EQ(e.status().code(), absl::StatusCode::kInvalidArgument) << e.status();
+  EXPECT_NE(e.status().message().find("verify"), absl::string_view::npos) << e.status();
+  ir.set_verify(0);
+  e = c->Irradiance(ir);
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_EQ(e->measured_count(), 0);
 }
 
 TEST_F(ServiceTest, CliTokenFileFlagAuthenticates) {

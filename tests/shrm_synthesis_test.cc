@@ -284,28 +284,65 @@ TEST(ShrmSynthesisTest, CubeInterpolationErrorShrinksWithFaceSize) {
   }
 }
 
+// Relative RMS of the cube at every third texel centre (random views) against RadianceAt.
+double TexelCentreError(const ShrmSynthesizer& synth, const ShrmCube& cube, std::mt19937& rng) {
+  const int s = cube.face_size;
+  std::vector<double> a, b;
+  for (int f = 0; f < 6; ++f)
+    for (int y = 0; y < s; y += 3)
+      for (int x = 0; x < s; x += 3) {
+        const Vec3 v = RandomUnit(rng);
+        const auto t = ShrmTexelRadiance(cube, f, x, y, v);
+        const auto d = synth.RadianceAt(cube.kind, CubeTexelDirection(f, x, y, s), v);
+        for (int c = 0; c < 3; ++c) {
+          a.push_back(t[c]);
+          b.push_back(d[c]);
+        }
+      }
+  return RelRms(a, b);
+}
+
 TEST(ShrmSynthesisTest, TexelCentresEqualDirectEvaluation) {
   const ShrmSynthesizer synth = MakeSynth(TestBrdf());
   std::mt19937 rng(5);
   for (ShrmKind kind : {ShrmKind::kGlobal, ShrmKind::kLocal}) {
     auto cube = synth.BuildCube(kind, 16);
     ASSERT_TRUE(cube.ok());
-    std::vector<double> a, b;
-    for (int f = 0; f < 6; ++f)
-      for (int y = 0; y < 16; y += 3)
-        for (int x = 0; x < 16; x += 3) {
-          const Vec3 v = RandomUnit(rng);
-          const auto t = ShrmTexelRadiance(*cube, f, x, y, v);
-          const auto d = synth.RadianceAt(kind, CubeTexelDirection(f, x, y, 16), v);
-          for (int c = 0; c < 3; ++c) {
-            a.push_back(t[c]);
-            b.push_back(d[c]);
-          }
-        }
-    const double err = RelRms(a, b);
+    const double err = TexelCentreError(synth, *cube, rng);
     std::printf("%s texel centres vs direct: %.3g\n",
                 kind == ShrmKind::kGlobal ? "global" : "local", err);
     EXPECT_LT(err, kTexelCentreTol);
+  }
+}
+
+// A grid too large for ShrmGridOptions::max_grid_bytes is made in slabs of rows, each resampled
+// before the next: the texel centres still equal the direct evaluation (RadianceAt, eq. 5.23 with
+// the library's Wigner tables), and the slabs' cube is the whole grid's value for value (the
+// same sums in the same order), for slabs of one Wigner block and of a few, and any thread count.
+TEST(ShrmSynthesisTest, CubeFromSlabsOfTheGridEqualsTheWholeGrid) {
+  const ShrmSynthesizer synth = MakeSynth(TestBrdf());
+  ASSERT_GT(synth.pmax(), 0);
+  std::mt19937 rng(9);
+  for (ShrmKind kind : {ShrmKind::kGlobal, ShrmKind::kLocal}) {
+    ShrmGridOptions whole;
+    whole.max_grid_bytes = 0;
+    auto reference = synth.BuildCube(kind, 20, whole);
+    ASSERT_TRUE(reference.ok()) << reference.status();
+    for (const size_t bytes : {size_t{1}, size_t{200000}, size_t{1000000}})
+      for (const int threads : {1, 3}) {
+        ShrmGridOptions slabs;
+        slabs.max_grid_bytes = bytes;
+        slabs.threads = threads;
+        auto cube = synth.BuildCube(kind, 20, slabs);
+        ASSERT_TRUE(cube.ok()) << cube.status();
+        ASSERT_EQ(cube->data.size(), reference->data.size());
+        size_t differing = 0;
+        for (size_t i = 0; i < cube->data.size(); ++i)
+          differing += cube->data[i] != reference->data[i];
+        EXPECT_EQ(differing, 0u) << "max_grid_bytes " << bytes << ", threads " << threads;
+        EXPECT_LT(TexelCentreError(synth, *cube, rng), kTexelCentreTol)
+            << "max_grid_bytes " << bytes;
+      }
   }
 }
 

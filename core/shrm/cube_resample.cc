@@ -166,36 +166,53 @@ inline void Interpolate(const float* values, int nb, int runtime_stride, const T
   for (int i = 0; i < stride; ++i) dst[i] = acc[i];
 }
 
+// Calls fn(std::integral_constant<int, N>) with N = stride for the strides of P = 0..3 with 3
+// channels (fixed trip counts), else N = 0.
+template <typename Fn>
+void DispatchStride(int stride, Fn&& fn) {
+  switch (stride) {
+    case 3:
+      fn(std::integral_constant<int, 3>{});
+      break;
+    case 12:
+      fn(std::integral_constant<int, 12>{});
+      break;
+    case 27:
+      fn(std::integral_constant<int, 27>{});
+      break;
+    case 48:
+      fn(std::integral_constant<int, 48>{});
+      break;
+    default:
+      fn(std::integral_constant<int, 0>{});
+  }
+}
+
 }  // namespace
 
 void ResampleToCube(const float* values, int na, int stride, GridColumns columns, int threads,
                     ShrmCube& cube) {
+  // The whole grid is one slab owning every stencil start.
+  ResampleToCubeFromRows(values, 0, na + 4, na, stride, columns, threads, cube);
+}
+
+void ResampleToCubeFromRows(const float* rows, int first_row, int row_count, int na, int stride,
+                            GridColumns columns, int threads, ShrmCube& cube) {
   const int face_size = cube.face_size, nb = 2 * na;
   const std::shared_ptr<const std::vector<TexelTaps>> taps = GetTexelTaps(face_size, na, columns);
   const int rows_total = kCubeFaceCount * face_size;
-  auto run = [&]<int N>(std::integral_constant<int, N>) {
+  const int last_start = first_row + row_count - 3;  // owned stencil starts: [first_row, last)
+  DispatchStride(stride, [&]<int N>(std::integral_constant<int, N>) {
     ParallelChunks(rows_total, threads, [&](int begin, int end) {
       for (size_t texel = static_cast<size_t>(begin) * face_size;
-           texel < static_cast<size_t>(end) * face_size; ++texel)
-        Interpolate<N>(values, nb, stride, (*taps)[texel], cube.data.data() + texel * stride);
+           texel < static_cast<size_t>(end) * face_size; ++texel) {
+        TexelTaps t = (*taps)[texel];
+        if (t.row < first_row || t.row >= last_start) continue;
+        t.row -= first_row;
+        Interpolate<N>(rows, nb, stride, t, cube.data.data() + texel * stride);
+      }
     });
-  };
-  switch (stride) {  // fixed trip counts for P = 0..3 with 3 channels
-    case 3:
-      run(std::integral_constant<int, 3>{});
-      break;
-    case 12:
-      run(std::integral_constant<int, 12>{});
-      break;
-    case 27:
-      run(std::integral_constant<int, 27>{});
-      break;
-    case 48:
-      run(std::integral_constant<int, 48>{});
-      break;
-    default:
-      run(std::integral_constant<int, 0>{});
-  }
+  });
 }
 
 void ReserveLargeBuffer(std::vector<float>& v, size_t n) {

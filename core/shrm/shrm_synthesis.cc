@@ -3,7 +3,9 @@
 #include <fftw3.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <functional>
 #include <mutex>
 
 #if defined(__AVX512F__)
@@ -370,24 +372,30 @@ absl::StatusOr<ShrmSynthesizer::Grid> ShrmSynthesizer::BuildGrid(ShrmKind kind, 
   g.stride = ShCount(pmax_) * channels_;
   const int rows = na + 4;
   g.values.assign(static_cast<size_t>(rows) * g.nb * g.stride, 0.0f);
+  SynthesizeSlabs(kind, na, rows, threads, g.values.data(), [](int, int) {});
+  return g;
+}
+
+void ShrmSynthesizer::SynthesizeSlabs(ShrmKind kind, int na, int owned, int threads, float* out,
+                                      const std::function<void(int, int)>& emit) const {
+  const int nb = 2 * na, stride = ShCount(pmax_) * channels_, rows = na + 4;
   const int nseries = (pmax_ + 1) * (pmax_ + 2) / 2 * channels_;
-  const size_t work_size = static_cast<size_t>(nseries) * g.nb;
+  const size_t work_size = static_cast<size_t>(nseries) * nb;
   fftw_plan plan;
   fftw_complex *probe, *probe_out;
   {
     std::lock_guard<std::mutex> lock(FftwPlannerMutex());
     probe = fftw_alloc_complex(work_size);
     probe_out = fftw_alloc_complex(work_size);
-    int n[1] = {g.nb};
-    plan = fftw_plan_many_dft(1, n, nseries, probe, nullptr, 1, g.nb, probe_out, nullptr, 1, g.nb,
+    int n[1] = {nb};
+    plan = fftw_plan_many_dft(1, n, nseries, probe, nullptr, 1, nb, probe_out, nullptr, 1, nb,
                               FFTW_BACKWARD, FFTW_ESTIMATE);
   }
   const int qmax = std::min(pmax_, lmax_);
   const WignerColumnTables tables(lmax_, qmax), ptables(pmax_, pmax_);
   constexpr int B = kWignerBlock;
-  const int blocks = (rows + B - 1) / B;
-  ParallelChunks(blocks, threads, [&](int begin, int end) {
-    RowScratch scratch;
+  std::vector<RowScratch> scratches(std::max(1, threads));
+  for (RowScratch& scratch : scratches) {
     {
       std::lock_guard<std::mutex> lock(FftwPlannerMutex());
       scratch.work = reinterpret_cast<std::complex<double>*>(fftw_alloc_complex(work_size));
@@ -401,24 +409,34 @@ absl::StatusOr<ShrmSynthesizer::Grid> ShrmSynthesizer::BuildGrid(ShrmKind kind, 
     scratch.bim.assign(nbm, 0.0);
     scratch.sre.assign(2 * lmax_ + 1, 0.0);
     scratch.sim.assign(2 * lmax_ + 1, 0.0);
-    for (int blk = begin; blk < end; ++blk) {
-      const int r0 = blk * B, nrows = std::min(B, rows - r0);
-      double alphas[B];
-      for (int r = 0; r < nrows; ++r) alphas[r] = kPi * (r0 + r - 2 + 0.5) / na;
-      SynthesizeRows(kind, alphas, nrows, g.nb, plan, tables, ptables, scratch,
-                     g.values.data() + static_cast<size_t>(r0) * g.nb * g.stride);
-    }
+  }
+  for (int row_begin = 0; row_begin < rows - 3; row_begin += owned) {
+    const int row_end = std::min(row_begin + owned + 3, rows);
+    const int blocks = (row_end - row_begin + B - 1) / B;
+    std::atomic<int> next_scratch{0};
+    ParallelChunks(blocks, threads, [&](int begin, int end) {
+      RowScratch& scratch = scratches[next_scratch++];
+      for (int blk = begin; blk < end; ++blk) {
+        const int r0 = row_begin + blk * B, nrows = std::min(B, row_end - r0);
+        double alphas[B];
+        for (int r = 0; r < nrows; ++r) alphas[r] = kPi * (r0 + r - 2 + 0.5) / na;
+        SynthesizeRows(kind, alphas, nrows, nb, plan, tables, ptables, scratch,
+                       out + static_cast<size_t>(r0 - row_begin) * nb * stride);
+      }
+    });
+    emit(row_begin, row_end - row_begin);
+  }
+  for (RowScratch& scratch : scratches) {
     std::lock_guard<std::mutex> lock(FftwPlannerMutex());
     fftw_free(scratch.work);
     fftw_free(scratch.out);
-  });
+  }
   {
     std::lock_guard<std::mutex> lock(FftwPlannerMutex());
     fftw_destroy_plan(plan);
     fftw_free(probe);
     fftw_free(probe_out);
   }
-  return g;
 }
 
 absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCube(ShrmKind kind, int face_size,
@@ -448,22 +466,44 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCube(ShrmKind kind, int face_size
     while (!smooth(na)) na += 8;
   }
   if (pmax_ == 0 && options.p0_sht_path) return BuildCubeP0(kind, face_size, na, options.threads);
-  Grid g;
-  {
-    auto grid = BuildGrid(kind, na, options.threads);
-    if (!grid.ok()) return grid.status();
-    g = std::move(grid).value();
-  }
   ShrmCube cube;
   cube.kind = kind;
   cube.index = reparam_;
   cube.face_size = face_size;
   cube.pmax = pmax_;
   cube.channels = channels_;
+  const int nb = 2 * na, stride = ShCount(pmax_) * channels_, rows = na + 4;
+  const size_t row_bytes = static_cast<size_t>(nb) * stride * sizeof(float);
+  if (options.max_grid_bytes == 0 || rows * row_bytes <= options.max_grid_bytes) {
+    Grid g;
+    {
+      auto grid = BuildGrid(kind, na, options.threads);
+      if (!grid.ok()) return grid.status();
+      g = std::move(grid).value();
+    }
+    internal::ReserveLargeBuffer(cube.data, cube.size());
+    cube.data.resize(cube.size());
+    internal::ResampleToCube(g.values.data(), na, g.stride, internal::GridColumns::kShrm,
+                             options.threads, cube);
+    return cube;
+  }
+  // Slabs: each owns the stencil starts [first, first + owned) and holds 3 more rows.
+  const int extra = kind == ShrmKind::kGlobal ? pmax_ : 0;
+  if (na < lmax_ + extra + 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("SHRM grid: ", na, " alpha samples cannot resolve degree ", lmax_ + extra,
+                     " (need >= ", lmax_ + extra + 1, ")"));
+  }
+  const int owned = std::max(
+      kWignerBlock,
+      static_cast<int>(options.max_grid_bytes / row_bytes) / kWignerBlock * kWignerBlock - 3);
   internal::ReserveLargeBuffer(cube.data, cube.size());
   cube.data.resize(cube.size());
-  internal::ResampleToCube(g.values.data(), na, g.stride, internal::GridColumns::kShrm,
-                           options.threads, cube);
+  std::vector<float> slab(static_cast<size_t>(std::min(owned + 3, rows)) * nb * stride, 0.0f);
+  SynthesizeSlabs(kind, na, owned, options.threads, slab.data(), [&](int first, int count) {
+    internal::ResampleToCubeFromRows(slab.data(), first, count, na, stride,
+                                     internal::GridColumns::kShrm, options.threads, cube);
+  });
   return cube;
 }
 

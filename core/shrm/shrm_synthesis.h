@@ -22,6 +22,7 @@
 
 #include <array>
 #include <complex>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <span>
@@ -47,6 +48,11 @@ struct ShrmGridOptions {
   // coefficients sqrt(4 pi / (2l + 1)) rho_l L_lm instead of the Wigner / FFT rows (same grid,
   // same interpolation; faster for every F). false = the general path (tests compare the two).
   bool p0_sht_path = true;
+  // P > 0: when the whole padded grid ((na + 4) x 2 na nodes x (P + 1)^2 x channels floats) would
+  // exceed this many bytes, BuildCube synthesizes it in slabs of rows within this size, each
+  // resampled before the next is made (identical values; the grid depends on F + P, not on
+  // S_B, e.g. 0.8 GB at (42, 21) even for a 16 x 16 cube). 0 = always whole.
+  size_t max_grid_bytes = size_t{64} << 20;
 };
 
 // The SHRM of one lighting and one BRDF: L_lm (complex, converted from the real input) and
@@ -112,6 +118,12 @@ class ShrmSynthesizer {
 
  private:
   ShrmSynthesizer() = default;
+  // The padded grid (row r is alpha_{r - 2}, rows 0 .. na + 3) in slabs: slab s holds rows
+  // [first, first + count) with first = s x owned and count = min(owned + 3, na + 4 - first),
+  // written to `out` (count x 2 na x stride floats, reused for every slab), then emit(first,
+  // count) is called. owned >= na + 1 makes one slab of the whole grid.
+  void SynthesizeSlabs(ShrmKind kind, int na, int owned, int threads, float* out,
+                       const std::function<void(int first, int count)>& emit) const;
   // The P = 0 path of BuildCube (ShrmGridOptions::p0_sht_path).
   absl::StatusOr<ShrmCube> BuildCubeP0(ShrmKind kind, int face_size, int na, int threads) const;
   // Per-thread buffers of SynthesizeRows.
