@@ -7,7 +7,9 @@ on the four bundled maps x the issue's BRDFs, each measured by the job's own che
 thread, wall time of the whole process.
 
   scripts/defaults_table.py run [--shrm build/cli/shrm] [--json docs/data/defaults.json]
-  scripts/defaults_table.py table [--json docs/data/defaults.json]   # the markdown table
+
+The figure and the markdown table of docs/results.md come from the JSON: `scripts/plots.py
+defaults` and `scripts/plots.py table defaults`.
 
 `run` takes about 15 minutes on one core of the reference machine.
 """
@@ -82,46 +84,14 @@ def cmd_run(args):
         f.write("\n")
 
 
-def fmt(x, digits=3):
-    return "-" if x is None else f"{x:.{digits}g}"
-
-
-def cmd_table(args):
-    with open(args.json) as f:
-        data = json.load(f)
-    rows = {(r["map"], r["brdf"], r["rule"]): r for r in data["rows"]}
-    print("| map | BRDF | tolerance 0.01: (F, P), S | MB | s | front RMS / largest | grazing RMS "
-          "| epsilon 0.03: (F, P), S | MB | s | front RMS / largest | grazing RMS |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for m in MAPS:
-        for b in BRDFS:
-            cells = [m, b]
-            for rule in RULES:
-                r = rows.get((m, b, rule))
-                if r is None or "error" in r:
-                    cells += ["refused" if r else "-", "", fmt(r["wall_s"]) if r else "", "", ""]
-                    continue
-                meas = r.get("measured") or {}
-                fr, gr = meas.get("front", {}), meas.get("grazing", {})
-                mark = ""
-                if rule.startswith("tolerance") and not r.get("met", True):
-                    mark = " (budget)" if r.get("budget_limited") else " (not met)"
-                cells += [f"({r['F_B']}, {r['P_B']}), {r['face_size']}{mark}", fmt(r["file_mb"]),
-                          fmt(r["wall_s"]), f"{fmt(fr.get('rms'))} / {fmt(fr.get('max'))}",
-                          fmt(gr.get("rms"))]
-            print("| " + " | ".join(cells) + " |")
-
-
 def main(argv):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("run")
     r.add_argument("--shrm", default=os.path.join(ROOT, "build", "cli", "shrm"))
     r.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "defaults.json"))
-    t = sub.add_parser("table")
-    t.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "defaults.json"))
     args = ap.parse_args(argv)
-    (cmd_run if args.cmd == "run" else cmd_table)(args)
+    cmd_run(args)
 
 
 if __name__ == "__main__":

@@ -22,6 +22,8 @@ sub-command, with the same extraction functions the plots use (tests/plots_test.
         hbasis-fig3    H-basis paper Fig. 3: irradiance IMSE per basis (the same JSON)
         sht            forward SHT vs libsharp over grid size (bench/sht_bench
                        --benchmark_out=JSON --benchmark_out_format=json)
+        defaults       the tolerance rule vs the paper's epsilon on the bundled maps x 11 BRDFs
+                       (scripts/defaults_table.py run)
 
   scripts/plots.py all [DIR]
       every figure from docs/data into DIR (default docs/images).
@@ -650,6 +652,91 @@ def sht_plot(bench, png_path):
     _save(fig, png_path)
 
 
+def _fmt(x):
+    return "-" if x is None else f"{x:.3g}"
+
+
+DEFAULTS_RULES = ["tolerance 0.01", "epsilon 0.03"]
+
+
+def defaults_rows(data):
+    """Per (map, BRDF) in run order: each rule's row of scripts/defaults_table.py's JSON."""
+    out, seen = [], {}
+    for r in data["rows"]:
+        key = (r["map"], r["brdf"])
+        if key not in seen:
+            seen[key] = {"map": r["map"], "brdf": r["brdf"]}
+            out.append(seen[key])
+        seen[key][r["rule"]] = r
+    return out
+
+
+def _front(r, k):
+    m = (r or {}).get("measured") or {}
+    return m.get("front", {}).get(k)
+
+
+def defaults_table(data):
+    lines = ["| map | BRDF | tolerance 0.01: (F, P), S | MB | s | front RMS / largest | grazing RMS "
+             "| epsilon 0.03: (F, P), S | MB | s | front RMS / largest | grazing RMS |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for row in defaults_rows(data):
+        cells = [row["map"], row["brdf"]]
+        for rule in DEFAULTS_RULES:
+            r = row.get(rule)
+            if r is None or "error" in r:
+                cells += ["refused" if r else "-", "", _fmt(r["wall_s"]) if r else "", "", ""]
+                continue
+            mark = ""
+            if rule.startswith("tolerance") and not r.get("met", True):
+                mark = " (budget)" if r.get("budget_limited") else ""
+            g = ((r.get("measured") or {}).get("grazing") or {}).get("rms")
+            cells += [f"({r['F_B']}, {r['P_B']}), {r['face_size']}{mark}", _fmt(r["file_mb"]),
+                      _fmt(r["wall_s"]), f"{_fmt(_front(r, 'rms'))} / {_fmt(_front(r, 'max'))}",
+                      _fmt(g)]
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
+def defaults_plot(data, png_path):
+    plt = _pyplot()
+    rows = defaults_rows(data)
+    maps = list(dict.fromkeys(r["map"] for r in rows))
+    brdfs = list(dict.fromkeys(r["brdf"] for r in rows))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 5.2), sharey=True)
+    for ax, k, title in ((axes[0], "rms", "front relative RMS (N.V >= 0.3)"),
+                         (axes[1], "max", "front largest relative error")):
+        for j, rule in enumerate(DEFAULTS_RULES):
+            for i, m in enumerate(maps):
+                xs, ys = [], []
+                for b_index, b in enumerate(brdfs):
+                    r = next(x for x in rows if x["map"] == m and x["brdf"] == b).get(rule)
+                    v = _front(r, k)
+                    if v is not None:
+                        xs.append(b_index + (i - 1.5) * 0.12)
+                        ys.append(v)
+                marker = STYLES[i][1]
+                ax.plot(xs, ys, linestyle="none", marker=marker,
+                        color="black" if j == 0 else "0.6",
+                        markerfacecolor="black" if j == 0 else "none",
+                        label=f"{m}, {rule}")
+        target = 0.01 if k == "rms" else 0.05
+        ax.axhline(target, color="0.3", linewidth=0.8, linestyle="--")
+        ax.text(len(brdfs) - 0.5, target * 1.1, f"target {target:g}", fontsize=7, ha="right")
+        ax.set_yscale("log")
+        ax.set_xticks(range(len(brdfs)), [b.replace(",f0=", " f0=") for b in brdfs], rotation=60,
+                      ha="right", fontsize=7)
+        ax.set_title(title, fontsize=9)
+        ax.grid(True, which="both", axis="y", color="0.9")
+    axes[0].set_ylabel("measured against brute force (256 pairs)")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=7)
+    fig.suptitle("shrm prefilter on the bundled maps: --tolerance 0.01 (black) vs the paper's "
+                 "epsilon 0.03 (grey); missing: refused", fontsize=10)
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
+    _save(fig, png_path)
+
+
 # ---------------------------------------------------------------------------------------------
 
 # name -> (plot function, table function or None, data files (docs/data/*.json), image name).
@@ -664,6 +751,7 @@ FIGURES = {
     "hsh-fig4": (hsh_plot, hsh_table, ["basis_accuracy"], "hsh_fig4"),
     "hbasis-fig3": (hbasis_plot, hbasis_table, ["basis_accuracy"], "hbasis_fig3"),
     "sht": (sht_plot, sht_table, ["sht_bench"], "sht_vs_libsharp"),
+    "defaults": (defaults_plot, defaults_table, ["defaults"], "defaults"),
 }
 
 

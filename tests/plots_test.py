@@ -175,6 +175,22 @@ class PlotValuesMatchTables(unittest.TestCase):
         self.assert_whole_table("sht")
 
 
+    def test_defaults(self):
+        _, head, rows = self.table("defaults")
+        data = plots.defaults_rows(plots.load(plots.data_paths("defaults")[0]))
+        self.assertEqual(len(rows), len(data))
+        for row, d in zip(rows, data):
+            self.assertEqual((row[0], row[1]), (d["map"], d["brdf"]))
+            for col, rule in ((5, "tolerance 0.01"), (10, "epsilon 0.03")):
+                if row[col] == "":  # refused: nothing plotted
+                    self.assertIsNone(plots._front(d.get(rule), "rms"))
+                    continue
+                rms, largest = row[col].split(" / ")
+                self.assert_cell(rms, plots._front(d[rule], "rms"), f"{d['map']} {d['brdf']} rms")
+                self.assert_cell(largest, plots._front(d[rule], "max"), f"{d['brdf']} max")
+        self.assert_whole_table("defaults")
+
+
 def matplotlib_python():
     """An interpreter that has matplotlib: this one, else Debian's, else None."""
     for exe in (sys.executable, SYSTEM_PYTHON):
