@@ -1,7 +1,6 @@
 #include "jobs/ibl_job.h"
 
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cmath>
 #include <string_view>
@@ -9,11 +8,11 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
-#include "core/base/constants.h"
 #include "core/base/cubemap.h"
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
 #include "core/sh/sh.h"
+#include "core/shrm/shrm_explicit.h"
 #include "jobs/point_jobs.h"
 #include "shrm/version.h"
 
@@ -390,12 +389,9 @@ absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
     }
     SHRM_RETURN_IF_ERROR(Measure(map, rotation, ibl::SpecularLobe::kLambert, job.verify,
                                  kIrradianceVerifySeed, threads, run.irradiance));
-    // The check of E_lm = A_l L_lm, the form `shrm irradiance` states (A_l / pi = 1, 2/3, 1/4).
-    std::vector<double> e9(run.radiance_sh9.begin(), run.radiance_sh9.end());
-    for (int l = 0; l <= 2; ++l)
-      for (int m = -l; m <= l; ++m)
-        for (int c = 0; c < 3; ++c)
-          e9[ShIndex(l, m) * 3 + c] *= kPi * std::array{1.0, 2.0 / 3, 0.25}[l];
+    // The check of E_lm = A_l L_lm, the form `shrm irradiance` states.
+    SHRM_ASSIGN_OR_RETURN(const std::vector<double> e9,
+                          IrradianceCoefficients(2, 3, run.radiance_sh9));
     run.sh9_measured = MeasureIrradianceSh9(map, rotation, e9, job.verify, threads);
     run.timings.push_back({"verify", MsSince(t0)});
   }

@@ -4,10 +4,8 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/base/constants.h"
-#include "core/base/cubemap.h"
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
-#include "core/sh/sh.h"
 #include "core/shrm/shrm_explicit.h"
 
 namespace shrm::jobs {
@@ -35,19 +33,10 @@ ibl::LevelError MeasureIrradianceSh9(const EnvMap& map, const Mat3& rotation,
   ibl::SpecularLevel level;
   level.face_size = kFace;
   level.roughness = level.alpha = 1;
-  level.cube.face_size = kFace;
-  level.cube.data.resize(level.cube.size());
-  std::vector<double> y(ShCount(2));
-  for (int f = 0; f < kCubeFaceCount; ++f)
-    for (int v = 0; v < kFace; ++v)
-      for (int u = 0; u < kFace; ++u) {
-        EvalSh(2, ShFrameFromWorld(CubeTexelDirection(f, u, v, kFace)), y);
-        for (int c = 0; c < 3; ++c) {
-          double e = 0;
-          for (int k = 0; k < ShCount(2); ++k) e += e9[static_cast<size_t>(k) * 3 + c] * y[k];
-          level.cube.data[level.cube.Index(f, u, v, c)] = static_cast<float>(e / kPi);
-        }
-      }
+  absl::StatusOr<RadianceCube> cube = IrradianceCube(e9, 3, kFace);
+  if (!cube.ok()) return {};  // e9 of the wrong size: nothing measured
+  level.cube = *std::move(cube);
+  for (float& v : level.cube.data) v = static_cast<float>(v / kPi);  // E / pi: the Lambert sum
   return ibl::MeasureLevelError(map, ibl::SpecularLobe::kLambert, level, rotation, count, kSeed,
                                 threads);
 }

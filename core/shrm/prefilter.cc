@@ -1,7 +1,6 @@
 #include "core/shrm/prefilter.h"
 
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cmath>
 
@@ -119,8 +118,7 @@ absl::Status FinishPrefilter(const BrdfStage& brdf, const LightingStage& lightin
   const int face_size = options.face_size > 0 ? options.face_size
                                               : std::clamp(r->analysis.suggested_face_size,
                                                            kMinAutoFaceSize, kMaxAutoFaceSize);
-  const double cube_values =
-      6.0 * face_size * face_size * (r->analysis.p_b + 1.0) * (r->analysis.p_b + 1.0) * 3;
+  const double cube_values = CubeValues(face_size, r->analysis.p_b);
   if (max_cube_values > 0 && cube_values > max_cube_values) {
     return absl::InvalidArgumentError(
         absl::StrCat("face size ", face_size, " with P_B = ", r->analysis.p_b, " needs ",
@@ -149,8 +147,6 @@ constexpr double kReferenceMargin = 0.75;
 constexpr int kMaxReferenceF = 256;
 constexpr int kMaxReferenceP = 31;
 constexpr int kMaxReferenceRounds = 3;
-// The F tried under a size budget, as multiples of ChooseOrdersWithinBudget's (S_max / 2 - 1).
-constexpr std::array<double, 4> kBudgetFGrowth = {1.0, 1.4, 2.0, 2.8};
 
 // Highest lighting degree the map resolves (lat-long: the SHT's limit; other layouts are
 // resampled by LightingCoefficients).
@@ -218,43 +214,12 @@ absl::Status ChooseOrdersForTolerance(const EnvMap& env, const Brdf& brdf,
     SHRM_RETURN_IF_ERROR(ChooseFaceSize(pairs, f_ref, 3, l->light, b->coefficients, topt, choice));
   }
   // The size budget: the most accurate choice within it when this one needs more.
-  const double needed = CubeValues(choice->face_size, choice->p);
-  if (options.size_budget_values > 0 && needed > options.size_budget_values) {
+  if (options.size_budget_values > 0 &&
+      CubeValues(choice->face_size, choice->p) > options.size_budget_values) {
     topt.max_cube_values = options.size_budget_values;
     topt.face_size = options.face_size;
-    int max_face_size = 0;
-    SHRM_ASSIGN_OR_RETURN(ToleranceChoice within,
-                          ChooseOrdersWithinBudget(table_of_last_round, topt, &max_face_size));
-    within.unlimited_values = needed;
-    *choice = within;
-    if (options.face_size > 0) {
-      choice->face_size = options.face_size;
-    } else {
-      // F beyond S_max / 2 - 1 can still pay when truncation dominates (a sharp lobe in a small
-      // budget): a few larger F, each with its face size and interpolation estimate; the
-      // smallest estimated front RMS in total wins.
-      topt.max_face_size = max_face_size;
-      const ToleranceTargets targets = TargetsForTolerance(options.tolerance);
-      int f_top = table_of_last_round.SmallestF(within.p, targets, kTruncationShare, topt.window);
-      if (f_top < 0) f_top = table_of_last_round.f_ref();
-      double best_rms = -1;
-      for (const double growth : kBudgetFGrowth) {
-        const int f = std::min(f_top, static_cast<int>(std::lround(within.f * growth)));
-        if (growth > 1 && f <= within.f) break;
-        ToleranceChoice trial = within;
-        trial.f = f;
-        trial.truncation = table_of_last_round.Estimate(f, trial.p, trial.window);
-        trial.met = MeetsTargets(trial.truncation, targets, kTruncationShare);
-        SHRM_RETURN_IF_ERROR(
-            ChooseFaceSize(pairs, f_ref, 3, l->light, b->coefficients, topt, &trial));
-        const double rms = std::hypot(trial.truncation.front.rms, trial.interpolation.front.rms);
-        if (best_rms < 0 || rms < best_rms) {
-          best_rms = rms;
-          *choice = trial;
-        }
-        if (f == f_top) break;
-      }
-    }
+    SHRM_RETURN_IF_ERROR(ChooseWithinBudget(table_of_last_round, pairs, f_ref, 3, l->light,
+                                            b->coefficients, topt, choice));
   }
   clock.End();
   b->f_rho = choice->f;

@@ -356,14 +356,19 @@ void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int ro
   }
 }
 
-absl::StatusOr<ShrmSynthesizer::Grid> ShrmSynthesizer::BuildGrid(ShrmKind kind, int na,
-                                                                 int threads) const {
+absl::Status ShrmSynthesizer::CheckGridRows(ShrmKind kind, int na) const {
   const int extra = kind == ShrmKind::kGlobal ? pmax_ : 0;
   if (na < lmax_ + extra + 1) {
     return absl::InvalidArgumentError(
         absl::StrCat("SHRM grid: ", na, " alpha samples cannot resolve degree ", lmax_ + extra,
                      " (need >= ", lmax_ + extra + 1, ")"));
   }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<ShrmSynthesizer::Grid> ShrmSynthesizer::BuildGrid(ShrmKind kind, int na,
+                                                                 int threads) const {
+  if (absl::Status s = CheckGridRows(kind, na); !s.ok()) return s;
   if (threads < 1)
     return absl::InvalidArgumentError(absl::StrCat("SHRM grid: threads = ", threads));
   Grid g;
@@ -488,12 +493,7 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCube(ShrmKind kind, int face_size
     return cube;
   }
   // Slabs: each owns the stencil starts [first, first + owned) and holds 3 more rows.
-  const int extra = kind == ShrmKind::kGlobal ? pmax_ : 0;
-  if (na < lmax_ + extra + 1) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("SHRM grid: ", na, " alpha samples cannot resolve degree ", lmax_ + extra,
-                     " (need >= ", lmax_ + extra + 1, ")"));
-  }
+  if (absl::Status s = CheckGridRows(kind, na); !s.ok()) return s;
   const int owned = std::max(
       kWignerBlock,
       static_cast<int>(options.max_grid_bytes / row_bytes) / kWignerBlock * kWignerBlock - 3);

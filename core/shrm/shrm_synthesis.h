@@ -118,6 +118,8 @@ class ShrmSynthesizer {
 
  private:
   ShrmSynthesizer() = default;
+  // InvalidArgument when na alpha rows cannot resolve the grid's degree (F, + P when global).
+  absl::Status CheckGridRows(ShrmKind kind, int na) const;
   // The padded grid (row r is alpha_{r - 2}, rows 0 .. na + 3) in slabs: slab s holds rows
   // [first, first + count) with first = s x owned and count = min(owned + 3, na + 4 - first),
   // written to `out` (count x 2 na x stride floats, reused for every slab), then emit(first,

@@ -1,6 +1,7 @@
 #include "core/shrm/tolerance.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <random>
 
@@ -32,6 +33,8 @@ int RoundUp8(double s) { return 8 * static_cast<int>(std::ceil(s / 8 - 1e-9)); }
 // S ~ 1.6-3 F meets a 1% share; docs/shrm.md).
 constexpr int kMinFaceSize = 16;
 constexpr double kFirstFaceSizePerOrder = 2.0;
+// The F tried under a size budget, as multiples of ChooseOrdersWithinBudget's (S_max / 2 - 1).
+constexpr std::array<double, 4> kBudgetFGrowth = {1.0, 1.4, 2.0, 2.8};
 // Growth of S when the scaled size still misses its share (the h^2 law is asymptotic).
 constexpr double kFaceSizeGrowth = 1.25;
 constexpr int kFaceSizeRounds = 4;
@@ -371,6 +374,44 @@ absl::Status ChooseFaceSize(std::span<const DirectionPair> pairs, int light_lmax
   best.face_size = size;
   best.interpolation = interp;
   best.met = best.met && MeetsTargets(interp, targets, kInterpolationShare);
+  return absl::OkStatus();
+}
+
+absl::Status ChooseWithinBudget(const BandTable& table, std::span<const DirectionPair> pairs,
+                                int light_lmax, int channels, std::span<const double> light,
+                                const BrdfCoefficients& brdf, const ToleranceOptions& options,
+                                ToleranceChoice* choice) {
+  const double needed = CubeValues(choice->face_size, choice->p);
+  int max_face_size = 0;
+  SHRM_ASSIGN_OR_RETURN(ToleranceChoice within,
+                        ChooseOrdersWithinBudget(table, options, &max_face_size));
+  within.unlimited_values = needed;
+  if (options.face_size > 0) {
+    within.face_size = options.face_size;
+    *choice = within;
+    return absl::OkStatus();
+  }
+  ToleranceOptions sized = options;
+  sized.max_face_size = max_face_size;
+  const ToleranceTargets targets = TargetsForTolerance(options.tolerance);
+  int f_top = table.SmallestF(within.p, targets, kTruncationShare, options.window);
+  if (f_top < 0) f_top = table.f_ref();
+  double best_rms = -1;
+  for (const double growth : kBudgetFGrowth) {
+    const int f = std::min(f_top, static_cast<int>(std::lround(within.f * growth)));
+    if (growth > 1 && f <= within.f) break;
+    ToleranceChoice trial = within;
+    trial.f = f;
+    trial.truncation = table.Estimate(f, trial.p, trial.window);
+    trial.met = MeetsTargets(trial.truncation, targets, kTruncationShare);
+    SHRM_RETURN_IF_ERROR(ChooseFaceSize(pairs, light_lmax, channels, light, brdf, sized, &trial));
+    const double rms = std::hypot(trial.truncation.front.rms, trial.interpolation.front.rms);
+    if (best_rms < 0 || rms < best_rms) {
+      best_rms = rms;
+      *choice = trial;
+    }
+    if (f == f_top) break;
+  }
   return absl::OkStatus();
 }
 

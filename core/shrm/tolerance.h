@@ -172,12 +172,21 @@ ToleranceChoice ChooseOrders(const BandTable& table, const ToleranceOptions& opt
 // interpolation needs S ~ 2 F: a higher F is lost between the texels), the smallest F meeting the
 // targets below that cap; the P with the smallest estimated front RMS (then largest error) wins.
 // choice->face_size is left for ChooseFaceSize with max_face_size = S_max(P), returned in
-// *max_face_size (Prefilter then also tries larger F with their interpolation estimates,
-// docs/shrm.md "Size budget"). Errors: InvalidArgument when even P = 0 at S = 16 is above the
-// budget.
+// *max_face_size. Errors: InvalidArgument when even P = 0 at S = 16 is above the budget.
 absl::StatusOr<ToleranceChoice> ChooseOrdersWithinBudget(const BandTable& table,
                                                          const ToleranceOptions& options,
                                                          int* max_face_size);
+
+// The whole budget step, for a choice (orders and S) whose cube exceeds options.max_cube_values:
+// ChooseOrdersWithinBudget, then (unless options.face_size fixes S) F at 1, 1.4, 2 and 2.8 times
+// its cap (up to what the tolerance needs at that P), each with ChooseFaceSize up to S_max(P);
+// the smallest estimated front RMS of truncation and interpolation together replaces *choice
+// (a sharp lobe in a small budget is better served by F ~ S), with unlimited_values = the
+// values the old choice needed. Errors: those of ChooseOrdersWithinBudget and ChooseFaceSize.
+absl::Status ChooseWithinBudget(const BandTable& table, std::span<const DirectionPair> pairs,
+                                int light_lmax, int channels, std::span<const double> light,
+                                const BrdfCoefficients& brdf, const ToleranceOptions& options,
+                                ToleranceChoice* choice);
 
 // S for a choice: the interpolation estimate of the synthesizer made from `light` (degree
 // light_lmax, the choice's window applied here) and `brdf` at the chosen orders, at S ~ 2 F,
