@@ -32,9 +32,11 @@ constexpr auto kNeverEndedDeadline = std::chrono::seconds(120);
 constexpr int kSilentUploads = 1000;
 constexpr int kChannels = 10;  // the silent uploads spread over several connections
 constexpr int kStalledMidStream = 10;
-// A result larger than the HTTP/2 flow-control windows (a client that does not read it blocks
-// the server's writes): an SHRM at face S holds 6 S^2 (P+1)^2 RGB floats.
-constexpr int kLargeFaceSize = 256;  // 42 MB uncompressed
+// A result far larger than the HTTP/2 flow-control window of the client that does not read it,
+// so that it blocks the server's writes: an SHRM at face S holds 6 S^2 (P+1)^2 RGB floats.
+constexpr int kLargeFaceSize = 256;  // 42 MB uncompressed, about 4.8 MB as written (compressed)
+// The reading client's stream window (gRPC's default lookahead): 1/70 of the result.
+constexpr int kClientWindowBytes = 64 * 1024;
 constexpr absl::Duration kWaitPoll = absl::Milliseconds(100);
 constexpr int kWaitPolls = 1200;  // 120 s
 
@@ -137,7 +139,16 @@ TEST_F(IdleClientsTest, ClientThatStopsReadingLosesItsCallAndFreesTheSlot) {
       c->UploadIfMissing(absl::StrCat(SHRM_SOURCE_DIR, "/data/envmaps/interior.exr"));
   ASSERT_TRUE(sha.ok()) << sha.status();
 
-  auto stub = v1::Shrm::NewStub(grpc::CreateChannel(target_, grpc::InsecureChannelCredentials()));
+  // The receiver sets the flow-control windows: with gRPC's bandwidth-delay probe on (the
+  // default), the client grows its window while the data flows fast and may take the whole
+  // result into its buffers before the server ever blocks (what failed once under
+  // ThreadSanitizer: the call ended OK). Without the probe the window stays at the lookahead.
+  grpc::ChannelArguments args;
+  args.SetInt(GRPC_ARG_HTTP2_BDP_PROBE, 0);
+  args.SetInt(GRPC_ARG_HTTP2_STREAM_LOOKAHEAD_BYTES, kClientWindowBytes);
+  args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);  // its own connection, its own windows
+  auto stub = v1::Shrm::NewStub(
+      grpc::CreateCustomChannel(target_, grpc::InsecureChannelCredentials(), args));
   grpc::ClientContext context;
   context.set_deadline(std::chrono::system_clock::now() + kNeverEndedDeadline);
   std::unique_ptr<grpc::ClientReader<v1::PrefilterEvent>> reader =
