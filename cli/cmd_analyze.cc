@@ -165,7 +165,7 @@ absl::Status AnalyzeBoth(const AnalyzeArgs& a, const Brdf& brdf) {
   for (double e : a.epsilons) {
     jobs::PrefilterJob job;
     job.env = spec;
-    job.epsilon = e;
+    jobs::UseEpsilonRule(&job, e);  // the analysis is the paper's (eq. 5.15-5.19)
     PrefilterOptions opt = jobs::CorePrefilterOptions(job, ResolveThreads(a.threads));
     opt.synthesize = false;
     SHRM_ASSIGN_OR_RETURN(PrefilterResult r, Prefilter(env, brdf, opt));

@@ -145,6 +145,7 @@ absl::Status RunPrefilterRemote(const jobs::PrefilterJob& job, const PrefilterRu
     outcome->f_b = rep.f_b();
     outcome->p_b = rep.p_b();
     outcome->measured = PrefilterMeasuredError(report);
+    outcome->written = true;
   }
   if (run.quiet) return jobs::ToleranceOutcome(job, report);
   if (run.json) {
@@ -219,6 +220,7 @@ absl::Status RunPrefilterEmbedded(const jobs::PrefilterJob& job, const Prefilter
     outcome->f_b = an.f_b;
     outcome->p_b = an.p_b;
     outcome->measured = PrefilterMeasuredError(report);
+    outcome->written = true;
   }
   if (run.quiet) return jobs::ToleranceOutcome(job, report);
   if (run.json) {
@@ -238,9 +240,7 @@ std::string Help(std::string_view option) {
 void AddPrefilterJobOptions(CLI::App* sub, PrefilterArgs* args) {
   AddEnvOptions(sub, &args->env, /*required=*/true);
   sub->add_option("--brdf", args->brdf, Help("brdf"))->required();
-  sub->add_option("--epsilon", args->epsilon, Help("epsilon"))
-      ->capture_default_str()
-      ->check(jobs::kOpenUnitInterval);
+  sub->add_option("--epsilon", args->epsilon, Help("epsilon"))->check(jobs::kOpenUnitInterval);
   sub->add_option("--tolerance", args->tolerance, Help("tolerance"))
       ->check(jobs::kOpenUnitInterval);
   sub->add_option("--window", args->window, Help("window"))
@@ -266,16 +266,17 @@ absl::StatusOr<jobs::PrefilterJob> PrefilterJobFromArgs(const PrefilterArgs& a) 
   jobs::PrefilterJob job;
   SHRM_ASSIGN_OR_RETURN(job.env, EnvSpecFromArgs(a.env));
   job.brdf = a.brdf;
-  job.epsilon = a.epsilon;
-  job.tolerance = a.tolerance;
   job.verify = a.verify;
   absl::StatusOr<RingingWindow> window = ParseRingingWindow(a.window);
   if (!window.ok())
     return WithMessage(window.status(), absl::StrCat("--", window.status().message()));
   job.window = *window;
+  std::optional<jobs::Orders> orders;
   if (!a.orders.empty()) {
-    SHRM_ASSIGN_OR_RETURN(job.orders, jobs::ParseOrdersText(a.orders, "--orders"));
+    SHRM_ASSIGN_OR_RETURN(orders, jobs::ParseOrdersText(a.orders, "--orders"));
   }
+  SHRM_RETURN_IF_ERROR(jobs::SetOrderRule(&job, a.epsilon, a.tolerance, orders,
+                                          "--epsilon, --tolerance and --orders"));
   absl::StatusOr<ShrmKind> kind = jobs::ParseShrmKind(a.kind);
   if (!kind.ok()) return WithMessage(kind.status(), absl::StrCat("--", kind.status().message()));
   job.kind = *kind;

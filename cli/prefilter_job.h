@@ -5,6 +5,7 @@
 #define SHRM_CLI_PREFILTER_JOB_H_
 
 #include <CLI/CLI.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,10 +21,11 @@ namespace shrm::cli {
 struct PrefilterArgs {
   EnvArgs env;
   std::string brdf;
-  double epsilon = jobs::kDefaultEpsilon;
+  // The order rule: at most one of the three (none: the job's default, the tolerance rule).
+  std::optional<double> epsilon;
   std::string orders;  // "F,P"
-  double tolerance = 0;
-  int verify = 0;
+  std::optional<double> tolerance;
+  int verify = jobs::kDefaultVerify;
   std::string window = RingingWindowName(RingingWindow::kAuto);
   std::string kind = jobs::ShrmKindName(ShrmKind::kGlobal);
   int size = 0;
@@ -50,6 +52,8 @@ struct PrefilterJobOutcome {
   int retries = 0;         // remote: attempts beyond the first (transient errors, missing blobs)
   MeasuredError measured;  // the report's, when --verify measured it
   std::string thumbnail_png_base64;  // with report_html: the spheres, for a batch's index
+  // Every output was written (an error after it is the tolerance missed: jobs::ToleranceOutcome).
+  bool written = false;
 };
 
 // Adds the job's options (jobs/job_options.h) to `sub`.

@@ -68,21 +68,26 @@ const std::array<JobOption, 10> kPrefilterJobOptions = {{
     {"brdf", "BRDF spec, e.g. microfacet:sigma=0.2 (docs/brdf.md)", kCommandLine | kWire,
      "--brdf ggx:alpha=0.3", "", [](PrefilterJob* j) { j->brdf = "ggx:alpha=0.3"; },
      "manifest: \"brdfs\" lists the specs, one job each"},
-    {"epsilon", "tolerance for the orders, in (0, 1)", kEverywhere, "--epsilon 0.05", "0.05",
-     [](PrefilterJob* j) { j->epsilon = 0.05; }, ""},
+    {"epsilon",
+     "the paper's energy tolerance for the orders, in (0, 1) (sec. 5.5; 0.03 in the paper), "
+     "instead of --tolerance",
+     kEverywhere, "--epsilon 0.05", "0.05", [](PrefilterJob* j) { UseEpsilonRule(j, 0.05); }, ""},
     {"tolerance",
-     "per-direction relative RMS tolerance, in (0, 1): orders, window and size chosen for the "
-     "error seen per direction (docs/shrm.md); instead of --epsilon",
-     kEverywhere, "--tolerance 0.02", "0.02", [](PrefilterJob* j) { j->tolerance = 0.02; }, ""},
+     "per-direction relative RMS tolerance, in (0, 1) (default 0.01): orders, window and size "
+     "chosen for the error seen per direction (docs/shrm.md)",
+     kEverywhere, "--tolerance 0.02", "0.02", [](PrefilterJob* j) { UseToleranceRule(j, 0.02); },
+     ""},
     {"window", "ringing window on the lighting bands: none, lanczos, or auto (--tolerance chooses)",
      kEverywhere, "--window lanczos", "\"lanczos\"",
      [](PrefilterJob* j) { j->window = RingingWindow::kLanczos; }, ""},
     {"verify",
-     "measure the result at N seeded (N, V) pairs against the brute-force sum (0: no check)",
-     kEverywhere, "--verify 64", "64", [](PrefilterJob* j) { j->verify = 64; }, ""},
-    {"orders", "explicit orders F,P instead of --epsilon", kEverywhere, "--orders 12,3", "\"12,3\"",
+     "measure the result at N seeded (N, V) pairs against the brute-force sum (default 64; 0: "
+     "no check)",
+     kEverywhere, "--verify 16", "16", [](PrefilterJob* j) { j->verify = 16; }, ""},
+    {"orders", "explicit orders F,P instead of --tolerance", kEverywhere, "--orders 12,3",
+     "\"12,3\"",
      [](PrefilterJob* j) {
-       j->orders = Orders{12, 3};
+       UseExplicitOrders(j, Orders{12, 3});
      },
      ""},
     {"kind", "global or local SHRM", kEverywhere, "--kind local", "\"local\"",
@@ -93,7 +98,8 @@ const std::array<JobOption, 10> kPrefilterJobOptions = {{
     {"half", "store half floats instead of float32", kEverywhere, "--half", "true",
      [](PrefilterJob* j) { j->half = true; }, ""},
     {"max_size",
-     "size budget of the SHRM file in MB with --tolerance (0: none): the most accurate choice "
+     "size budget of the SHRM file in MB with the tolerance rule (0: none): the most accurate "
+     "choice "
      "within it, reported, when the tolerance needs more",
      kEverywhere, "--max-size 32", "32", [](PrefilterJob* j) { j->max_size_mb = 32; }, ""},
 }};

@@ -8,6 +8,10 @@ uint64_t MapBytes(int64_t pixels) {
   return static_cast<uint64_t>(std::max<int64_t>(pixels, 0)) * kMapBytesPerPixel;
 }
 
+uint64_t ReferenceBytes(int64_t pixels) {
+  return static_cast<uint64_t>(std::max<int64_t>(pixels, 0)) * kReferenceBytesPerPixel;
+}
+
 uint64_t ShrmCubeBytes(int face_size, int p_b) {
   const uint64_t s = static_cast<uint64_t>(std::max(face_size, 0));
   const uint64_t coeffs = static_cast<uint64_t>(p_b + 1) * static_cast<uint64_t>(p_b + 1);

@@ -27,8 +27,15 @@ inline constexpr uint64_t kCubeBytesPerValue = 12;
 // every container).
 inline constexpr uint64_t kChainBytesPerTexel = 72;
 
+// The job's own check (verify > 0), per input pixel: the brute-force reference's samples and
+// their hierarchy (core/shrm/fast_reference.h). Measured about 300 (the CLI on a 1024 x 512 map:
+// peak RSS with --verify 64 against --verify 0).
+inline constexpr uint64_t kReferenceBytesPerPixel = 400;
+
 // Decoding and transforming a map of `pixels` input pixels (all files of a cube together).
 uint64_t MapBytes(int64_t pixels);
+// The job's check of a map of `pixels` input pixels.
+uint64_t ReferenceBytes(int64_t pixels);
 // The synthesis grid's slab (ShrmGridOptions::max_grid_bytes: the (alpha, beta) grid of F_B +
 // P_B is made and resampled in slabs within it; before, the whole grid was held: 0.8 GB at
 // (42, 21) even for a 16 x 16 cube).

@@ -24,6 +24,40 @@ absl::StatusOr<ShrmKind> ParseShrmKind(absl::string_view name) {
   return absl::InvalidArgumentError(absl::StrCat("kind must be local or global, got '", name, "'"));
 }
 
+void UseEpsilonRule(PrefilterJob* job, double epsilon) {
+  job->epsilon = epsilon;
+  job->tolerance = 0;
+  job->orders.reset();
+}
+
+void UseExplicitOrders(PrefilterJob* job, Orders orders) {
+  job->orders = orders;
+  job->tolerance = 0;
+}
+
+void UseToleranceRule(PrefilterJob* job, double tolerance) {
+  job->tolerance = tolerance;
+  job->orders.reset();
+}
+
+absl::Status SetOrderRule(PrefilterJob* job, std::optional<double> epsilon,
+                          std::optional<double> tolerance, std::optional<Orders> orders,
+                          std::string_view names) {
+  if (epsilon.has_value() + tolerance.has_value() + orders.has_value() > 1) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        absl::string_view(names.data(), names.size()),
+        " exclude each other: give one order rule (default: --tolerance ", kDefaultTolerance, ")"));
+  }
+  if (epsilon) UseEpsilonRule(job, *epsilon);
+  if (tolerance) UseToleranceRule(job, *tolerance);
+  if (orders) UseExplicitOrders(job, *orders);
+  return absl::OkStatus();
+}
+
+const char* OrderRuleName(const PrefilterJob& job) {
+  return job.orders ? "explicit" : (job.tolerance > 0 ? "tolerance" : "epsilon");
+}
+
 absl::Status ValidatePrefilterJob(const PrefilterJob& job) {
   SHRM_RETURN_IF_ERROR(ValidateEnvironment(job.env));
   if (job.brdf.empty()) return absl::InvalidArgumentError("brdf: a BRDF spec is required");
@@ -154,7 +188,7 @@ nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProve
   report["kind"] = ShrmKindName(job.kind);
   report["face_size"] = result.cube.face_size;
   report["window"] = RingingWindowName(result.window);
-  report["order_rule"] = job.orders ? "explicit" : (job.tolerance > 0 ? "tolerance" : "epsilon");
+  report["order_rule"] = OrderRuleName(job);
   if (result.verified_pairs > 0) {
     report["measured"] = {{"pairs", result.verified_pairs},
                           {"front", StatsJson(result.measured.front)},

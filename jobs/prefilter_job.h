@@ -26,8 +26,15 @@
 
 namespace shrm::jobs {
 
-// The tolerance of the order selection when none is given (SHRM paper sec. 5.5).
+// The order rule when none is given: the per-direction tolerance rule (core/shrm/tolerance.h,
+// docs/shrm.md "Tolerance") at 1% relative RMS, within the size budget kDefaultMaxSizeMb.
+inline constexpr double kDefaultTolerance = 0.01;
+// The paper's energy tolerance (SHRM paper sec. 5.5) when --epsilon is given without a value
+// (the viewer's and `shrm analyze`'s rule).
 inline constexpr double kDefaultEpsilon = 0.03;
+// The job's own check when none is asked for: 64 seeded (N, V) pairs against the brute-force sum
+// (about 0.1-0.3 s on one core, most of it the reference's hierarchy of the map).
+inline constexpr int kDefaultVerify = 64;
 // Limits of a job's request: P_B <= 31 is what the SHRM file holds ((P + 1)^2 <= 1024 channel
 // triples, core/io/cube_exr.cc); F_B up to the BRDF projection's degree; faces up to 2048.
 inline constexpr int kMaxOrderF = kMaxBrdfLmax;
@@ -57,19 +64,22 @@ struct Orders {
   bool operator==(const Orders&) const = default;
 };
 
+// The order rule is one of three (set them with SetOrderRule or the Use* functions below, which
+// keep the fields consistent): the per-direction tolerance (tolerance > 0, the default), the
+// paper's epsilon (tolerance == 0, no orders) or explicit orders (tolerance == 0).
 struct PrefilterJob {
   EnvironmentSpec env;
   std::string brdf;                  // BRDF spec (docs/brdf.md)
-  double epsilon = kDefaultEpsilon;  // tolerance, in (0, 1); unused with explicit orders
+  double epsilon = kDefaultEpsilon;  // the epsilon rule's tolerance, in (0, 1)
   std::optional<Orders> orders;      // explicit (F_B, P_B) instead of the selection
   // > 0: the per-direction tolerance rule (core/shrm/tolerance.h) chooses F_B, P_B, the window
-  // and S_B instead of epsilon; 0 = the paper's epsilon rule. Excludes `orders`.
-  double tolerance = 0;
+  // and S_B; 0 = the paper's epsilon rule (or explicit orders). Excludes `orders`.
+  double tolerance = kDefaultTolerance;
   // Ringing window on the lighting bands; kAuto = chosen by the tolerance rule (none otherwise).
   RingingWindow window = RingingWindow::kAuto;
   // > 0: the job measures its cube at this many seeded pairs against the brute-force sum
   // (FastReference): the report's "measured", shrm:measured_error; 0 = no check.
-  int verify = 0;
+  int verify = kDefaultVerify;
   ShrmKind kind = ShrmKind::kGlobal;
   int face_size = 0;  // S_B; 0 = about 10 F_B in [16, 512]
   bool half = false;  // half floats in the SHRM file
@@ -78,6 +88,19 @@ struct PrefilterJob {
 
   bool operator==(const PrefilterJob&) const = default;
 };
+
+// The order rules. UseEpsilonRule: the paper's energy tolerance; UseExplicitOrders: F_B, P_B as
+// given; UseToleranceRule: the per-direction tolerance (the default).
+void UseEpsilonRule(PrefilterJob* job, double epsilon);
+void UseExplicitOrders(PrefilterJob* job, Orders orders);
+void UseToleranceRule(PrefilterJob* job, double tolerance);
+// A front end's choice: at most one of the three given (InvalidArgument naming them, with the
+// front end's spelling `names`, e.g. "--epsilon, --tolerance and --orders"), none = the default.
+[[nodiscard]] absl::Status SetOrderRule(PrefilterJob* job, std::optional<double> epsilon,
+                                        std::optional<double> tolerance,
+                                        std::optional<Orders> orders, std::string_view names);
+// "epsilon", "tolerance" or "explicit" (the report's order_rule).
+const char* OrderRuleName(const PrefilterJob& job);
 
 // "global" / "local", and back (InvalidArgument naming the accepted values).
 const char* ShrmKindName(ShrmKind kind);

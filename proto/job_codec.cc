@@ -177,12 +177,17 @@ absl::StatusOr<WirePrefilter> DecodePrefilterRequest(const v1::PrefilterRequest&
   WirePrefilter w;
   w.brdf = {request.brdf(), request.brdf_blob_sha256(), request.brdf_display_spec()};
   w.job.brdf = request.brdf();
+  // Neither of the oneof's fields: the job's default rule (the tolerance rule).
   if (request.has_orders()) {
-    w.job.orders = jobs::Orders{request.orders().f(), request.orders().p()};
+    jobs::UseExplicitOrders(&w.job, jobs::Orders{request.orders().f(), request.orders().p()});
   } else if (request.order_choice_case() == v1::PrefilterRequest::kEpsilon) {
-    w.job.epsilon = request.epsilon();
+    jobs::UseEpsilonRule(&w.job, request.epsilon());
   } else if (request.order_choice_case() == v1::PrefilterRequest::kTolerance) {
-    w.job.tolerance = request.tolerance();
+    if (!(request.tolerance() > 0)) {  // 0 would silently mean the epsilon rule
+      return absl::InvalidArgumentError(
+          absl::StrCat("tolerance must be in (0, 1), got ", request.tolerance()));
+    }
+    jobs::UseToleranceRule(&w.job, request.tolerance());
   }
   switch (request.window()) {
     case v1::RINGING_WINDOW_AUTO:
@@ -210,7 +215,7 @@ absl::StatusOr<WirePrefilter> DecodePrefilterRequest(const v1::PrefilterRequest&
   }
   w.job.face_size = request.face_size();
   w.job.half = request.half();
-  w.job.verify = request.verify();
+  if (request.has_verify()) w.job.verify = request.verify();  // absent: the job's default
   if (request.has_max_size_mb()) w.job.max_size_mb = request.max_size_mb();
   w.want_file = w.want_report = request.outputs_size() == 0;
   for (int o : request.outputs()) {

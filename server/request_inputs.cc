@@ -128,13 +128,18 @@ absl::StatusOr<PinnedEnv> PinEnvironment(const wire::WireEnvironment& env, BlobS
   return p;
 }
 
-absl::StatusOr<uint64_t> MapDecodeBytes(const PinnedEnv& env) {
+absl::StatusOr<int64_t> MapPixels(const PinnedEnv& env) {
   int64_t pixels = 0;
   for (const auto& lease : env.leases) {
     absl::StatusOr<ImageHeader> header = ProbeImage(lease->path(), env.options.limits);
     if (!header.ok()) return HideSpoolPaths(header.status(), &env);
     pixels += static_cast<int64_t>(header->width) * header->height;
   }
+  return pixels;
+}
+
+absl::StatusOr<uint64_t> MapDecodeBytes(const PinnedEnv& env) {
+  SHRM_ASSIGN_OR_RETURN(const int64_t pixels, MapPixels(env));
   return jobs::MapBytes(pixels);
 }
 

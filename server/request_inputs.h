@@ -46,6 +46,8 @@ absl::StatusOr<PinnedEnv> PinEnvironment(const wire::WireEnvironment& env, BlobS
 // What decoding the pinned map will hold (jobs::MapBytes of its files' pixels, from their headers:
 // read only for a job that decodes, after the blobs were vetted); errors name the blob.
 absl::StatusOr<uint64_t> MapDecodeBytes(const PinnedEnv& env);
+// The pinned map's input pixels (all files), from their headers; errors name the blob.
+absl::StatusOr<int64_t> MapPixels(const PinnedEnv& env);
 
 // Core messages name the spool files; clients know blobs by hash (`env` may be null).
 absl::Status HideSpoolPaths(const absl::Status& status, const PinnedEnv* env);

@@ -411,6 +411,10 @@ absl::Status ShrmServiceImpl::RunPrefilterCall(grpc::ServerContext* context,
     if (stage == "decode") {
       SHRM_ASSIGN_OR_RETURN(const uint64_t map_bytes, MapDecodeBytes(*call->env));
       SHRM_RETURN_IF_ERROR(call->slot->Reserve(map_bytes, "decoding the map"));
+    } else if (stage == "verify") {
+      SHRM_ASSIGN_OR_RETURN(const int64_t pixels, MapPixels(*call->env));
+      SHRM_RETURN_IF_ERROR(
+          call->slot->Reserve(jobs::ReferenceBytes(pixels), "the job's check (verify)"));
     }
     TestStageHooks(stage);
     WriteProgress(writer, stage, std::min(stage_index++, 5) / kStages);
@@ -533,7 +537,7 @@ grpc::Status ShrmServiceImpl::Analyze(grpc::ServerContext* context,
   for (double e : epsilons) {
     jobs::PrefilterJob job;
     job.env = env->spec;
-    job.epsilon = e;
+    jobs::UseEpsilonRule(&job, e);  // the analysis is the paper's (eq. 5.15-5.19)
     CachedPrefilterInput in;
     in.brdf = brdf->brdf.get();
     in.env = env->options;

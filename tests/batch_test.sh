@@ -44,7 +44,7 @@ manifest() {  # manifest FILE EPSILON
   cat >"$1" <<JSON
 {"maps": ["maps/courtyard.exr", "maps/city.exr"],
  "brdfs": ["phong:s=32", "microfacet:sigma=0.2"],
- "options": {"epsilon": $2, "size": 16, "kind": "global", "ktx2": true},
+ "options": {"epsilon": $2, "size": 16, "kind": "global", "ktx2": true, "verify": 0},
  "output": "out/{map}_{brdf}.shrm.exr"}
 JSON
 }
@@ -56,7 +56,7 @@ manifest batch.json 0.1
 rc=$?
 [ $rc -eq 0 ] || fail "batch exit $rc: $(cat run1.err)"
 [ "$(count ok run1.json)" -eq 4 ] || fail "first run: expected 4 ok: $(cat run1.json)"
-# No --verify in this manifest: nothing measured, and the summary says so.
+# "verify": 0 in this manifest: nothing measured, and the summary says so.
 [ "$(grep -c '"measured": null' run1.json)" -eq 4 ] || fail "unmeasured jobs: $(cat run1.json)"
 mkdir single
 for m in courtyard city; do
@@ -64,7 +64,7 @@ for m in courtyard city; do
     out="out/${m}_${NAMES[$i]}.shrm.exr"
     ref="single/${m}_${NAMES[$i]}.shrm.exr"
     [ -f "$out" ] || { fail "missing $out"; continue; }
-    "$SHRM" prefilter --env "maps/$m.exr" --brdf "${BRDFS[$i]}" --epsilon 0.1 --size 16 \
+    "$SHRM" prefilter --env "maps/$m.exr" --brdf "${BRDFS[$i]}" --epsilon 0.1 --size 16 --verify 0 \
       -o "$ref" --ktx2 "${ref%.exr}.ktx2" >/dev/null 2>&1 || fail "prefilter $m ${BRDFS[$i]} failed"
     cmp -s "$out" "$ref" || fail "$out differs from the single prefilter output"
     # "ktx2": true in the manifest: <stem>.shrm.ktx2 next to each output (docs/formats.md).
@@ -80,7 +80,7 @@ echo "== rerun: all skipped"
 
 # --- 3. a changed and a corrupt output are recomputed, only them ----------------------------
 echo "== changed / corrupt outputs recomputed"
-"$SHRM" prefilter --env maps/city.exr --brdf phong:s=32 --epsilon 0.2 --size 16 \
+"$SHRM" prefilter --env maps/city.exr --brdf phong:s=32 --epsilon 0.2 --size 16 --verify 0 \
   -o out/city_phong_s_32.shrm.exr >/dev/null 2>&1 || fail "prefilter at epsilon 0.2 failed"
 head -c 100 single/courtyard_microfacet_sigma_0.2.shrm.exr >out/courtyard_microfacet_sigma_0.2.shrm.exr
 "$SHRM" batch batch.json --jobs 2 --json >run3.json 2>run3.err || fail "run 3 exit $?"
@@ -97,7 +97,7 @@ manifest batch2.json 0.2
 [ "$(count ok run5.json)" -eq 4 ] || fail "--force: expected 4 recomputed: $(cat run5.json)"
 # The text summary.
 "$SHRM" batch batch2.json >run6.txt 2>&1 || fail "run 6 exit $?"
-grep -q "4 jobs: 0 ok, 4 skipped, 0 failed, 0 retries" run6.txt || fail "summary line: $(cat run6.txt)"
+grep -q "4 jobs: 0 ok, 4 skipped, 0 missed, 0 failed, 0 retries" run6.txt || fail "summary line: $(cat run6.txt)"
 grep -q "measured rms/max" run6.txt || fail "summary header: $(cat run6.txt)"
 
 # A job that checks itself (--verify): the summary's measured error is its report's front figures.
@@ -196,7 +196,7 @@ echo '{"maps": [' >notjson.json
 echo "== a failing job, the others complete"
 cat >fails.json <<'JSON'
 {"maps": ["maps/truncated.exr", "maps/courtyard.exr"], "brdfs": ["phong:s=32"],
- "options": {"epsilon": 0.1, "size": 16}, "output": "fails/{map}_{brdf}.shrm.exr"}
+ "options": {"epsilon": 0.1, "size": 16, "verify": 0}, "output": "fails/{map}_{brdf}.shrm.exr"}
 JSON
 "$SHRM" batch fails.json --jobs 2 --json >fails.out 2>fails.err
 rc=$?
@@ -207,6 +207,27 @@ cmp -s fails/courtyard_phong_s_32.shrm.exr single/courtyard_phong_s_32.shrm.exr 
   fail "failing batch: the good output is missing or differs"
 [ -e fails/truncated_phong_s_32.shrm.exr ] && fail "failing job left an output"
 grep -q "1 of 2 jobs failed" fails.err || fail "failing job: no error line: $(cat fails.err)"
+
+# A job that misses its tolerance (the default rule, 1%, on a 16-texel cube, which cannot hold
+# Phong s = 32's F_B = 19): "missed", its file written and complete, its figures in the message,
+# the batch's exit 1; a rerun skips it (it is the job's output, only not within its tolerance).
+echo "== a job that misses its tolerance"
+cat >missed.json <<'JSON'
+{"maps": ["maps/courtyard.exr"], "brdfs": ["phong:s=32"],
+ "options": {"size": 16}, "output": "missed/{map}_{brdf}.shrm.exr"}
+JSON
+"$SHRM" batch missed.json --json >missed.out 2>missed.err
+rc=$?
+[ $rc -eq 1 ] || fail "missed tolerance: exit $rc, expected 1"
+[ "$(count missed missed.out)" -eq 1 ] || fail "missed tolerance: expected 1 missed: $(cat missed.out)"
+grep -q '"message": "tolerance 0.01 not met' missed.out || fail "missed tolerance: no figures: $(cat missed.out)"
+grep -q '"orders": "19,0"' missed.out || fail "missed tolerance: no orders: $(cat missed.out)"
+grep -q "0 of 1 jobs failed, 1 missed their tolerance" missed.err ||
+  fail "missed tolerance: no error line: $(cat missed.err)"
+"$SHRM" info missed/courtyard_phong_s_32.shrm.exr >missed.info 2>&1 &&
+  grep -q 'shrm:measured_error' missed.info || fail "missed tolerance: the file is not complete: $(cat missed.info)"
+"$SHRM" batch missed.json --json >missed2.out 2>&1
+[ "$(count skipped missed2.out)" -eq 1 ] || fail "missed tolerance: rerun did not skip: $(cat missed2.out)"
 
 # --- 6. --server (when shrmd is built next to shrm): same files, each map uploaded once ---------
 SHRMD="$(dirname "$SHRM")/../server/shrmd"

@@ -295,6 +295,52 @@ TEST(JobFrontEnds, WireHasNoFieldWithoutAnOption) {
   CheckWireFields(jobs::IblJobOptions(), IblBaseJob());
 }
 
+// The defaults are the job's on every front end (docs/shrm.md "Defaults": the tolerance rule at
+// 1%, checked at 64 pairs): a command line, a manifest and a request that name no order rule and
+// no check; and two order rules are refused by each.
+TEST(JobFrontEnds, DefaultsAreTheJobsAndTwoOrderRulesAreRefused) {
+  const PrefilterJob want = BaseJob();
+  ASSERT_EQ(want.tolerance, jobs::kDefaultTolerance);
+  ASSERT_EQ(want.verify, jobs::kDefaultVerify);
+  absl::StatusOr<PrefilterJob> cli_job = cli::ParsePrefilterCommandLine(
+      {"prefilter", "-o", "x.shrm.exr", "--brdf", kBrdf, "--env", kMap});
+  ASSERT_TRUE(cli_job.ok()) << cli_job.status();
+  EXPECT_TRUE(*cli_job == want);
+  const nlohmann::json manifest = {{"maps", {kMap}}, {"brdfs", {kBrdf}}, {"output", "o.shrm.exr"}};
+  cli::BatchOptions options;
+  std::vector<cli::BatchJob> jobs;
+  std::vector<std::string> errors;
+  cli::ParseManifest(manifest, "", &options, &jobs, &errors);
+  ASSERT_TRUE(errors.empty()) << errors[0];
+  ASSERT_EQ(jobs.size(), 1u);
+  EXPECT_TRUE(jobs[0].job == want);
+  // The wire: neither order field nor verify in the request.
+  shrm::v1::PrefilterRequest req;
+  ASSERT_TRUE(wire::EncodeEnvironment(want.env, Hashes(want), req.mutable_environment()).ok());
+  req.set_brdf(kBrdf);
+  absl::StatusOr<wire::WirePrefilter> wire_job = Decode(req);
+  ASSERT_TRUE(wire_job.ok()) << wire_job.status();
+  EXPECT_TRUE(wire_job->job == want);
+  // A tolerance of 0 on the wire is refused, not read as "the epsilon rule".
+  req.set_tolerance(0);
+  EXPECT_EQ(Decode(req).status().code(), absl::StatusCode::kInvalidArgument);
+
+  // Two rules: refused on the command line and in a manifest (the wire's oneof holds one).
+  absl::StatusOr<PrefilterJob> two =
+      cli::ParsePrefilterCommandLine({"prefilter", "-o", "x.shrm.exr", "--brdf", kBrdf, "--env",
+                                      kMap, "--epsilon", "0.03", "--orders", "8,1"});
+  EXPECT_EQ(two.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(two.status().message().find("--epsilon, --tolerance and --orders exclude each other"),
+            std::string::npos)
+      << two.status();
+  nlohmann::json both = manifest;
+  both["options"] = {{"epsilon", 0.03}, {"tolerance", 0.01}};
+  jobs.clear();
+  cli::ParseManifest(both, "", &options, &jobs, &errors);
+  ASSERT_FALSE(errors.empty());
+  EXPECT_NE(errors[0].find("exclude each other"), std::string::npos) << errors[0];
+}
+
 // Found by fuzzing (docs/fuzzing.md): nlohmann's parser throws out_of_range, not parse_error, for a
 // number beyond double ("1e400"); `shrm batch` caught only parse_error and terminated.
 TEST(BatchManifest, NumberOutOfRangeIsNotJsonRatherThanACrash) {

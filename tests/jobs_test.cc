@@ -54,6 +54,7 @@ TEST(PrefilterJob, FileAttributesAreTheDocumentedHeader) {
   PrefilterJob job;
   job.env.files = {"a.exr"};
   job.brdf = "phong:s=32";
+  jobs::UseEpsilonRule(&job, 0.03);
   const std::map<std::string, std::string> want = {{"shrm:brdf", "phong:s=32"},
                                                    {"shrm:epsilon", "0.03"},
                                                    {"shrm:orders", "11,2"},
@@ -69,7 +70,7 @@ TEST(PrefilterJob, FileAttributesAreTheDocumentedHeader) {
                                                    {"shrm:version", kVersion}};
   EXPECT_EQ(jobs::PrefilterFileAttributes(job, Provenance(), Result()), want);
   // Explicit orders and a rotation.
-  job.orders = jobs::Orders{8, 1};
+  jobs::UseExplicitOrders(&job, jobs::Orders{8, 1});
   job.env.rotate_ypr_deg = std::array<double, 3>{30, 10.5, -5};
   const auto attrs = jobs::PrefilterFileAttributes(job, Provenance(), Result());
   EXPECT_EQ(attrs.at("shrm:epsilon"), "explicit orders");
@@ -146,6 +147,7 @@ TEST(PrefilterJob, WhyFileDiffersNamesTheFirstDifference) {
   PrefilterJob job;
   job.env.files = {"a.exr"};
   job.brdf = "phong:s=32";
+  jobs::UseEpsilonRule(&job, 0.03);
   ShrmFile file;
   file.attributes = jobs::PrefilterFileAttributes(job, Provenance(), Result());
   file.cube.kind = ShrmKind::kGlobal;
@@ -157,6 +159,12 @@ TEST(PrefilterJob, WhyFileDiffersNamesTheFirstDifference) {
   PrefilterJob eps = job;
   eps.epsilon = 0.05;
   EXPECT_EQ(jobs::WhyFileDiffers(eps, "phong:s=32", sha, file), "shrm:epsilon 0.03 != 0.05");
+  // A file of the epsilon rule is not the default job's (the tolerance rule).
+  PrefilterJob by_default;
+  by_default.env = job.env;
+  by_default.brdf = job.brdf;
+  EXPECT_EQ(jobs::WhyFileDiffers(by_default, "phong:s=32", sha, file),
+            "shrm:epsilon 0.03 != per-direction tolerance");
   PrefilterJob rot = job;
   rot.env.rotate_ypr_deg = std::array<double, 3>{1, 2, 3};
   EXPECT_EQ(jobs::WhyFileDiffers(rot, "phong:s=32", sha, file),
@@ -167,6 +175,33 @@ TEST(PrefilterJob, WhyFileDiffersNamesTheFirstDifference) {
   PrefilterJob size = job;
   size.face_size = 32;
   EXPECT_EQ(jobs::WhyFileDiffers(size, "phong:s=32", sha, file), "size 40 != 32");
+}
+
+// The defaults (docs/shrm.md "Defaults"): the per-direction tolerance rule at 1% within 256 MB,
+// checked at 64 pairs; a front end gives at most one order rule.
+TEST(PrefilterJob, DefaultIsTheToleranceRuleCheckedAndOneRuleAtATime) {
+  PrefilterJob job;
+  EXPECT_EQ(job.tolerance, 0.01);
+  EXPECT_EQ(job.max_size_mb, 256);
+  EXPECT_EQ(job.verify, 64);
+  EXPECT_FALSE(job.orders.has_value());
+  EXPECT_STREQ(jobs::OrderRuleName(job), "tolerance");
+  EXPECT_EQ(jobs::EpsilonAttribute(job), "per-direction tolerance");
+  EXPECT_TRUE(jobs::SetOrderRule(&job, std::nullopt, std::nullopt, std::nullopt, "x").ok());
+  EXPECT_EQ(job, PrefilterJob{});  // none given: the default stays
+  ASSERT_TRUE(jobs::SetOrderRule(&job, 0.05, std::nullopt, std::nullopt, "x").ok());
+  EXPECT_STREQ(jobs::OrderRuleName(job), "epsilon");
+  EXPECT_EQ(job.tolerance, 0);
+  EXPECT_EQ(jobs::EpsilonAttribute(job), "0.05");
+  ASSERT_TRUE(jobs::SetOrderRule(&job, std::nullopt, std::nullopt, jobs::Orders{8, 1}, "x").ok());
+  EXPECT_STREQ(jobs::OrderRuleName(job), "explicit");
+  EXPECT_EQ(job.tolerance, 0);
+  ASSERT_TRUE(jobs::SetOrderRule(&job, std::nullopt, 0.02, std::nullopt, "x").ok());
+  EXPECT_STREQ(jobs::OrderRuleName(job), "tolerance");
+  EXPECT_FALSE(job.orders.has_value());
+  const absl::Status two = jobs::SetOrderRule(&job, 0.05, 0.02, std::nullopt, "--a and --b");
+  EXPECT_EQ(two.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(two.message().find("--a and --b exclude each other"), std::string::npos) << two;
 }
 
 TEST(PrefilterJob, ValidationNamesTheOption) {
@@ -187,13 +222,13 @@ TEST(PrefilterJob, ValidationNamesTheOption) {
       {[](PrefilterJob* j) { j->epsilon = 1; }, "epsilon"},
       {[](PrefilterJob* j) { j->epsilon = NAN; }, "epsilon"},
       {[](PrefilterJob* j) {
-         j->orders = jobs::Orders{-1, 0};
+         jobs::UseExplicitOrders(j, jobs::Orders{-1, 0});
        },
-       "orders"},
+       "orders: F"},
       {[](PrefilterJob* j) {
-         j->orders = jobs::Orders{8, jobs::kMaxOrderP + 1};
+         jobs::UseExplicitOrders(j, jobs::Orders{8, jobs::kMaxOrderP + 1});
        },
-       "orders"},
+       "orders: F"},
       {[](PrefilterJob* j) { j->face_size = jobs::kMaxFaceSize + 1; }, "size"},
       {[](PrefilterJob* j) { j->tolerance = 1; }, "tolerance"},
       {[](PrefilterJob* j) { j->verify = -1; }, "verify"},

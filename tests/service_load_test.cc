@@ -108,6 +108,7 @@ class ServiceLoadTest : public ::testing::Test {
     req.mutable_orders()->set_f(kLoadF);
     req.mutable_orders()->set_p(kLoadP);
     req.set_face_size(kLoadFaceSize);
+    req.set_verify(0);
     return req;
   }
 
@@ -122,7 +123,8 @@ std::string EmbeddedShrmBytes(const std::string& map, const std::string& sha) {
   jobs::PrefilterJob job;
   job.env.files = {map};
   job.brdf = kPrefilterBrdf;
-  job.orders = jobs::Orders{kLoadF, kLoadP};
+  jobs::UseExplicitOrders(&job, jobs::Orders{kLoadF, kLoadP});
+  job.verify = 0;  // as the requests (the check is not what the load test is about)
   job.face_size = kLoadFaceSize;
   absl::StatusOr<jobs::PrefilterRun> pr = jobs::RunPrefilterJob(job, /*threads=*/1);
   EXPECT_TRUE(pr.ok()) << pr.status();

@@ -195,7 +195,7 @@ TEST_F(ServiceTest, RoundTripMatchesEmbeddedRunAndHitsLightingCache) {
   jobs::PrefilterJob job;
   job.env.files = {map};
   job.brdf = "microfacet:sigma=0.2";
-  job.orders = jobs::Orders{kTestF, kTestP};
+  jobs::UseExplicitOrders(&job, jobs::Orders{kTestF, kTestP});  // verify: both at the default 64
   job.face_size = kTestFaceSize;
   // Thread count must not matter (core's transforms are bit-exact in it).
   absl::StatusOr<jobs::PrefilterRun> pr = jobs::RunPrefilterJob(job, /*threads=*/3);
@@ -235,7 +235,7 @@ TEST_F(ServiceTest, VisualReportDataOnlyWhenAskedAndEqualToTheEmbeddedRun) {
   jobs::PrefilterJob job;
   job.env.files = {map};
   job.brdf = "ggx:alpha=0.3";
-  job.orders = jobs::Orders{kTestF, kTestP};
+  jobs::UseExplicitOrders(&job, jobs::Orders{kTestF, kTestP});
   job.face_size = kTestFaceSize;
   absl::StatusOr<jobs::PrefilterRun> local =
       jobs::RunPrefilterJob(job, /*threads=*/3, nullptr, /*visuals=*/true);

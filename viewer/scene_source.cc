@@ -147,12 +147,15 @@ jobs::PrefilterJob PrefilterJobFor(const ComputeRequest& req, const std::string&
   jobs::PrefilterJob job;
   job.env.files = {env_path};
   job.brdf = req.brdf_spec;
-  job.epsilon = req.epsilon;
   job.verify = req.verify;
+  // The viewer's default is the paper's epsilon rule: a recomputation on a key press must take
+  // a fraction of a second (docs/viewer.md); --tolerance asks for the per-direction rule.
   if (req.f >= 0 || req.p >= 0) {
-    job.orders = jobs::Orders{req.f, req.p};
+    jobs::UseExplicitOrders(&job, jobs::Orders{req.f, req.p});
   } else if (req.tolerance > 0) {
-    job.tolerance = req.tolerance;
+    jobs::UseToleranceRule(&job, req.tolerance);
+  } else {
+    jobs::UseEpsilonRule(&job, req.epsilon);
   }
   job.kind = ShrmKind::kGlobal;
   job.face_size = req.face_size;

@@ -21,7 +21,7 @@ int main(int argc, char** argv) {
   shrm::jobs::PrefilterJob job;
   job.env.files = {argv[2]};
   job.brdf = argv[3];
-  job.epsilon = std::strtod(argv[4], nullptr);
+  shrm::jobs::UseEpsilonRule(&job, std::strtod(argv[4], nullptr));
   if (absl::Status s = shrm::jobs::ValidatePrefilterJob(job); !s.ok()) {
     std::fprintf(stderr, "prefilter_remote: %s\n", std::string(s.message()).c_str());
     return 2;
