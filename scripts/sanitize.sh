@@ -18,7 +18,8 @@
 #       ThreadSanitizer (build-tsan, -O1 -g): the service's tests (the daemon in process with its
 #       caches, admission, blob store, decoder sandbox, idle watchdog; the client and its retries),
 #       the job layer's tests and `shrm batch` (batch_test on the sanitized program, whose jobs
-#       run in parallel). Debian's gRPC, Protobuf and Abseil are not instrumented: their own
+#       run in parallel) and the live session (core/shrm/live_session.h: its worker thread).
+#       Debian's gRPC, Protobuf and Abseil are not instrumented: their own
 #       memory accesses are invisible to TSan, and tests/tsan.supp names the few reports that
 #       come from synchronization TSan cannot see inside them (each with its reason).
 #
@@ -61,12 +62,12 @@ JOBS=${SHRM_JOBS:-$(nproc)}
 if [ "$MODE" = thread ]; then
   # shrm for batch_test; the service tests build shrm and shrmd themselves where they run them.
   cmake --build "$BUILD_DIR" -j "$JOBS" --target "${SERVICE_TESTS[@]}" jobs_test \
-    job_front_ends_test shrm
+    job_front_ends_test live_session_test shrm
   export SHRM_SANITIZER=thread  # tests/cli_test.sh: no address-space limit under a sanitizer
   export TSAN_OPTIONS="halt_on_error=1:abort_on_error=1:second_deadlock_stack=1:ignore_noninstrumented_modules=1:suppressions=$PWD/tests/tsan.supp"
   # MemoryAdmissionTest: a real daemon's resident memory, inflated by TSan's shadow like ASan's.
   ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$(nproc)" \
-    -R "$SERVICE_REGEX|^(AnalyzeJob|Environment|OptionText|PrefilterJob|BatchManifest|JobFrontEnds|JobOptionsTable)\\.|^batch_test\$" \
+    -R "$SERVICE_REGEX|^(AnalyzeJob|Environment|OptionText|PrefilterJob|BatchManifest|JobFrontEnds|JobOptionsTable|LiveSession)\\.|^batch_test\$" \
     -E '^MemoryAdmissionTest\.' "$@"
   exit 0
 fi

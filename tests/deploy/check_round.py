@@ -17,7 +17,8 @@ import os
 import re
 import sys
 
-TOTAL_RE = re.compile(r"^(\d+) jobs: (\d+) ok, (\d+) skipped, (\d+) failed, (\d+) retries$")
+TOTAL_RE = re.compile(
+    r"^(\d+) jobs: (\d+) ok, (\d+) skipped, (\d+) missed, (\d+) failed, (\d+) retries$")
 
 
 def parse_summary(text, problems):
@@ -41,13 +42,13 @@ def parse_summary(text, problems):
     for line in lines[1:]:
         m = TOTAL_RE.match(line)
         if m:
-            total = int(m.group(5))
+            total = int(m.group(6))
             continue
         cols = line.split()
         if len(cols) >= 3 and cols[0].isdigit():
             jobs.append((int(cols[0]), cols[2], os.path.basename(cols[1]), None))
     if total is None:
-        problems.append("no 'N jobs: a ok, b skipped, c failed, r retries' line in the summary")
+        problems.append("no 'N jobs: a ok, b skipped, k missed, c failed, r retries' line in the summary")
     return jobs, total
 
 

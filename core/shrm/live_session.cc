@@ -1,0 +1,205 @@
+#include "core/shrm/live_session.h"
+
+#include <chrono>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
+#include "core/envmap/lighting.h"
+#include "core/sh/sh.h"
+
+namespace shrm {
+
+absl::StatusOr<std::unique_ptr<LiveSession>> LiveSession::Create(
+    const PrefilterOptions& options, std::function<void(uint64_t)> before_frame) {
+  if (options.tolerance > 0) {
+    return absl::InvalidArgumentError(
+        "a live session uses the paper's epsilon rule or explicit orders (the tolerance rule "
+        "takes seconds per frame)");
+  }
+  if (options.verify > 0) {
+    return absl::InvalidArgumentError("a live session does not check its frames (verify)");
+  }
+  SHRM_RETURN_IF_ERROR(ValidatePrefilterOptions(options));
+  return std::unique_ptr<LiveSession>(new LiveSession(options, std::move(before_frame)));
+}
+
+LiveSession::LiveSession(const PrefilterOptions& options,
+                         std::function<void(uint64_t)> before_frame)
+    : options_(options), before_frame_(std::move(before_frame)) {
+  pending_.rotation = options.rotation;
+  worker_ = std::thread([this] { Run(); });
+}
+
+LiveSession::~LiveSession() {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    stop_ = true;
+  }
+  changed_.notify_all();
+  worker_.join();
+}
+
+uint64_t LiveSession::Update(const std::function<void(State*)>& change) {
+  uint64_t u;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    change(&pending_);
+    u = ++latest_update_;
+    ++stats_.updates;
+  }
+  changed_.notify_all();
+  return u;
+}
+
+uint64_t LiveSession::SetMap(std::shared_ptr<const EnvMap> map) {
+  return Update([&](State* s) {
+    s->map = std::move(map);
+    s->coefficients.reset();
+  });
+}
+
+uint64_t LiveSession::SetCoefficients(std::shared_ptr<const std::vector<double>> rgb, int lmax,
+                                      std::array<double, 3> energy) {
+  return Update([&](State* s) {
+    s->coefficients = std::move(rgb);
+    s->coefficients_lmax = lmax;
+    s->energy = energy;
+    s->map.reset();
+  });
+}
+
+uint64_t LiveSession::SetRotation(const Mat3& rotation) {
+  return Update([&](State* s) { s->rotation = rotation; });
+}
+
+uint64_t LiveSession::SetBrdf(std::shared_ptr<const Brdf> brdf) {
+  return Update([&](State* s) { s->brdf = std::move(brdf); });
+}
+
+absl::StatusOr<std::shared_ptr<const LiveFrame>> LiveSession::WaitFor(
+    uint64_t update, absl::Duration timeout) const {
+  std::unique_lock<std::mutex> lock(mu_);
+  if (update > latest_update_) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("update ", update, " was never made (the last is ", latest_update_, ")"));
+  }
+  const bool done = changed_.wait_for(lock, absl::ToChronoNanoseconds(timeout),
+                                      [&] { return computed_update_ >= update; });
+  if (!done) {
+    return absl::DeadlineExceededError(
+        absl::StrCat("no frame of update ", update, " within ", absl::FormatDuration(timeout)));
+  }
+  return latest_frame_;
+}
+
+std::shared_ptr<const LiveFrame> LiveSession::Latest() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return latest_frame_;
+}
+
+LiveStats LiveSession::Stats() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return stats_;
+}
+
+void LiveSession::Run() {
+  std::unique_lock<std::mutex> lock(mu_);
+  for (;;) {
+    changed_.wait(lock, [&] { return stop_ || latest_update_ > computed_update_; });
+    if (stop_) return;
+    if (before_frame_) {
+      const uint64_t next = latest_update_;
+      lock.unlock();
+      before_frame_(next);
+      lock.lock();
+      if (stop_) return;
+    }
+    const uint64_t update = latest_update_;
+    const State state = pending_;
+    stats_.dropped += update - computed_update_ - 1;
+    lock.unlock();
+    auto frame = std::make_shared<LiveFrame>(Compute(state));
+    frame->update = update;
+    lock.lock();
+    computed_update_ = update;
+    ++stats_.frames;
+    latest_frame_ = std::move(frame);
+    changed_.notify_all();
+  }
+}
+
+absl::StatusOr<std::shared_ptr<const BrdfStage>> LiveSession::BrdfStageFor(const Brdf& brdf,
+                                                                           bool* reused) {
+  const std::string spec = brdf.spec();
+  for (auto it = brdf_cache_.begin(); it != brdf_cache_.end(); ++it) {
+    if (it->spec != spec) continue;
+    brdf_cache_.splice(brdf_cache_.begin(), brdf_cache_, it);  // most recent first
+    *reused = true;
+    return brdf_cache_.front().stage;
+  }
+  *reused = false;
+  SHRM_ASSIGN_OR_RETURN(BrdfStage stage, ComputeBrdfStage(brdf, options_));
+  brdf_cache_.push_front({spec, std::make_shared<const BrdfStage>(std::move(stage))});
+  if (brdf_cache_.size() > kLiveBrdfCache) brdf_cache_.pop_back();
+  return brdf_cache_.front().stage;
+}
+
+LiveFrame LiveSession::Compute(const State& state) {
+  LiveFrame f;
+  const auto start = std::chrono::steady_clock::now();
+  auto run = [&]() -> absl::Status {
+    if (!state.brdf) return absl::FailedPreconditionError("no BRDF yet (SetBrdf)");
+    if (!state.map && !state.coefficients) {
+      return absl::FailedPreconditionError("no lighting yet (SetMap or SetCoefficients)");
+    }
+    const PrefilterProgress no_progress;  // StageClock keeps a reference to it
+    StageClock clock(&f.result.timings, no_progress);
+    SHRM_RETURN_IF_ERROR(clock.Begin("brdf"));
+    SHRM_ASSIGN_OR_RETURN(std::shared_ptr<const BrdfStage> brdf,
+                          BrdfStageFor(*state.brdf, &f.brdf_reused));
+    clock.End();
+    const int lmax = brdf->f_rho;
+    SHRM_RETURN_IF_ERROR(clock.Begin("lighting"));
+    LightingStage lighting;
+    if (state.map) {
+      if (lighting_map_ != state.map) {  // the cache holds one map (its pointer keeps it alive)
+        lighting_unrotated_.clear();
+        lighting_map_ = state.map;
+        lighting_energy_ = LightingEnergy(*state.map);
+      }
+      auto it = lighting_unrotated_.find(lmax);
+      f.lighting_reused = it != lighting_unrotated_.end();
+      if (!f.lighting_reused) {
+        SHRM_ASSIGN_OR_RETURN(
+            std::vector<double> light,
+            LightingCoefficients(*state.map, lmax, Mat3::Identity(), options_.threads));
+        it = lighting_unrotated_.emplace(lmax, std::move(light)).first;
+      }
+      lighting.light = it->second;
+      lighting.energy = lighting_energy_;
+    } else {
+      if (state.coefficients_lmax < lmax ||
+          state.coefficients->size() < ShCount(lmax) * static_cast<size_t>(3)) {
+        return absl::InvalidArgumentError(absl::StrCat("the lighting coefficients go to degree ",
+                                                       state.coefficients_lmax,
+                                                       "; the BRDF's F_rho is ", lmax));
+      }
+      f.lighting_reused = true;
+      lighting.light.assign(state.coefficients->begin(),
+                            state.coefficients->begin() + ShCount(lmax) * 3);
+      lighting.energy = state.energy;
+    }
+    if (!state.rotation.IsIdentity()) {
+      SHRM_RETURN_IF_ERROR(RotateLighting(lmax, state.rotation, lighting.light));
+    }
+    clock.End();
+    return FinishPrefilter(*brdf, lighting, options_, nullptr, &f.result);
+  };
+  f.status = run();
+  f.compute_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return f;
+}
+
+}  // namespace shrm

@@ -1,0 +1,134 @@
+// A live prefiltering session (issue 13, docs/live.md): the SHRM recomputed whenever the lighting
+// or the material changes, always for the latest state.
+//
+// Updates (a new map, a rotation, lighting coefficients given directly, a new BRDF) replace the
+// pending state and return their number; one worker thread computes frames. When it takes the
+// pending state, every update since its last frame is in it: the states in between are never
+// computed (counted in LiveStats::dropped), so a producer faster than the computation costs no
+// queue, only the one pending state. A frame recomputes only what changed:
+//   - rho_lpq (the BRDF stage) is cached by the BRDF's canonical spec (the last kLiveBrdfCache
+//     specs: switching back to a material is free);
+//   - L_lm of the current map is cached unrotated per degree F_rho used with it (a material
+//     change back and forth transforms nothing); a rotation is applied to a copy in SH space
+//     (RotateLighting, exact), as Prefilter() does after its transform, so the values are those
+//     of Prefilter() bit for bit;
+//   - analysis and synthesis run for every frame.
+// Each frame's cube is what Prefilter() of the same map, rotation, BRDF and options gives.
+#ifndef SHRM_CORE_SHRM_LIVE_SESSION_H_
+#define SHRM_CORE_SHRM_LIVE_SESSION_H_
+
+#include <array>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <list>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/time/time.h"
+#include "core/base/geometry.h"
+#include "core/brdf/brdf.h"
+#include "core/envmap/envmap.h"
+#include "core/shrm/prefilter.h"
+
+namespace shrm {
+
+// BRDF stages (rho_lpq at the session's rule) kept per session, by canonical spec.
+inline constexpr int kLiveBrdfCache = 8;
+
+// One computed state of a session.
+struct LiveFrame {
+  uint64_t update = 0;       // the last update the frame includes
+  absl::Status status;       // an update that cannot be computed (e.g. F_rho above the lighting's
+                             // degree) gives a frame with its error; the next valid update recovers
+  PrefilterResult result;    // analysis, cube and the timings of the stages run for this frame
+  bool brdf_reused = false;  // rho_lpq from the session's cache
+  bool lighting_reused = false;  // L_lm from the session's cache (rotated again if asked)
+  double compute_ms = 0;         // the whole frame
+};
+
+struct LiveStats {
+  uint64_t updates = 0;  // updates received
+  uint64_t frames = 0;   // frames computed
+  uint64_t dropped = 0;  // states replaced while pending (never computed)
+};
+
+class LiveSession {
+ public:
+  // `options`: the paper's epsilon rule or explicit orders, kind, face size, threads (the
+  // tolerance rule, which takes seconds, and the job's check are refused: InvalidArgument).
+  // `before_frame` (tests): called on the worker with the update about to be computed, before
+  // it takes the pending state.
+  static absl::StatusOr<std::unique_ptr<LiveSession>> Create(
+      const PrefilterOptions& options, std::function<void(uint64_t)> before_frame = nullptr);
+  ~LiveSession();  // stops the worker (a frame in progress finishes first)
+  LiveSession(const LiveSession&) = delete;
+  LiveSession& operator=(const LiveSession&) = delete;
+
+  // The lighting: a map (its coefficients are computed by the session), or RGB L_lm in the
+  // transform layout up to `lmax` with the lighting's energy (integral L^2 dw per channel, eq.
+  // 5.15, for the analysis). Each replaces the other; the rotation applies to both.
+  uint64_t SetMap(std::shared_ptr<const EnvMap> map);
+  uint64_t SetCoefficients(std::shared_ptr<const std::vector<double>> rgb, int lmax,
+                           std::array<double, 3> energy);
+  uint64_t SetRotation(const Mat3& rotation);
+  uint64_t SetBrdf(std::shared_ptr<const Brdf> brdf);
+
+  // The first frame that includes update `update`, waiting up to `timeout` (DeadlineExceeded).
+  absl::StatusOr<std::shared_ptr<const LiveFrame>> WaitFor(uint64_t update,
+                                                           absl::Duration timeout) const;
+  // The newest frame (null before the first).
+  std::shared_ptr<const LiveFrame> Latest() const;
+  LiveStats Stats() const;
+
+ private:
+  struct State {
+    std::shared_ptr<const EnvMap> map;
+    std::shared_ptr<const std::vector<double>> coefficients;
+    int coefficients_lmax = 0;
+    std::array<double, 3> energy{};
+    Mat3 rotation = Mat3::Identity();
+    std::shared_ptr<const Brdf> brdf;
+  };
+  struct CachedBrdf {
+    std::string spec;
+    std::shared_ptr<const BrdfStage> stage;
+  };
+
+  LiveSession(const PrefilterOptions& options, std::function<void(uint64_t)> before_frame);
+  uint64_t Update(const std::function<void(State*)>& change);
+  void Run();
+  // The frame of `state`, reusing the caches (worker thread only).
+  LiveFrame Compute(const State& state);
+  absl::StatusOr<std::shared_ptr<const BrdfStage>> BrdfStageFor(const Brdf& brdf, bool* reused);
+
+  const PrefilterOptions options_;
+  const std::function<void(uint64_t)> before_frame_;
+
+  mutable std::mutex mu_;
+  mutable std::condition_variable changed_;  // an update, a frame, or stop
+  State pending_;
+  uint64_t latest_update_ = 0;
+  uint64_t computed_update_ = 0;
+  LiveStats stats_;
+  std::shared_ptr<const LiveFrame> latest_frame_;
+  bool stop_ = false;
+
+  // Worker-only caches.
+  std::list<CachedBrdf> brdf_cache_;                       // most recent first
+  std::shared_ptr<const EnvMap> lighting_map_;             // the map of the entries below
+  std::map<int, std::vector<double>> lighting_unrotated_;  // by degree
+  std::array<double, 3> lighting_energy_{};
+
+  std::thread worker_;
+};
+
+}  // namespace shrm
+
+#endif  // SHRM_CORE_SHRM_LIVE_SESSION_H_
