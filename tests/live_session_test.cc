@@ -15,6 +15,7 @@
 #include "core/brdf/brdf.h"
 #include "core/envmap/lighting.h"
 #include "core/sh/sh.h"
+#include "core/shrm/shrm_explicit.h"
 #include "tests/stage_gate.h"
 #include "tests/test_maps.h"
 
@@ -171,6 +172,45 @@ TEST(LiveSession, LatestWinsAndTheStatesInBetweenAreDroppedAndCounted) {
   ASSERT_NE(f, nullptr);
   ExpectSameCube(f->result.cube, Offline(*brdf, kRotationB));
   EXPECT_EQ(live.Stats().frames, 2u);
+}
+
+// Where asked (SetView), a frame also holds the reflection map of that view (eq. 5.35), the one
+// ReflectionMapForView makes from Prefilter()'s cube; a change of the view alone reuses the cube.
+TEST(LiveSession, ViewMapIsEq535OfTheFramesCubeAndAViewChangeReusesTheCube) {
+  absl::StatusOr<std::unique_ptr<LiveSession>> s = LiveSession::Create(SessionOptions());
+  ASSERT_TRUE(s.ok()) << s.status();
+  LiveSession& live = **s;
+  const auto brdf = ParsedBrdf("microfacet:sigma=0.3");
+  live.SetMap(Courtyard());
+  live.SetBrdf(brdf);
+  const Vec3 v1{0.3, 0.5, 0.8}, v2{-0.6, 0.2, 0.1};
+  auto f = Frame(live, live.SetView(v1 * 2.0));  // normalized by the session
+  ASSERT_NE(f, nullptr);
+  const ShrmCube cube = Offline(*brdf, Mat3::Identity());
+  ExpectSameCube(f->result.cube, cube);
+  absl::StatusOr<RadianceCube> want = ReflectionMapForView(cube, v1.Normalized(), 1);
+  ASSERT_TRUE(want.ok()) << want.status();
+  EXPECT_TRUE(f->view_map.data == want->data);
+  EXPECT_FALSE(f->shrm_reused);
+
+  f = Frame(live, live.SetView(v2));
+  ASSERT_NE(f, nullptr);
+  EXPECT_TRUE(f->shrm_reused);
+  ASSERT_EQ(f->result.timings.size(), 1u);
+  EXPECT_EQ(f->result.timings[0].stage, "view");
+  ExpectSameCube(f->result.cube, cube);
+  want = ReflectionMapForView(cube, v2.Normalized(), 1);
+  ASSERT_TRUE(want.ok()) << want.status();
+  EXPECT_TRUE(f->view_map.data == want->data);
+
+  // No view: no map; a zero view: the frame's error.
+  f = Frame(live, live.SetView(std::nullopt));
+  ASSERT_NE(f, nullptr);
+  EXPECT_TRUE(f->view_map.data.empty());
+  absl::StatusOr<std::shared_ptr<const LiveFrame>> bad =
+      live.WaitFor(live.SetView(Vec3{0, 0, 0}), kFrameWait);
+  ASSERT_TRUE(bad.ok()) << bad.status();
+  EXPECT_EQ((*bad)->status.code(), absl::StatusCode::kInvalidArgument);
 }
 
 TEST(LiveSession, ErrorsAreFramesAndTheNextUpdateRecovers) {

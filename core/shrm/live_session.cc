@@ -1,12 +1,14 @@
 #include "core/shrm/live_session.h"
 
 #include <chrono>
+#include <cmath>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
 #include "core/sh/sh.h"
+#include "core/shrm/shrm_explicit.h"
 
 namespace shrm {
 
@@ -73,6 +75,16 @@ uint64_t LiveSession::SetRotation(const Mat3& rotation) {
   return Update([&](State* s) { s->rotation = rotation; });
 }
 
+uint64_t LiveSession::SetView(std::optional<Vec3> view) {
+  return Update([&](State* s) { s->view = view; });
+}
+
+bool LiveSession::State::SameShrm(const State& o) const {
+  return map == o.map && coefficients == o.coefficients &&
+         coefficients_lmax == o.coefficients_lmax && energy == o.energy &&
+         rotation.m == o.rotation.m && brdf == o.brdf;
+}
+
 uint64_t LiveSession::SetBrdf(std::shared_ptr<const Brdf> brdf) {
   return Update([&](State* s) { s->brdf = std::move(brdf); });
 }
@@ -117,10 +129,12 @@ void LiveSession::Run() {
     }
     const uint64_t update = latest_update_;
     const State state = pending_;
+    const std::shared_ptr<const LiveFrame> previous = latest_frame_;
     stats_.dropped += update - computed_update_ - 1;
     lock.unlock();
-    auto frame = std::make_shared<LiveFrame>(Compute(state));
+    auto frame = std::make_shared<LiveFrame>(Compute(state, previous.get(), &computed_state_));
     frame->update = update;
+    computed_state_ = state;
     lock.lock();
     computed_update_ = update;
     ++stats_.frames;
@@ -145,15 +159,40 @@ absl::StatusOr<std::shared_ptr<const BrdfStage>> LiveSession::BrdfStageFor(const
   return brdf_cache_.front().stage;
 }
 
-LiveFrame LiveSession::Compute(const State& state) {
+LiveFrame LiveSession::Compute(const State& state, const LiveFrame* previous,
+                               const State* previous_state) {
   LiveFrame f;
   const auto start = std::chrono::steady_clock::now();
+  const PrefilterProgress no_progress;  // StageClock keeps a reference to it
+  auto view_map = [&]() -> absl::Status {
+    f.view = state.view;
+    if (!state.view) return absl::OkStatus();
+    const double norm = state.view->Norm();
+    if (!(norm > 0 && std::isfinite(norm))) {
+      return absl::InvalidArgumentError("the view must be a finite nonzero direction");
+    }
+    f.view = state.view->Normalized();
+    StageClock clock(&f.result.timings, no_progress);
+    SHRM_RETURN_IF_ERROR(clock.Begin("view"));
+    SHRM_ASSIGN_OR_RETURN(f.view_map,
+                          ReflectionMapForView(f.result.cube, *f.view, options_.threads));
+    clock.End();
+    return absl::OkStatus();
+  };
+  if (previous != nullptr && previous->status.ok() && state.SameShrm(*previous_state)) {
+    f.shrm_reused = f.brdf_reused = f.lighting_reused = true;
+    f.result.analysis = previous->result.analysis;
+    f.result.cube = previous->result.cube;
+    f.status = view_map();
+    f.compute_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    return f;
+  }
   auto run = [&]() -> absl::Status {
     if (!state.brdf) return absl::FailedPreconditionError("no BRDF yet (SetBrdf)");
     if (!state.map && !state.coefficients) {
       return absl::FailedPreconditionError("no lighting yet (SetMap or SetCoefficients)");
     }
-    const PrefilterProgress no_progress;  // StageClock keeps a reference to it
     StageClock clock(&f.result.timings, no_progress);
     SHRM_RETURN_IF_ERROR(clock.Begin("brdf"));
     SHRM_ASSIGN_OR_RETURN(std::shared_ptr<const BrdfStage> brdf,
@@ -194,7 +233,8 @@ LiveFrame LiveSession::Compute(const State& state) {
       SHRM_RETURN_IF_ERROR(RotateLighting(lmax, state.rotation, lighting.light));
     }
     clock.End();
-    return FinishPrefilter(*brdf, lighting, options_, nullptr, &f.result);
+    SHRM_RETURN_IF_ERROR(FinishPrefilter(*brdf, lighting, options_, nullptr, &f.result));
+    return view_map();
   };
   f.status = run();
   f.compute_ms =

@@ -12,7 +12,9 @@
 //     change back and forth transforms nothing); a rotation is applied to a copy in SH space
 //     (RotateLighting, exact), as Prefilter() does after its transform, so the values are those
 //     of Prefilter() bit for bit;
-//   - analysis and synthesis run for every frame.
+//   - analysis and synthesis run for every frame whose lighting or material changed;
+//   - with a view set (SetView), the frame also holds the reflection map of that view (eq. 5.35,
+//     ReflectionMapForView); a change of the view alone reuses the previous frame's cube.
 // Each frame's cube is what Prefilter() of the same map, rotation, BRDF and options gives.
 #ifndef SHRM_CORE_SHRM_LIVE_SESSION_H_
 #define SHRM_CORE_SHRM_LIVE_SESSION_H_
@@ -25,6 +27,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -36,6 +39,7 @@
 #include "core/brdf/brdf.h"
 #include "core/envmap/envmap.h"
 #include "core/shrm/prefilter.h"
+#include "core/shrm/radiance_cube.h"
 
 namespace shrm {
 
@@ -50,6 +54,9 @@ struct LiveFrame {
   PrefilterResult result;    // analysis, cube and the timings of the stages run for this frame
   bool brdf_reused = false;  // rho_lpq from the session's cache
   bool lighting_reused = false;  // L_lm from the session's cache (rotated again if asked)
+  bool shrm_reused = false;      // only the view changed: the previous frame's cube
+  std::optional<Vec3> view;      // the view of view_map (normalized)
+  RadianceCube view_map;         // eq. 5.35 for `view` (empty without a view)
   double compute_ms = 0;         // the whole frame
 };
 
@@ -79,6 +86,9 @@ class LiveSession {
                            std::array<double, 3> energy);
   uint64_t SetRotation(const Mat3& rotation);
   uint64_t SetBrdf(std::shared_ptr<const Brdf> brdf);
+  // The world view V of the frames' reflection map (eq. 5.35; normalized by the session, a zero
+  // or non-finite one is the frame's error), or none (no map).
+  uint64_t SetView(std::optional<Vec3> view);
 
   // The first frame that includes update `update`, waiting up to `timeout` (DeadlineExceeded).
   absl::StatusOr<std::shared_ptr<const LiveFrame>> WaitFor(uint64_t update,
@@ -95,6 +105,9 @@ class LiveSession {
     std::array<double, 3> energy{};
     Mat3 rotation = Mat3::Identity();
     std::shared_ptr<const Brdf> brdf;
+    std::optional<Vec3> view;
+    // The same lighting and material (pointers and values; the view aside).
+    bool SameShrm(const State& o) const;
   };
   struct CachedBrdf {
     std::string spec;
@@ -104,8 +117,8 @@ class LiveSession {
   LiveSession(const PrefilterOptions& options, std::function<void(uint64_t)> before_frame);
   uint64_t Update(const std::function<void(State*)>& change);
   void Run();
-  // The frame of `state`, reusing the caches (worker thread only).
-  LiveFrame Compute(const State& state);
+  // The frame of `state`, reusing the caches and `previous` (worker thread only).
+  LiveFrame Compute(const State& state, const LiveFrame* previous, const State* previous_state);
   absl::StatusOr<std::shared_ptr<const BrdfStage>> BrdfStageFor(const Brdf& brdf, bool* reused);
 
   const PrefilterOptions options_;
@@ -125,6 +138,7 @@ class LiveSession {
   std::shared_ptr<const EnvMap> lighting_map_;             // the map of the entries below
   std::map<int, std::vector<double>> lighting_unrotated_;  // by degree
   std::array<double, 3> lighting_energy_{};
+  State computed_state_;  // the state of latest_frame_
 
   std::thread worker_;
 };
