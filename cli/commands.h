@@ -19,6 +19,7 @@ void RegisterIrradiance(CLI::App& app, absl::Status* status);
 void RegisterIbl(CLI::App& app, absl::Status* status);
 void RegisterInfo(CLI::App& app, absl::Status* status);
 void RegisterBatch(CLI::App& app, absl::Status* status);
+void RegisterLive(CLI::App& app, absl::Status* status);
 
 }  // namespace shrm::cli
 

@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
   shrm::cli::RegisterIbl(app, &status);
   shrm::cli::RegisterInfo(app, &status);
   shrm::cli::RegisterBatch(app, &status);
+  shrm::cli::RegisterLive(app, &status);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

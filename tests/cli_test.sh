@@ -426,6 +426,45 @@ else
 fi
 cd "$TMP" || exit 2
 
+# --- shrm live: one session for a sequence; each frame is shrm prefilter's file -------------
+# Two maps as a sequence, and one map as a 4-frame turntable: every frame_NNNN.shrm.exr is the
+# file `shrm prefilter` writes for that frame (same rule, --verify 0, --rotate yaw,0,0 for a
+# turntable frame), byte for byte; --view adds the frame's reflection map, the bytes `shrm render`
+# writes from that file. A missing map is refused before any frame, with nothing written.
+CHECKS=$((CHECKS + 1))
+mkdir -p "$TMP/live"
+cd "$TMP/live" || exit 2
+LIVE_BRDF=microfacet:sigma=0.3
+CITY="$ROOT/data/envmaps/city.exr"
+if "$SHRM" live --sequence "$MAP" "$CITY" --brdf "$LIVE_BRDF" --size 16 --view 0,0,1 -o seq \
+  >live.stdout 2>live.stderr &&
+  "$SHRM" live --env "$MAP" --turntable 4 --brdf "$LIVE_BRDF" --size 16 -o turn --json \
+    >turn.json 2>turn.stderr; then
+  ok=1
+  for k in 0 1; do
+    src=$MAP
+    [ "$k" = 1 ] && src=$CITY
+    "$SHRM" prefilter --env "$src" --brdf "$LIVE_BRDF" --epsilon 0.03 --verify 0 --size 16 \
+      -o "ref$k.shrm.exr" >/dev/null 2>&1 || { ok=0; fail "live: prefilter ref$k failed"; }
+    cmp -s "seq/frame_000$k.shrm.exr" "ref$k.shrm.exr" || { ok=0; fail "live: seq frame $k differs from shrm prefilter"; }
+    "$SHRM" render --shrm "ref$k.shrm.exr" --view 0,0,1 -o "view$k.exr" >/dev/null 2>&1 &&
+      cmp -s "seq/frame_000$k.view.exr" "view$k.exr" || { ok=0; fail "live: view map $k differs from shrm render"; }
+  done
+  "$SHRM" prefilter --env "$MAP" --brdf "$LIVE_BRDF" --epsilon 0.03 --verify 0 --size 16 \
+    --rotate 90,0,0 -o turn1.shrm.exr >/dev/null 2>&1 &&
+    cmp -s turn/frame_0001.shrm.exr turn1.shrm.exr || { ok=0; fail "live: turntable frame 1 differs from --rotate 90,0,0"; }
+  json_ok turn.json && grep -q '"frames_per_second"' turn.json || { ok=0; fail "live: --json report"; }
+  [ "$ok" = 1 ] && echo "ok: live: frames equal shrm prefilter's files: $(tail -n 1 live.stdout)"
+else
+  fail "live: $(cat live.stderr turn.stderr 2>/dev/null | head -c 400)"
+fi
+cd "$TMP" || exit 2
+expect_error live_missing_map 1 'missing\.exr' \
+  "$SHRM" live --sequence "$MAP" "$TMP/missing.exr" --brdf phong:s=32 --size 16 -o "$TMP/live/none"
+[ -e "$TMP/live/none/frame_0000.shrm.exr" ] && fail "live_missing_map: a frame was written"
+expect_error live_env_without_turntable 1 'turntable' \
+  "$SHRM" live --env "$MAP" --brdf phong:s=32 -o "$TMP/live"
+
 # --- shrm ibl: bad inputs leave no folder and no file ----------------------------------------
 IBL=(ibl --size 16 --verify 2 -o ibl_out)
 expect_error ibl_size_not_power_of_two 1 'face size 24.*power of two' \
