@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -16,16 +17,21 @@
 #include "absl/strings/str_format.h"
 #include "cli/cli_common.h"
 #include "cli/commands.h"
+#include "client/shrm_client.h"
 #include "core/base/status_macros.h"
+#include "core/io/atomic_file.h"
 #include "core/io/image.h"
 #include "core/shrm/live_session.h"
 #include "core/shrm/shrm_file.h"
 #include "jobs/cli_validators.h"
 #include "jobs/option_text.h"
 #include "jobs/prefilter_job.h"
+#include "proto/job_codec.h"
 
 namespace shrm::cli {
 namespace {
+
+namespace v1 = ::shrm::v1;
 
 // Frames a turntable may have (one per degree step of 0.1 at most).
 constexpr int kMaxTurntableFrames = 3600;
@@ -45,6 +51,7 @@ struct LiveArgs {
   std::string output;  // folder
   int threads = 0;
   bool json = false;
+  std::string server;
 };
 
 // The prefilter job each frame is (its file attributes are that job's).
@@ -106,8 +113,139 @@ std::string StageText(const LiveFrame& f) {
   return s;
 }
 
+// What one frame's summary says, from a local frame or a server's.
+struct FrameFigures {
+  int f_b = 0, p_b = 0;
+  double decode_ms = 0, compute_ms = 0, write_ms = 0;
+  std::string stages;  // " brdf 0.1 lighting 2.0 ..."
+  std::string view_path;
+};
+
+void ReportFrame(const LiveArgs& a, size_t k, const FrameJob& f, const std::string& shrm_path,
+                 const FrameFigures& fig, nlohmann::json* report) {
+  nlohmann::json j = {{"frame", k},
+                      {"source", f.path},
+                      {"output", shrm_path},
+                      {"F_B", fig.f_b},
+                      {"P_B", fig.p_b},
+                      {"decode_ms", fig.decode_ms},
+                      {"compute_ms", fig.compute_ms},
+                      {"write_ms", fig.write_ms}};
+  if (f.job.env.rotate_ypr_deg) j["rotate_ypr_deg"] = *f.job.env.rotate_ypr_deg;
+  if (!fig.view_path.empty()) j["view_map"] = fig.view_path;
+  report->push_back(j);
+  if (!a.json) {
+    std::printf(
+        "frame %zu: %s -> %s, (F_B, P_B) = (%d, %d), %.1f ms (decode %.1f;%s; write %.1f)\n", k,
+        f.path.c_str(), shrm_path.c_str(), fig.f_b, fig.p_b,
+        fig.decode_ms + fig.compute_ms + fig.write_ms, fig.decode_ms, fig.stages.c_str(),
+        fig.write_ms);
+  }
+}
+
+void PrintTotal(const LiveArgs& a, const nlohmann::json& report, double seconds, uint64_t dropped,
+                const std::string& where) {
+  const double fps = static_cast<double>(report.size()) / seconds;
+  if (a.json) {
+    std::printf("%s\n", nlohmann::json({{"frames", report},
+                                        {"seconds", seconds},
+                                        {"frames_per_second", fps},
+                                        {"dropped", dropped}})
+                            .dump(2)
+                            .c_str());
+  } else {
+    std::printf("%zu frames in %.2f s: %.1f frames/s (%s)\n", report.size(), seconds, fps,
+                where.c_str());
+  }
+}
+
+// --server: the maps uploaded (each once), one Live call; each frame waited for before the next
+// state is sent, so none is dropped. The files are the embedded run's.
+absl::Status RunLiveRemote(const LiveArgs& a, const std::vector<FrameJob>& frames) {
+  if (!a.view.empty()) {
+    return absl::InvalidArgumentError("--view is not available with --server (yet)");
+  }
+  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> client, ConnectServer(a.server));
+  std::map<std::string, std::string> sha_of;
+  for (const FrameJob& f : frames) {
+    if (sha_of.count(f.path)) continue;
+    SHRM_ASSIGN_OR_RETURN(sha_of[f.path], client->UploadIfMissing(f.path));
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(a.output, ec);
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(FramePath(a.output, 0, "shrm.exr"), "--output"));
+  const jobs::PrefilterJob& job = frames.front().job;
+  v1::LiveOpen open;
+  if (job.orders) {
+    open.mutable_orders()->set_f(job.orders->f);
+    open.mutable_orders()->set_p(job.orders->p);
+  } else {
+    open.set_epsilon(job.epsilon);
+  }
+  open.set_kind(job.kind == ShrmKind::kLocal ? v1::SHRM_KIND_LOCAL : v1::SHRM_KIND_GLOBAL);
+  open.set_face_size(job.face_size);
+  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::LiveCall> call, client->OpenLive(open));
+  auto ended = [&](const char* what) {
+    const absl::Status s = call->Finish();
+    return s.ok() ? absl::DataLossError(absl::StrCat("the live call ended ", what)) : s;
+  };
+  v1::LiveRequest brdf;
+  brdf.set_brdf(a.brdf);
+  if (!call->Send(brdf)) return ended("before the BRDF was sent");
+  uint64_t request = 1;
+  const auto start = std::chrono::steady_clock::now();
+  nlohmann::json report = nlohmann::json::array();
+  uint64_t dropped = 0;
+  for (size_t k = 0; k < frames.size(); ++k) {
+    const FrameJob& f = frames[k];
+    v1::LiveRequest r;
+    if (k == 0 || f.path != frames[k - 1].path) {
+      SHRM_RETURN_IF_ERROR(
+          wire::EncodeEnvironment(f.job.env, {sha_of[f.path]}, r.mutable_environment()));
+    } else {
+      const std::array<double, 3> ypr = f.job.env.rotate_ypr_deg.value_or(std::array<double, 3>{});
+      r.mutable_rotation()->set_yaw_deg(ypr[0]);
+      r.mutable_rotation()->set_pitch_deg(ypr[1]);
+      r.mutable_rotation()->set_roll_deg(ypr[2]);
+    }
+    if (!call->Send(r)) return ended("while sending a frame's state");
+    ++request;
+    std::optional<client::LiveFrameOutcome> frame;
+    do {
+      SHRM_ASSIGN_OR_RETURN(frame, call->Next());
+      if (!frame) return ended(absl::StrCat("before the frame of ", f.path).c_str());
+    } while (frame->update < request);
+    const auto write_start = std::chrono::steady_clock::now();
+    const std::string shrm_path = FramePath(a.output, static_cast<int>(k), "shrm.exr");
+    SHRM_RETURN_IF_ERROR(WriteFileAtomically(shrm_path, frame->shrm_file));
+    FrameFigures fig;
+    fig.f_b = frame->f_b;
+    fig.p_b = frame->p_b;
+    for (const v1::StageTiming& t : frame->timings) {
+      absl::StrAppendFormat(&fig.stages, " %s %.1f", t.stage(), t.ms());
+      fig.compute_ms += t.ms();
+    }
+    fig.write_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - write_start)
+            .count();
+    dropped = frame->dropped;
+    ReportFrame(a, k, f, shrm_path, fig, &report);
+  }
+  call->CloseSending();
+  while (true) {
+    SHRM_ASSIGN_OR_RETURN(std::optional<client::LiveFrameOutcome> rest, call->Next());
+    if (!rest) break;
+  }
+  SHRM_RETURN_IF_ERROR(call->Finish());
+  PrintTotal(a, report,
+             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+             dropped, absl::StrCat("server ", a.server));
+  return absl::OkStatus();
+}
+
 absl::Status RunLive(const LiveArgs& a) {
   SHRM_ASSIGN_OR_RETURN(const std::vector<FrameJob> frames, FrameJobs(a));
+  if (!a.server.empty()) return RunLiveRemote(a, frames);
   std::optional<Vec3> view;
   if (!a.view.empty()) {
     SHRM_ASSIGN_OR_RETURN(view, ParseDirection(a.view, "--view"));
@@ -183,43 +321,21 @@ absl::Status RunLive(const LiveArgs& a) {
     const double write_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - write_start)
             .count();
-    const ShrmAnalysis& an = frame->result.analysis;
-    nlohmann::json j = {{"frame", k},
-                        {"source", f.path},
-                        {"output", shrm_path},
-                        {"F_B", an.f_b},
-                        {"P_B", an.p_b},
-                        {"decode_ms", current.ms},
-                        {"compute_ms", frame->compute_ms},
-                        {"write_ms", write_ms}};
-    if (f.job.env.rotate_ypr_deg) j["rotate_ypr_deg"] = *f.job.env.rotate_ypr_deg;
-    if (!view_path.empty()) j["view_map"] = view_path;
-    for (const StageTiming& t : frame->result.timings) j["stages"][t.stage + "_ms"] = t.ms;
-    report.push_back(j);
-    if (!a.json) {
-      std::printf(
-          "frame %zu: %s -> %s, (F_B, P_B) = (%d, %d), %.1f ms (decode %.1f;%s; write %.1f)\n", k,
-          f.path.c_str(), shrm_path.c_str(), an.f_b, an.p_b,
-          current.ms + frame->compute_ms + write_ms, current.ms, StageText(*frame).c_str(),
-          write_ms);
-    }
+    FrameFigures fig;
+    fig.f_b = frame->result.analysis.f_b;
+    fig.p_b = frame->result.analysis.p_b;
+    fig.decode_ms = current.ms;
+    fig.compute_ms = frame->compute_ms;
+    fig.write_ms = write_ms;
+    fig.stages = StageText(*frame);
+    fig.view_path = view_path;
+    ReportFrame(a, k, f, shrm_path, fig, &report);
     if (next) current = *std::move(next);
   }
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const LiveStats stats = session->Stats();
-  if (a.json) {
-    std::printf("%s\n", nlohmann::json({{"frames", report},
-                                        {"seconds", seconds},
-                                        {"frames_per_second", frames.size() / seconds},
-                                        {"updates", stats.updates},
-                                        {"computed", stats.frames}})
-                            .dump(2)
-                            .c_str());
-  } else {
-    std::printf("%zu frames in %.2f s: %.1f frames/s (decode, compute and write; %d thread%s)\n",
-                frames.size(), seconds, frames.size() / seconds, threads, threads == 1 ? "" : "s");
-  }
+  PrintTotal(
+      a, report, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+      session->Stats().dropped,
+      absl::StrCat("decode, compute and write; ", threads, threads == 1 ? " thread" : " threads"));
   return absl::OkStatus();
 }
 
@@ -257,6 +373,7 @@ void RegisterLive(CLI::App& app, absl::Status* status) {
   sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
       ->check(CLI::NonNegativeNumber);
   sub->add_flag("--json", args->json, "print the frames' report as JSON on stdout");
+  AddServerOption(sub, &args->server);
   sub->callback([args, status] { *status = RunLive(*args); });
 }
 

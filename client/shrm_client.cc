@@ -361,6 +361,49 @@ absl::StatusOr<IblCallOutcome> ShrmClient::Ibl(const v1::IblRequest& request,
   return SendUntilAnswered(&ShrmClient::IblOnce, request, progress, deadline, cancel);
 }
 
+absl::StatusOr<std::unique_ptr<LiveCall>> ShrmClient::OpenLive(const v1::LiveOpen& open,
+                                                               absl::Duration deadline) {
+  std::unique_ptr<LiveCall> call(new LiveCall());
+  SetDeadline(&call->context_, deadline);
+  Authorize(&call->context_);
+  call->stream_ = stub_->Live(&call->context_);
+  v1::LiveRequest request;
+  *request.mutable_open() = open;
+  if (!call->stream_->Write(request)) {
+    const absl::Status s = call->Finish();
+    return s.ok() ? absl::UnavailableError("the live call ended before it was opened") : s;
+  }
+  return call;
+}
+
+absl::StatusOr<std::optional<LiveFrameOutcome>> LiveCall::Next() {
+  v1::LiveEvent ev;
+  std::optional<LiveFrameOutcome> out;
+  FileAssembler file("live frame");
+  while (stream_->Read(&ev)) {
+    if (!out) {
+      out.emplace();
+      out->update = ev.update();
+      out->dropped = ev.dropped();
+      out->f_b = ev.f_b();
+      out->p_b = ev.p_b();
+      out->timings.assign(ev.timings().begin(), ev.timings().end());
+    } else if (ev.update() != out->update) {
+      return absl::DataLossError("a live frame's chunks belong to two updates");
+    }
+    SHRM_RETURN_IF_ERROR(file.Add(ev.shrm_file()));
+    if (ev.shrm_file().last()) {
+      SHRM_RETURN_IF_ERROR(file.Finish().status());
+      out->shrm_file = std::move(file.bytes());
+      return out;
+    }
+  }
+  if (out) return absl::DataLossError("the live call ended inside a frame");
+  return std::optional<LiveFrameOutcome>();
+}
+
+absl::Status LiveCall::Finish() { return wire::FromGrpcStatus(stream_->Finish()); }
+
 absl::StatusOr<PrefilterOutcome> ShrmClient::PrefilterOnce(const v1::PrefilterRequest& request,
                                                            const ProgressCallback& progress,
                                                            absl::Duration deadline,

@@ -14,6 +14,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -69,6 +70,33 @@ struct IblCallOutcome {
 // Called for every progress event (the stage starting and the fraction of stages done).
 using ProgressCallback = std::function<void(const shrm::v1::PrefilterProgress&)>;
 
+// One frame of a live call (docs/live.md): the SHRM file of the state after request `update`.
+struct LiveFrameOutcome {
+  uint64_t update = 0;   // the last request the frame includes
+  uint64_t dropped = 0;  // states the server did not compute so far
+  int f_b = 0, p_b = 0;
+  std::vector<shrm::v1::StageTiming> timings;
+  std::string shrm_file;  // SHA-256 verified
+};
+
+// A live call: Send updates (false once the call has ended: Finish says why), CloseSending after
+// the last, Next for each frame (nullopt once the server has ended the call), then Finish.
+// One thread may Send while another reads (gRPC allows one of each at a time).
+class LiveCall {
+ public:
+  bool Send(const shrm::v1::LiveRequest& request) { return stream_->Write(request); }
+  bool CloseSending() { return stream_->WritesDone(); }
+  absl::StatusOr<std::optional<LiveFrameOutcome>> Next();
+  absl::Status Finish();
+  void Cancel() { context_.TryCancel(); }
+
+ private:
+  friend class ShrmClient;
+  LiveCall() = default;
+  grpc::ClientContext context_;
+  std::unique_ptr<grpc::ClientReaderWriter<shrm::v1::LiveRequest, shrm::v1::LiveEvent>> stream_;
+};
+
 class ShrmClient {
  public:
   // `target`: "host:port" or "dns:///host:port" (round-robin over the resolved addresses).
@@ -116,6 +144,11 @@ class ShrmClient {
   absl::StatusOr<shrm::v1::IrradianceResponse> Irradiance(
       const shrm::v1::IrradianceRequest& request,
       absl::Duration deadline = absl::InfiniteDuration());
+
+  // Opens a live session (sends `open` as request 0); `deadline` bounds the whole call. Not
+  // retried (the session's state is the call's).
+  absl::StatusOr<std::unique_ptr<LiveCall>> OpenLive(
+      const shrm::v1::LiveOpen& open, absl::Duration deadline = absl::InfiniteDuration());
 
   const ClientOptions& options() const { return options_; }
   // SHA-256 of a file, remembered per path while its size and modification time stay the same

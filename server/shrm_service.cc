@@ -4,7 +4,10 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <map>
+#include <mutex>
 #include <nlohmann/json.hpp>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -13,6 +16,7 @@
 #include "core/base/status_macros.h"
 #include "core/brdf/brdf_projection.h"
 #include "core/envmap/envmap.h"
+#include "core/shrm/live_session.h"
 #include "core/shrm/shrm_file.h"
 #include "core/shrm/shrm_reference.h"
 #include "jobs/analyze_job.h"
@@ -120,8 +124,8 @@ absl::StatusOr<Vec3> RequestDirection(bool present, const v1::Direction& d, cons
 // `chunk_of` gives the FileChunk of a new event (and fills the event's other fields).
 // `watch` gets the progress of every chunk written.
 template <typename Event, typename ChunkOf>
-absl::Status StreamFile(std::string_view file, grpc::ServerWriter<Event>* writer, RequestLog* log,
-                        IdleWatchdog::Call* watch, const ChunkOf& chunk_of) {
+absl::Status StreamFile(std::string_view file, grpc::internal::WriterInterface<Event>* writer,
+                        RequestLog* log, IdleWatchdog::Call* watch, const ChunkOf& chunk_of) {
   Sha256Stream sha;  // hashed chunk by chunk, while the client receives the previous one
   size_t offset = 0;
   do {
@@ -733,6 +737,222 @@ absl::Status ShrmServiceImpl::SendIblResult(grpc::ServerContext* context,
     }));
   }
   return absl::OkStatus();
+}
+
+namespace {
+
+// What a live call's frames are made from, as of one session update: the job whose file
+// attributes the frame's file gets, its provenance, and the number of the request it came from.
+struct LiveSnapshot {
+  uint64_t request = 0;
+  jobs::PrefilterJob job;
+  jobs::PrefilterProvenance provenance;
+};
+
+// The live session's options from the open request (InvalidArgument naming the field).
+absl::Status LiveOptionsFromOpen(const v1::LiveOpen& open, PrefilterOptions* options,
+                                 jobs::PrefilterJob* job) {
+  if (open.has_orders()) {
+    const jobs::Orders o{open.orders().f(), open.orders().p()};
+    jobs::UseExplicitOrders(job, o);
+    options->f = o.f;
+    options->p = o.p;
+  } else {
+    jobs::UseEpsilonRule(job, open.order_choice_case() == v1::LiveOpen::kEpsilon
+                                  ? open.epsilon()
+                                  : jobs::kDefaultEpsilon);
+    options->epsilon = job->epsilon;
+  }
+  job->kind = open.kind() == v1::SHRM_KIND_LOCAL ? ShrmKind::kLocal : ShrmKind::kGlobal;
+  job->face_size = open.face_size();
+  job->verify = 0;
+  job->brdf = "lambert";  // validated with the options; each BRDF update replaces it
+  job->env.files = {"live"};
+  SHRM_RETURN_IF_ERROR(jobs::ValidatePrefilterJob(*job));
+  options->kind = job->kind;
+  options->face_size = job->face_size;
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+grpc::Status ShrmServiceImpl::Live(
+    grpc::ServerContext* context,
+    grpc::ServerReaderWriter<v1::LiveEvent, v1::LiveRequest>* stream) {
+  RequestLog log(context, "Live");
+  auto fail = [&](const absl::Status& s) { return log.Finish(wire::ToGrpcStatus(s)); };
+  absl::StatusOr<std::unique_ptr<JobSlot>> slot = Admit();
+  if (!slot.ok()) return fail(slot.status());
+  v1::LiveRequest request;
+  if (!stream->Read(&request) || !request.has_open()) {
+    return fail(absl::InvalidArgumentError("live: request 0 must open the session (open)"));
+  }
+  jobs::PrefilterJob job;
+  PrefilterOptions options;
+  if (absl::Status s = LiveOptionsFromOpen(request.open(), &options, &job); !s.ok()) {
+    return fail(absl::Status(s.code(), absl::StrCat("live: request 0: ", s.message())));
+  }
+  options.threads = options_.job_threads;
+  options.max_cube_values = kMaxCubeValues;
+  // Memory: twice the largest cube (the frame computed and the one being sent) and twice the
+  // largest map (the session's and the one being decoded), each reserved as it grows.
+  std::mutex reserve_mu;
+  uint64_t reserved_cube = 0, reserved_maps = 0;
+  auto grow = [&](uint64_t need, uint64_t* reserved, std::string_view what) -> absl::Status {
+    std::lock_guard<std::mutex> lock(reserve_mu);
+    if (need <= *reserved) return absl::OkStatus();
+    SHRM_RETURN_IF_ERROR((*slot)->Reserve(need - *reserved, what));
+    *reserved = need;
+    return absl::OkStatus();
+  };
+  options.admit_cube = [&](int face_size, int p_b) {
+    return grow(2 * jobs::ShrmCubeBytes(face_size, p_b), &reserved_cube,
+                absl::StrCat("two SHRM cubes of face size ", face_size, " and P_B = ", p_b));
+  };
+  absl::StatusOr<std::unique_ptr<LiveSession>> session =
+      LiveSession::Create(options, [this](uint64_t) { TestStageHooks("live frame"); });
+  if (!session.ok()) return fail(session.status());
+
+  std::mutex mu;  // guards the snapshots, the flags and the writer's error
+  std::map<uint64_t, LiveSnapshot> snapshots;  // by session update
+  LiveSnapshot current{0, job, {}};
+  bool reading_done = false, stop = false;
+  uint64_t last_update = 0;  // the session's, after the last request
+  absl::Status writer_error;
+  std::thread writer([&] {
+    uint64_t sent = 0;
+    for (;;) {
+      const std::shared_ptr<const LiveFrame> frame =
+          (*session)->WaitNewer(sent, absl::Milliseconds(100));
+      LiveSnapshot snap;
+      {
+        std::lock_guard<std::mutex> lock(mu);
+        if (stop || context->IsCancelled()) return;
+        if (frame == nullptr) {
+          if (reading_done && sent >= last_update) return;
+          continue;
+        }
+        sent = frame->update;
+        auto it = snapshots.find(frame->update);
+        if (it == snapshots.end()) continue;  // not reached: every update has its snapshot
+        snap = it->second;
+        snapshots.erase(snapshots.begin(), std::next(it));
+      }
+      if (frame->incomplete) continue;  // no map or no BRDF yet: nothing to send
+      absl::Status s = frame->status;
+      std::string file;
+      if (s.ok()) {
+        absl::StatusOr<std::string> bytes = EncodeShrmFile(
+            "the live frame", frame->result.cube,
+            jobs::PrefilterFileAttributes(snap.job, snap.provenance, frame->result), false);
+        if (bytes.ok()) file = *std::move(bytes);
+        s = bytes.status();
+      }
+      if (s.ok()) {
+        const LiveStats stats = (*session)->Stats();
+        s = WhileWatched(context, "reading live frames", [&](IdleWatchdog::Call* watch) {
+          return StreamFile(file, stream, &log, watch, [&](v1::LiveEvent* ev) {
+            ev->set_update(snap.request);
+            ev->set_dropped(stats.dropped);
+            ev->set_f_b(frame->result.analysis.f_b);
+            ev->set_p_b(frame->result.analysis.p_b);
+            for (const StageTiming& t : frame->result.timings) {
+              v1::StageTiming* st = ev->add_timings();
+              st->set_stage(t.stage);
+              st->set_ms(t.ms);
+            }
+            return ev->mutable_shrm_file();
+          });
+        });
+      } else {
+        s = absl::Status(s.code(), absl::StrCat("live: request ", snap.request, ": ", s.message()));
+      }
+      if (!s.ok()) {
+        std::lock_guard<std::mutex> lock(mu);
+        writer_error = s;
+        stop = true;
+        context->TryCancel();  // the reader's Read returns
+        return;
+      }
+    }
+  });
+  auto end = [&](const absl::Status& s) {
+    {
+      std::lock_guard<std::mutex> lock(mu);
+      stop = true;
+    }
+    writer.join();
+    return fail(s);
+  };
+
+  // The reader: each request is one update of the session. A call that sends nothing for
+  // --idle-timeout is ended (it holds a job slot; its frames are all sent by then).
+  const absl::Status read = WhileWatched(
+      context, "sending live requests", [&](IdleWatchdog::Call* watch) -> absl::Status {
+        for (uint64_t n = 1; stream->Read(&request); ++n) {
+          watch->Progress();
+          auto at = [&](const absl::Status& s) {
+            return absl::Status(s.code(), absl::StrCat("live: request ", n, ": ", s.message()));
+          };
+          uint64_t update = 0;
+          switch (request.update_case()) {
+            case v1::LiveRequest::kEnvironment: {
+              absl::StatusOr<DecodedEnv> env =
+                  PinAndDecode(context, request.environment(), blobs_.get(), &decode_guard_,
+                               "lighting", [&](uint64_t bytes, std::string_view what) {
+                                 return grow(2 * bytes, &reserved_maps, what);
+                               });
+              if (!env.ok()) return at(env.status());
+              current.job.env = env->pinned.spec;
+              current.provenance.source = env->pinned.source;
+              current.provenance.layout = env->map.layout();
+              update = (*session)->SetMap(std::make_shared<const EnvMap>(std::move(env->map)),
+                                          jobs::EnvironmentRotation(current.job.env));
+              break;
+            }
+            case v1::LiveRequest::kRotation: {
+              const v1::Rotation& r = request.rotation();
+              current.job.env.rotate_ypr_deg =
+                  std::array<double, 3>{r.yaw_deg(), r.pitch_deg(), r.roll_deg()};
+              if (absl::Status s = jobs::ValidateEnvironment(current.job.env); !s.ok()) {
+                return at(s);
+              }
+              update = (*session)->SetRotation(jobs::EnvironmentRotation(current.job.env));
+              break;
+            }
+            case v1::LiveRequest::kBrdf: {
+              absl::StatusOr<RequestBrdf> brdf =
+                  ResolveRequestBrdf({request.brdf(), "", ""}, blobs_.get());
+              if (!brdf.ok()) return at(brdf.status());
+              current.job.brdf = brdf->display_spec;
+              current.provenance.brdf_spec = brdf->display_spec;
+              update = (*session)->SetBrdf(std::shared_ptr<const Brdf>(std::move(brdf->brdf)));
+              break;
+            }
+            default:
+              return at(absl::InvalidArgumentError(
+                  "expected environment, rotation or brdf (open only as request 0)"));
+          }
+          current.request = n;
+          {
+            std::lock_guard<std::mutex> lock(mu);
+            snapshots[update] = current;
+            last_update = update;
+            if (stop) break;
+          }
+          TestStageHooks("live request");
+        }
+        return absl::OkStatus();
+      });
+  if (!read.ok()) return end(read);
+  {
+    std::lock_guard<std::mutex> lock(mu);
+    reading_done = true;
+  }
+  writer.join();
+  if (!writer_error.ok()) return fail(writer_error);
+  if (context->IsCancelled()) return fail(absl::CancelledError("live: cancelled"));
+  return log.Finish(grpc::Status::OK);
 }
 
 }  // namespace shrm::server

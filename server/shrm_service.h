@@ -81,6 +81,11 @@ class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
                           shrm::v1::IrradianceResponse* response) override;
   grpc::Status Ibl(grpc::ServerContext* context, const shrm::v1::IblRequest* request,
                    grpc::ServerWriter<shrm::v1::IblEvent>* writer) override;
+  // docs/live.md: one LiveSession per call; the handler thread reads the requests, a second
+  // thread sends the frames.
+  grpc::Status Live(
+      grpc::ServerContext* context,
+      grpc::ServerReaderWriter<shrm::v1::LiveEvent, shrm::v1::LiveRequest>* stream) override;
 
  private:
   class JobSlot;

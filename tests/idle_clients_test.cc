@@ -181,5 +181,51 @@ TEST_F(IdleClientsTest, ClientThatStopsReadingLosesItsCallAndFreesTheSlot) {
   EXPECT_TRUE(next.ok()) << next.status();
 }
 
+// The same for a live call (docs/live.md) whose client stops reading its frames: the frame's
+// writes block, the idle timeout ends the call, and the slot it held is free again.
+TEST_F(IdleClientsTest, LiveClientThatStopsReadingLosesItsCallAndFreesTheSlot) {
+  std::unique_ptr<client::ShrmClient> c = Client();
+  absl::StatusOr<std::string> sha =
+      c->UploadIfMissing(absl::StrCat(SHRM_SOURCE_DIR, "/data/envmaps/interior.exr"));
+  ASSERT_TRUE(sha.ok()) << sha.status();
+  grpc::ChannelArguments args;  // as above: a window that stays small
+  args.SetInt(GRPC_ARG_HTTP2_BDP_PROBE, 0);
+  args.SetInt(GRPC_ARG_HTTP2_STREAM_LOOKAHEAD_BYTES, kClientWindowBytes);
+  args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
+  auto stub = v1::Shrm::NewStub(
+      grpc::CreateCustomChannel(target_, grpc::InsecureChannelCredentials(), args));
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + kNeverEndedDeadline);
+  auto stream = stub->Live(&context);
+  v1::LiveRequest open, env, brdf;
+  open.mutable_open()->set_face_size(kLargeFaceSize);
+  env.mutable_environment()->add_sha256(*sha);
+  brdf.set_brdf("microfacet:sigma=0.3");
+  ASSERT_TRUE(stream->Write(open) && stream->Write(env) && stream->Write(brdf));
+  // Read nothing, but keep sending (a rotation each poll, so only the watch on the frames'
+  // writes can end the call); wait until the server has given up (safety-net bound, not a
+  // timing check).
+  v1::LiveRequest turn;
+  for (int i = 0; i < kWaitPolls && server_->idle_calls_ended() == 0; ++i) {
+    turn.mutable_rotation()->set_yaw_deg(i);
+    if (!stream->Write(turn)) break;
+    absl::SleepFor(kWaitPoll);
+  }
+  for (int i = 0; i < kWaitPolls && server_->idle_calls_ended() == 0; ++i) {
+    absl::SleepFor(kWaitPoll);
+  }
+  EXPECT_EQ(server_->idle_calls_ended(), 1);
+  v1::LiveEvent ev;
+  while (stream->Read(&ev)) {
+  }
+  const grpc::Status s = stream->Finish();
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::CANCELLED) << s.error_message();
+  for (int i = 0; i < kWaitPolls && server_->running_jobs() != 0; ++i) absl::SleepFor(kWaitPoll);
+  EXPECT_EQ(server_->running_jobs(), 0);
+  absl::StatusOr<client::PrefilterOutcome> next =
+      c->Prefilter(testing::SmallPrefilterRequest(*sha));
+  EXPECT_TRUE(next.ok()) << next.status();
+}
+
 }  // namespace
 }  // namespace shrm

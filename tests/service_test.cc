@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstdint>
@@ -13,6 +14,7 @@
 #include <functional>
 #include <iterator>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <thread>
@@ -767,6 +769,208 @@ TEST_F(ServiceTest, BadBrdfBlobsGetNotFoundAndInvalidArgumentWithoutPaths) {
   }
   absl::StatusOr<client::PrefilterOutcome> ok = c->Prefilter(Request(*env_sha, "phong:s=32"));
   EXPECT_TRUE(ok.ok()) << ok.status();
+}
+
+// --- Live (docs/live.md) ------------------------------------------------------------------------
+
+// The file `shrm prefilter` writes for one live state (the job's check off, the paper's rule).
+std::string EmbeddedLiveFile(const std::string& map, const std::string& brdf,
+                             std::optional<std::array<double, 3>> rotate) {
+  jobs::PrefilterJob job;
+  job.env.files = {map};
+  job.env.rotate_ypr_deg = rotate;
+  job.brdf = brdf;
+  jobs::UseEpsilonRule(&job, jobs::kDefaultEpsilon);
+  job.verify = 0;
+  job.face_size = kTestFaceSize;
+  absl::StatusOr<jobs::PrefilterRun> pr = jobs::RunPrefilterJob(job, /*threads=*/1);
+  EXPECT_TRUE(pr.ok()) << pr.status();
+  if (!pr.ok()) return "";
+  absl::StatusOr<std::string> bytes =
+      EncodeShrmFile("embedded", pr->result.cube, pr->attributes, false);
+  EXPECT_TRUE(bytes.ok()) << bytes.status();
+  return bytes.ok() ? *bytes : "";
+}
+
+v1::LiveRequest LiveEnvironment(const std::string& sha, const std::string& name) {
+  v1::LiveRequest r;
+  r.mutable_environment()->add_sha256(sha);
+  r.mutable_environment()->add_source_names(name);
+  return r;
+}
+v1::LiveRequest LiveBrdf(const std::string& spec) {
+  v1::LiveRequest r;
+  r.set_brdf(spec);
+  return r;
+}
+v1::LiveRequest LiveRotation(double yaw) {
+  v1::LiveRequest r;
+  r.mutable_rotation()->set_yaw_deg(yaw);
+  return r;
+}
+v1::LiveOpen LiveOpenAt(int face_size) {
+  v1::LiveOpen open;
+  open.set_face_size(face_size);
+  return open;
+}
+
+// A live call opened at kTestFaceSize with the map (request 1) and the BRDF (request 2) sent.
+std::unique_ptr<client::LiveCall> OpenLiveOn(ShrmClient* c, const std::string& sha,
+                                             const std::string& map, const std::string& brdf) {
+  absl::StatusOr<std::unique_ptr<client::LiveCall>> call = c->OpenLive(LiveOpenAt(kTestFaceSize));
+  EXPECT_TRUE(call.ok()) << call.status();
+  if (!call.ok()) return nullptr;
+  EXPECT_TRUE((*call)->Send(LiveEnvironment(sha, map)));
+  EXPECT_TRUE((*call)->Send(LiveBrdf(brdf)));
+  return *std::move(call);
+}
+
+// Frames until the one of request `update` (frames of earlier states may come first).
+std::optional<client::LiveFrameOutcome> FrameOf(client::LiveCall* call, uint64_t update) {
+  for (;;) {
+    absl::StatusOr<std::optional<client::LiveFrameOutcome>> f = call->Next();
+    EXPECT_TRUE(f.ok()) << f.status();
+    if (!f.ok() || !f->has_value()) return std::nullopt;
+    if ((*f)->update >= update) return *f;
+  }
+}
+
+// Each frame is the file `shrm prefilter` writes for the same state: a map and a BRDF, then the
+// map rotated, then another BRDF.
+TEST_F(ServiceTest, LiveFramesAreThePrefilterFilesOfEachState) {
+  auto c = StartServer();
+  const std::string map = MapPath("courtyard.exr");
+  absl::StatusOr<std::string> sha = c->UploadIfMissing(map);
+  ASSERT_TRUE(sha.ok()) << sha.status();
+  std::unique_ptr<client::LiveCall> call = OpenLiveOn(c.get(), *sha, map, "microfacet:sigma=0.3");
+  ASSERT_NE(call, nullptr);
+  client::LiveCall& live = *call;
+  std::optional<client::LiveFrameOutcome> f = FrameOf(&live, 2);
+  ASSERT_TRUE(f.has_value());
+  EXPECT_EQ(f->update, 2u);
+  EXPECT_TRUE(f->shrm_file == EmbeddedLiveFile(map, "microfacet:sigma=0.3", std::nullopt));
+  ASSERT_TRUE(live.Send(LiveRotation(90)));
+  f = FrameOf(&live, 3);
+  ASSERT_TRUE(f.has_value());
+  EXPECT_TRUE(f->shrm_file ==
+              EmbeddedLiveFile(map, "microfacet:sigma=0.3", std::array<double, 3>{90, 0, 0}));
+  ASSERT_TRUE(live.Send(LiveBrdf("phong:s=32")));
+  ASSERT_TRUE(live.CloseSending());
+  f = FrameOf(&live, 4);
+  ASSERT_TRUE(f.has_value());
+  EXPECT_TRUE(f->shrm_file == EmbeddedLiveFile(map, "phong:s=32", std::array<double, 3>{90, 0, 0}));
+  absl::StatusOr<std::optional<client::LiveFrameOutcome>> end = live.Next();
+  ASSERT_TRUE(end.ok()) << end.status();
+  EXPECT_FALSE(end->has_value());
+  EXPECT_TRUE(live.Finish().ok());
+}
+
+// Ten rotations while the session's worker is held (a producer far faster than the computation):
+// once every request is read, the one frame computed is the last state's, the eleven states
+// before it dropped and counted. By the order of events, not by timing.
+TEST_F(ServiceTest, LiveSendsTheLatestStateAndCountsTheDroppedOnes) {
+  std::atomic<int> requests{0};
+  testing::StageGate gate("live frame");
+  ServerOptions opt;
+  opt.service.test_stage_hook = [&requests, hook = gate.Hook()](std::string_view stage) {
+    if (stage == "live request") ++requests;
+    hook(stage);
+  };
+  auto c = StartServer(opt);
+  const std::string map = MapPath("courtyard.exr");
+  absl::StatusOr<std::string> sha = c->UploadIfMissing(map);
+  ASSERT_TRUE(sha.ok()) << sha.status();
+  std::unique_ptr<client::LiveCall> call = OpenLiveOn(c.get(), *sha, map, "microfacet:sigma=0.3");
+  ASSERT_NE(call, nullptr);
+  client::LiveCall& live = *call;
+  for (int k = 1; k <= 10; ++k) ASSERT_TRUE(live.Send(LiveRotation(9.0 * k)));
+  ASSERT_TRUE(live.CloseSending());
+  EXPECT_TRUE(gate.WaitHeld(1, kGateTimeout)) << "the session never started a frame";
+  for (int i = 0; i < 1200 && requests.load() < 12; ++i) absl::SleepFor(absl::Milliseconds(100));
+  ASSERT_EQ(requests.load(), 12) << "the server did not read every request (safety net)";
+  gate.Open();
+  absl::StatusOr<std::optional<client::LiveFrameOutcome>> f = live.Next();
+  ASSERT_TRUE(f.ok()) << f.status();
+  ASSERT_TRUE(f->has_value());
+  EXPECT_EQ((*f)->update, 12u);
+  EXPECT_EQ((*f)->dropped, 11u);
+  EXPECT_TRUE((*f)->shrm_file ==
+              EmbeddedLiveFile(map, "microfacet:sigma=0.3", std::array<double, 3>{90, 0, 0}));
+  absl::StatusOr<std::optional<client::LiveFrameOutcome>> end = live.Next();
+  ASSERT_TRUE(end.ok()) << end.status();
+  EXPECT_FALSE(end->has_value()) << "one frame for the twelve requests";
+  EXPECT_TRUE(live.Finish().ok());
+}
+
+// `shrm live --server` writes the embedded `shrm live`'s files: a sequence and a turntable.
+TEST_F(ServiceTest, CliLiveRemoteWritesTheEmbeddedFiles) {
+  auto c = StartServer();
+  const std::string a = MapPath("courtyard.exr"), b = MapPath("city.exr");
+  for (const std::string& frames :
+       {absl::StrCat("--sequence ", a, " ", b), absl::StrCat("--env ", a, " --turntable 3")}) {
+    const std::string local = testing::UniqueTempPath("live_local");
+    const std::string remote = testing::UniqueTempPath("live_remote");
+    const std::string common = absl::StrCat(
+        SHRM_CLI_PATH, " live ", frames, " --brdf microfacet:sigma=0.3 --size 16 > /dev/null 2>&1");
+    ASSERT_EQ(std::system(absl::StrCat(common, " -o ", local).c_str()), 0) << common;
+    ASSERT_EQ(
+        std::system(absl::StrCat(common, " -o ", remote, " --server 127.0.0.1:", port_).c_str()), 0)
+        << common;
+    for (int k = 0; k < 2; ++k) {
+      const std::string name = absl::StrCat("/frame_000", k, ".shrm.exr");
+      const std::string want = ReadFile(local + name);
+      EXPECT_FALSE(want.empty()) << name;
+      EXPECT_TRUE(want == ReadFile(remote + name)) << frames << name << ": the remote file differs";
+    }
+    std::filesystem::remove_all(local);
+    std::filesystem::remove_all(remote);
+  }
+}
+
+// Bad requests end the call with their error, naming the request; the daemon serves on.
+TEST_F(ServiceTest, LiveBadRequestsEndTheCallNamingTheRequest) {
+  auto c = StartServer();
+  const std::string map = MapPath("courtyard.exr");
+  absl::StatusOr<std::string> sha = c->UploadIfMissing(map);
+  ASSERT_TRUE(sha.ok()) << sha.status();
+  auto ended = [&](const std::vector<v1::LiveRequest>& requests) {
+    absl::StatusOr<std::unique_ptr<client::LiveCall>> call = c->OpenLive(LiveOpenAt(kTestFaceSize));
+    if (!call.ok()) return call.status();
+    for (const v1::LiveRequest& r : requests) (*call)->Send(r);
+    (*call)->CloseSending();
+    while (true) {
+      absl::StatusOr<std::optional<client::LiveFrameOutcome>> f = (*call)->Next();
+      if (!f.ok() || !f->has_value()) break;
+    }
+    return (*call)->Finish();
+  };
+  absl::Status s = ended({LiveEnvironment(std::string(64, 'a'), "nothere.exr")});
+  EXPECT_EQ(s.code(), absl::StatusCode::kNotFound) << s;
+  EXPECT_NE(s.message().find("request 1"), std::string::npos) << s;
+  s = ended({LiveEnvironment(*sha, map), LiveBrdf("phong:s=-1")});
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << s;
+  EXPECT_NE(s.message().find("request 2"), std::string::npos) << s;
+  s = ended({LiveBrdf("table:/etc/passwd")});
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << s;
+  v1::LiveRequest open_again;
+  *open_again.mutable_open() = LiveOpenAt(16);
+  s = ended({open_again});
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << s;
+  v1::LiveOpen bad_open;
+  bad_open.mutable_orders()->set_f(8);
+  bad_open.mutable_orders()->set_p(99);
+  absl::StatusOr<std::unique_ptr<client::LiveCall>> bad = c->OpenLive(bad_open);
+  ASSERT_TRUE(bad.ok()) << bad.status();
+  (*bad)->CloseSending();
+  while (true) {
+    absl::StatusOr<std::optional<client::LiveFrameOutcome>> f = (*bad)->Next();
+    if (!f.ok() || !f->has_value()) break;
+  }
+  s = (*bad)->Finish();
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << s;
+  EXPECT_NE(s.message().find("request 0"), std::string::npos) << s;
+  // And it serves on.
+  EXPECT_TRUE(c->HasBlob(*sha).ok());
 }
 
 }  // namespace

@@ -54,10 +54,11 @@ uint64_t LiveSession::Update(const std::function<void(State*)>& change) {
   return u;
 }
 
-uint64_t LiveSession::SetMap(std::shared_ptr<const EnvMap> map) {
+uint64_t LiveSession::SetMap(std::shared_ptr<const EnvMap> map, std::optional<Mat3> rotation) {
   return Update([&](State* s) {
     s->map = std::move(map);
     s->coefficients.reset();
+    if (rotation) s->rotation = *rotation;
   });
 }
 
@@ -103,6 +104,14 @@ absl::StatusOr<std::shared_ptr<const LiveFrame>> LiveSession::WaitFor(
         absl::StrCat("no frame of update ", update, " within ", absl::FormatDuration(timeout)));
   }
   return latest_frame_;
+}
+
+std::shared_ptr<const LiveFrame> LiveSession::WaitNewer(uint64_t after,
+                                                        absl::Duration timeout) const {
+  std::unique_lock<std::mutex> lock(mu_);
+  changed_.wait_for(lock, absl::ToChronoNanoseconds(timeout),
+                    [&] { return latest_frame_ != nullptr && latest_frame_->update > after; });
+  return latest_frame_ != nullptr && latest_frame_->update > after ? latest_frame_ : nullptr;
 }
 
 std::shared_ptr<const LiveFrame> LiveSession::Latest() const {
@@ -233,10 +242,12 @@ LiveFrame LiveSession::Compute(const State& state, const LiveFrame* previous,
       SHRM_RETURN_IF_ERROR(RotateLighting(lmax, state.rotation, lighting.light));
     }
     clock.End();
-    SHRM_RETURN_IF_ERROR(FinishPrefilter(*brdf, lighting, options_, nullptr, &f.result));
+    SHRM_RETURN_IF_ERROR(FinishPrefilter(*brdf, lighting, options_, nullptr, &f.result,
+                                         options_.max_cube_values, options_.admit_cube));
     return view_map();
   };
   f.status = run();
+  f.incomplete = !state.brdf || (!state.map && !state.coefficients);
   f.compute_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return f;

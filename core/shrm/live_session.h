@@ -51,6 +51,7 @@ struct LiveFrame {
   uint64_t update = 0;       // the last update the frame includes
   absl::Status status;       // an update that cannot be computed (e.g. F_rho above the lighting's
                              // degree) gives a frame with its error; the next valid update recovers
+  bool incomplete = false;   // no lighting or no BRDF yet (status FailedPrecondition)
   PrefilterResult result;    // analysis, cube and the timings of the stages run for this frame
   bool brdf_reused = false;  // rho_lpq from the session's cache
   bool lighting_reused = false;  // L_lm from the session's cache (rotated again if asked)
@@ -70,6 +71,8 @@ class LiveSession {
  public:
   // `options`: the paper's epsilon rule or explicit orders, kind, face size, threads (the
   // tolerance rule, which takes seconds, and the job's check are refused: InvalidArgument).
+  // options.max_cube_values and options.admit_cube apply to every frame (as in Prefilter();
+  // admit_cube is called on the worker thread).
   // `before_frame` (tests): called on the worker with the update about to be computed, before
   // it takes the pending state.
   static absl::StatusOr<std::unique_ptr<LiveSession>> Create(
@@ -81,7 +84,8 @@ class LiveSession {
   // The lighting: a map (its coefficients are computed by the session), or RGB L_lm in the
   // transform layout up to `lmax` with the lighting's energy (integral L^2 dw per channel, eq.
   // 5.15, for the analysis). Each replaces the other; the rotation applies to both.
-  uint64_t SetMap(std::shared_ptr<const EnvMap> map);
+  // SetMap with a rotation sets both in one update (a frame never has one without the other).
+  uint64_t SetMap(std::shared_ptr<const EnvMap> map, std::optional<Mat3> rotation = std::nullopt);
   uint64_t SetCoefficients(std::shared_ptr<const std::vector<double>> rgb, int lmax,
                            std::array<double, 3> energy);
   uint64_t SetRotation(const Mat3& rotation);
@@ -93,6 +97,9 @@ class LiveSession {
   // The first frame that includes update `update`, waiting up to `timeout` (DeadlineExceeded).
   absl::StatusOr<std::shared_ptr<const LiveFrame>> WaitFor(uint64_t update,
                                                            absl::Duration timeout) const;
+  // The newest frame once its update is above `after`, waiting up to `timeout` (null if none
+  // came: a consumer polls with it, e.g. to notice its own stop flag).
+  std::shared_ptr<const LiveFrame> WaitNewer(uint64_t after, absl::Duration timeout) const;
   // The newest frame (null before the first).
   std::shared_ptr<const LiveFrame> Latest() const;
   LiveStats Stats() const;
