@@ -894,6 +894,15 @@ grpc::Status ShrmServiceImpl::Live(
           auto at = [&](const absl::Status& s) {
             return absl::Status(s.code(), absl::StrCat("live: request ", n, ": ", s.message()));
           };
+          // The snapshot of the state goes in before the session's update: the worker may
+          // finish the frame before the update call returns. The reader is the session's only
+          // updater, so the update's number is the next one.
+          current.request = n;
+          const uint64_t next = last_update + 1;
+          auto publish = [&] {
+            std::lock_guard<std::mutex> lock(mu);
+            snapshots[next] = current;
+          };
           uint64_t update = 0;
           switch (request.update_case()) {
             case v1::LiveRequest::kEnvironment: {
@@ -906,6 +915,7 @@ grpc::Status ShrmServiceImpl::Live(
               current.job.env = env->pinned.spec;
               current.provenance.source = env->pinned.source;
               current.provenance.layout = env->map.layout();
+              publish();
               update = (*session)->SetMap(std::make_shared<const EnvMap>(std::move(env->map)),
                                           jobs::EnvironmentRotation(current.job.env));
               break;
@@ -917,6 +927,7 @@ grpc::Status ShrmServiceImpl::Live(
               if (absl::Status s = jobs::ValidateEnvironment(current.job.env); !s.ok()) {
                 return at(s);
               }
+              publish();
               update = (*session)->SetRotation(jobs::EnvironmentRotation(current.job.env));
               break;
             }
@@ -926,6 +937,7 @@ grpc::Status ShrmServiceImpl::Live(
               if (!brdf.ok()) return at(brdf.status());
               current.job.brdf = brdf->display_spec;
               current.provenance.brdf_spec = brdf->display_spec;
+              publish();
               update = (*session)->SetBrdf(std::shared_ptr<const Brdf>(std::move(brdf->brdf)));
               break;
             }
@@ -933,10 +945,11 @@ grpc::Status ShrmServiceImpl::Live(
               return at(absl::InvalidArgumentError(
                   "expected environment, rotation or brdf (open only as request 0)"));
           }
-          current.request = n;
           {
             std::lock_guard<std::mutex> lock(mu);
-            snapshots[update] = current;
+            if (update != next) {  // not reached: the reader is the only updater
+              return absl::InternalError("live: the session's update numbers went astray");
+            }
             last_update = update;
             if (stop) break;
           }
