@@ -813,9 +813,8 @@ grpc::Status ShrmServiceImpl::Live(
       LiveSession::Create(options, [this](uint64_t) { TestStageHooks("live frame"); });
   if (!session.ok()) return fail(session.status());
 
-  std::mutex mu;  // guards the snapshots, the flags and the writer's error
-  std::map<uint64_t, LiveSnapshot> snapshots;  // by session update
-  LiveSnapshot current{0, job, {}};
+  std::mutex mu;                     // guards the flags and the writer's error
+  LiveSnapshot current{0, job, {}};  // the reader's; each update's copy travels as its tag
   bool reading_done = false, stop = false;
   uint64_t last_update = 0;  // the session's, after the last request
   absl::Status writer_error;
@@ -824,7 +823,6 @@ grpc::Status ShrmServiceImpl::Live(
     for (;;) {
       const std::shared_ptr<const LiveFrame> frame =
           (*session)->WaitNewer(sent, absl::Milliseconds(100));
-      LiveSnapshot snap;
       {
         std::lock_guard<std::mutex> lock(mu);
         if (stop || context->IsCancelled()) return;
@@ -832,13 +830,10 @@ grpc::Status ShrmServiceImpl::Live(
           if (reading_done && sent >= last_update) return;
           continue;
         }
-        sent = frame->update;
-        auto it = snapshots.find(frame->update);
-        if (it == snapshots.end()) continue;  // not reached: every update has its snapshot
-        snap = it->second;
-        snapshots.erase(snapshots.begin(), std::next(it));
       }
-      if (frame->incomplete) continue;  // no map or no BRDF yet: nothing to send
+      sent = frame->update;
+      if (frame->incomplete || frame->tag == nullptr) continue;  // no map or BRDF yet
+      const LiveSnapshot& snap = *std::static_pointer_cast<const LiveSnapshot>(frame->tag);
       absl::Status s = frame->status;
       std::string file;
       if (s.ok()) {
@@ -894,15 +889,10 @@ grpc::Status ShrmServiceImpl::Live(
           auto at = [&](const absl::Status& s) {
             return absl::Status(s.code(), absl::StrCat("live: request ", n, ": ", s.message()));
           };
-          // The snapshot of the state goes in before the session's update: the worker may
-          // finish the frame before the update call returns. The reader is the session's only
-          // updater, so the update's number is the next one.
+          // Each update carries a copy of the state's description as its tag (the frames bring
+          // back the one they were computed from).
           current.request = n;
-          const uint64_t next = last_update + 1;
-          auto publish = [&] {
-            std::lock_guard<std::mutex> lock(mu);
-            snapshots[next] = current;
-          };
+          auto tag = [&] { return std::make_shared<const LiveSnapshot>(current); };
           uint64_t update = 0;
           switch (request.update_case()) {
             case v1::LiveRequest::kEnvironment: {
@@ -915,9 +905,8 @@ grpc::Status ShrmServiceImpl::Live(
               current.job.env = env->pinned.spec;
               current.provenance.source = env->pinned.source;
               current.provenance.layout = env->map.layout();
-              publish();
               update = (*session)->SetMap(std::make_shared<const EnvMap>(std::move(env->map)),
-                                          jobs::EnvironmentRotation(current.job.env));
+                                          jobs::EnvironmentRotation(current.job.env), tag());
               break;
             }
             case v1::LiveRequest::kRotation: {
@@ -927,8 +916,7 @@ grpc::Status ShrmServiceImpl::Live(
               if (absl::Status s = jobs::ValidateEnvironment(current.job.env); !s.ok()) {
                 return at(s);
               }
-              publish();
-              update = (*session)->SetRotation(jobs::EnvironmentRotation(current.job.env));
+              update = (*session)->SetRotation(jobs::EnvironmentRotation(current.job.env), tag());
               break;
             }
             case v1::LiveRequest::kBrdf: {
@@ -937,8 +925,8 @@ grpc::Status ShrmServiceImpl::Live(
               if (!brdf.ok()) return at(brdf.status());
               current.job.brdf = brdf->display_spec;
               current.provenance.brdf_spec = brdf->display_spec;
-              publish();
-              update = (*session)->SetBrdf(std::shared_ptr<const Brdf>(std::move(brdf->brdf)));
+              update =
+                  (*session)->SetBrdf(std::shared_ptr<const Brdf>(std::move(brdf->brdf)), tag());
               break;
             }
             default:
@@ -947,9 +935,6 @@ grpc::Status ShrmServiceImpl::Live(
           }
           {
             std::lock_guard<std::mutex> lock(mu);
-            if (update != next) {  // not reached: the reader is the only updater
-              return absl::InternalError("live: the session's update numbers went astray");
-            }
             last_update = update;
             if (stop) break;
           }

@@ -154,7 +154,7 @@ TEST(LiveSession, LatestWinsAndTheStatesInBetweenAreDroppedAndCounted) {
   Mat3 rotation = Mat3::Identity();
   for (int k = 1; k <= 10; ++k) {
     rotation = RotationZ(0.1 * k) * RotationY(0.05 * k);
-    last = live.SetRotation(rotation);
+    last = live.SetRotation(rotation, std::make_shared<const int>(k));  // the state's tag
   }
   ASSERT_TRUE(gate.WaitHeld(1, kFrameWait)) << "the worker never started a frame";
   EXPECT_EQ(live.Latest(), nullptr);
@@ -162,6 +162,8 @@ TEST(LiveSession, LatestWinsAndTheStatesInBetweenAreDroppedAndCounted) {
   auto f = Frame(live, last);
   ASSERT_NE(f, nullptr);
   EXPECT_EQ(f->update, last);
+  ASSERT_NE(f->tag, nullptr);
+  EXPECT_EQ(*std::static_pointer_cast<const int>(f->tag), 10);  // the tag of the state computed
   ExpectSameCube(f->result.cube, Offline(*brdf, rotation));
   const LiveStats stats = live.Stats();
   EXPECT_EQ(stats.updates, 12u);

@@ -42,11 +42,13 @@ LiveSession::~LiveSession() {
   worker_.join();
 }
 
-uint64_t LiveSession::Update(const std::function<void(State*)>& change) {
+uint64_t LiveSession::Update(const std::function<void(State*)>& change,
+                             std::shared_ptr<const void> tag) {
   uint64_t u;
   {
     std::lock_guard<std::mutex> lock(mu_);
     change(&pending_);
+    if (tag) pending_.tag = std::move(tag);
     u = ++latest_update_;
     ++stats_.updates;
   }
@@ -54,30 +56,36 @@ uint64_t LiveSession::Update(const std::function<void(State*)>& change) {
   return u;
 }
 
-uint64_t LiveSession::SetMap(std::shared_ptr<const EnvMap> map, std::optional<Mat3> rotation) {
-  return Update([&](State* s) {
-    s->map = std::move(map);
-    s->coefficients.reset();
-    if (rotation) s->rotation = *rotation;
-  });
+uint64_t LiveSession::SetMap(std::shared_ptr<const EnvMap> map, std::optional<Mat3> rotation,
+                             std::shared_ptr<const void> tag) {
+  return Update(
+      [&](State* s) {
+        s->map = std::move(map);
+        s->coefficients.reset();
+        if (rotation) s->rotation = *rotation;
+      },
+      std::move(tag));
 }
 
 uint64_t LiveSession::SetCoefficients(std::shared_ptr<const std::vector<double>> rgb, int lmax,
-                                      std::array<double, 3> energy) {
-  return Update([&](State* s) {
-    s->coefficients = std::move(rgb);
-    s->coefficients_lmax = lmax;
-    s->energy = energy;
-    s->map.reset();
-  });
+                                      std::array<double, 3> energy,
+                                      std::shared_ptr<const void> tag) {
+  return Update(
+      [&](State* s) {
+        s->coefficients = std::move(rgb);
+        s->coefficients_lmax = lmax;
+        s->energy = energy;
+        s->map.reset();
+      },
+      std::move(tag));
 }
 
-uint64_t LiveSession::SetRotation(const Mat3& rotation) {
-  return Update([&](State* s) { s->rotation = rotation; });
+uint64_t LiveSession::SetRotation(const Mat3& rotation, std::shared_ptr<const void> tag) {
+  return Update([&](State* s) { s->rotation = rotation; }, std::move(tag));
 }
 
-uint64_t LiveSession::SetView(std::optional<Vec3> view) {
-  return Update([&](State* s) { s->view = view; });
+uint64_t LiveSession::SetView(std::optional<Vec3> view, std::shared_ptr<const void> tag) {
+  return Update([&](State* s) { s->view = view; }, std::move(tag));
 }
 
 bool LiveSession::State::SameShrm(const State& o) const {
@@ -86,8 +94,8 @@ bool LiveSession::State::SameShrm(const State& o) const {
          rotation.m == o.rotation.m && brdf == o.brdf;
 }
 
-uint64_t LiveSession::SetBrdf(std::shared_ptr<const Brdf> brdf) {
-  return Update([&](State* s) { s->brdf = std::move(brdf); });
+uint64_t LiveSession::SetBrdf(std::shared_ptr<const Brdf> brdf, std::shared_ptr<const void> tag) {
+  return Update([&](State* s) { s->brdf = std::move(brdf); }, std::move(tag));
 }
 
 absl::StatusOr<std::shared_ptr<const LiveFrame>> LiveSession::WaitFor(
@@ -143,6 +151,7 @@ void LiveSession::Run() {
     lock.unlock();
     auto frame = std::make_shared<LiveFrame>(Compute(state, previous.get(), &computed_state_));
     frame->update = update;
+    frame->tag = state.tag;
     computed_state_ = state;
     lock.lock();
     computed_update_ = update;

@@ -54,11 +54,12 @@ struct LiveFrame {
   bool incomplete = false;   // no lighting or no BRDF yet (status FailedPrecondition)
   PrefilterResult result;    // analysis, cube and the timings of the stages run for this frame
   bool brdf_reused = false;  // rho_lpq from the session's cache
-  bool lighting_reused = false;  // L_lm from the session's cache (rotated again if asked)
-  bool shrm_reused = false;      // only the view changed: the previous frame's cube
-  std::optional<Vec3> view;      // the view of view_map (normalized)
-  RadianceCube view_map;         // eq. 5.35 for `view` (empty without a view)
-  double compute_ms = 0;         // the whole frame
+  bool lighting_reused = false;     // L_lm from the session's cache (rotated again if asked)
+  bool shrm_reused = false;         // only the view changed: the previous frame's cube
+  std::optional<Vec3> view;         // the view of view_map (normalized)
+  RadianceCube view_map;            // eq. 5.35 for `view` (empty without a view)
+  double compute_ms = 0;            // the whole frame
+  std::shared_ptr<const void> tag;  // the state's (SetMap ... SetView)
 };
 
 struct LiveStats {
@@ -85,14 +86,18 @@ class LiveSession {
   // transform layout up to `lmax` with the lighting's energy (integral L^2 dw per channel, eq.
   // 5.15, for the analysis). Each replaces the other; the rotation applies to both.
   // SetMap with a rotation sets both in one update (a frame never has one without the other).
-  uint64_t SetMap(std::shared_ptr<const EnvMap> map, std::optional<Mat3> rotation = std::nullopt);
+  // `tag` (optional, every update): the caller's description of the new state (e.g. what the
+  // frame's outputs record), replacing the previous one in the same update; each frame carries
+  // the tag of the state it was computed from (no queue of descriptions either).
+  uint64_t SetMap(std::shared_ptr<const EnvMap> map, std::optional<Mat3> rotation = std::nullopt,
+                  std::shared_ptr<const void> tag = nullptr);
   uint64_t SetCoefficients(std::shared_ptr<const std::vector<double>> rgb, int lmax,
-                           std::array<double, 3> energy);
-  uint64_t SetRotation(const Mat3& rotation);
-  uint64_t SetBrdf(std::shared_ptr<const Brdf> brdf);
+                           std::array<double, 3> energy, std::shared_ptr<const void> tag = nullptr);
+  uint64_t SetRotation(const Mat3& rotation, std::shared_ptr<const void> tag = nullptr);
+  uint64_t SetBrdf(std::shared_ptr<const Brdf> brdf, std::shared_ptr<const void> tag = nullptr);
   // The world view V of the frames' reflection map (eq. 5.35; normalized by the session, a zero
   // or non-finite one is the frame's error), or none (no map).
-  uint64_t SetView(std::optional<Vec3> view);
+  uint64_t SetView(std::optional<Vec3> view, std::shared_ptr<const void> tag = nullptr);
 
   // The first frame that includes update `update`, waiting up to `timeout` (DeadlineExceeded).
   absl::StatusOr<std::shared_ptr<const LiveFrame>> WaitFor(uint64_t update,
@@ -113,6 +118,7 @@ class LiveSession {
     Mat3 rotation = Mat3::Identity();
     std::shared_ptr<const Brdf> brdf;
     std::optional<Vec3> view;
+    std::shared_ptr<const void> tag;
     // The same lighting and material (pointers and values; the view aside).
     bool SameShrm(const State& o) const;
   };
@@ -122,7 +128,7 @@ class LiveSession {
   };
 
   LiveSession(const PrefilterOptions& options, std::function<void(uint64_t)> before_frame);
-  uint64_t Update(const std::function<void(State*)>& change);
+  uint64_t Update(const std::function<void(State*)>& change, std::shared_ptr<const void> tag);
   void Run();
   // The frame of `state`, reusing the caches and `previous` (worker thread only).
   LiveFrame Compute(const State& state, const LiveFrame* previous, const State* previous_state);
