@@ -10,6 +10,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -253,10 +254,9 @@ absl::Status RunLive(const LiveArgs& a) {
   // Everything checked before the first frame: the BRDF, every map's header, the folder.
   SHRM_ASSIGN_OR_RETURN(std::unique_ptr<Brdf> parsed, ParseBrdfSpec(a.brdf));
   const std::shared_ptr<const Brdf> brdf(std::move(parsed));
+  std::set<std::string> probed;
   for (const FrameJob& f : frames) {
-    if (&f != &frames.front() && f.path == frames.front().path) continue;
-    absl::Status probe = ProbeImage(f.path).status();
-    if (!probe.ok()) return probe;
+    if (probed.insert(f.path).second) SHRM_RETURN_IF_ERROR(ProbeImage(f.path).status());
   }
   std::error_code ec;
   std::filesystem::create_directories(a.output, ec);  // CheckOutputPath names what fails
@@ -291,8 +291,7 @@ absl::Status RunLive(const LiveArgs& a) {
   SHRM_ASSIGN_OR_RETURN(Decoded current, decode(frames.front()));
   for (size_t k = 0; k < frames.size(); ++k) {
     const FrameJob& f = frames[k];
-    session->SetRotation(jobs::EnvironmentRotation(f.job.env));
-    const uint64_t update = session->SetMap(current.map);
+    const uint64_t update = session->SetMap(current.map, jobs::EnvironmentRotation(f.job.env));
     // The next frame's map while this one is computed (a turntable keeps its one map).
     std::optional<Decoded> next;
     if (k + 1 < frames.size()) {

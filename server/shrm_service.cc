@@ -4,7 +4,6 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -749,29 +748,24 @@ struct LiveSnapshot {
   jobs::PrefilterProvenance provenance;
 };
 
-// The live session's options from the open request (InvalidArgument naming the field).
-absl::Status LiveOptionsFromOpen(const v1::LiveOpen& open, PrefilterOptions* options,
-                                 jobs::PrefilterJob* job) {
+// The job a live call's frames are made as, from the open request (InvalidArgument naming the
+// field); the BRDF and the map are placeholders until their updates.
+absl::StatusOr<jobs::PrefilterJob> LiveJobFromOpen(const v1::LiveOpen& open) {
+  jobs::PrefilterJob job;
   if (open.has_orders()) {
-    const jobs::Orders o{open.orders().f(), open.orders().p()};
-    jobs::UseExplicitOrders(job, o);
-    options->f = o.f;
-    options->p = o.p;
+    jobs::UseExplicitOrders(&job, jobs::Orders{open.orders().f(), open.orders().p()});
   } else {
-    jobs::UseEpsilonRule(job, open.order_choice_case() == v1::LiveOpen::kEpsilon
-                                  ? open.epsilon()
-                                  : jobs::kDefaultEpsilon);
-    options->epsilon = job->epsilon;
+    jobs::UseEpsilonRule(&job, open.order_choice_case() == v1::LiveOpen::kEpsilon
+                                   ? open.epsilon()
+                                   : jobs::kDefaultEpsilon);
   }
-  job->kind = open.kind() == v1::SHRM_KIND_LOCAL ? ShrmKind::kLocal : ShrmKind::kGlobal;
-  job->face_size = open.face_size();
-  job->verify = 0;
-  job->brdf = "lambert";  // validated with the options; each BRDF update replaces it
-  job->env.files = {"live"};
-  SHRM_RETURN_IF_ERROR(jobs::ValidatePrefilterJob(*job));
-  options->kind = job->kind;
-  options->face_size = job->face_size;
-  return absl::OkStatus();
+  job.kind = open.kind() == v1::SHRM_KIND_LOCAL ? ShrmKind::kLocal : ShrmKind::kGlobal;
+  job.face_size = open.face_size();
+  job.verify = 0;
+  job.brdf = "lambert";
+  job.env.files = {"live"};
+  SHRM_RETURN_IF_ERROR(jobs::ValidatePrefilterJob(job));
+  return job;
 }
 
 }  // namespace
@@ -787,12 +781,12 @@ grpc::Status ShrmServiceImpl::Live(
   if (!stream->Read(&request) || !request.has_open()) {
     return fail(absl::InvalidArgumentError("live: request 0 must open the session (open)"));
   }
-  jobs::PrefilterJob job;
-  PrefilterOptions options;
-  if (absl::Status s = LiveOptionsFromOpen(request.open(), &options, &job); !s.ok()) {
-    return fail(absl::Status(s.code(), absl::StrCat("live: request 0: ", s.message())));
+  absl::StatusOr<jobs::PrefilterJob> job = LiveJobFromOpen(request.open());
+  if (!job.ok()) {
+    return fail(absl::Status(job.status().code(),
+                             absl::StrCat("live: request 0: ", job.status().message())));
   }
-  options.threads = options_.job_threads;
+  PrefilterOptions options = jobs::CorePrefilterOptions(*job, options_.job_threads);
   options.max_cube_values = kMaxCubeValues;
   // Memory: twice the largest cube (the frame computed and the one being sent) and twice the
   // largest map (the session's and the one being decoded), each reserved as it grows.
@@ -813,8 +807,8 @@ grpc::Status ShrmServiceImpl::Live(
       LiveSession::Create(options, [this](uint64_t) { TestStageHooks("live frame"); });
   if (!session.ok()) return fail(session.status());
 
-  std::mutex mu;                     // guards the flags and the writer's error
-  LiveSnapshot current{0, job, {}};  // the reader's; each update's copy travels as its tag
+  std::mutex mu;                      // guards the flags and the writer's error
+  LiveSnapshot current{0, *job, {}};  // the reader's; each update's copy travels as its tag
   bool reading_done = false, stop = false;
   uint64_t last_update = 0;  // the session's, after the last request
   absl::Status writer_error;

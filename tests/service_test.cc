@@ -814,13 +814,16 @@ v1::LiveOpen LiveOpenAt(int face_size) {
   return open;
 }
 
-// A live call opened at kTestFaceSize with the map (request 1) and the BRDF (request 2) sent.
-std::unique_ptr<client::LiveCall> OpenLiveOn(ShrmClient* c, const std::string& sha,
-                                             const std::string& map, const std::string& brdf) {
+// A live call opened at kTestFaceSize with the map (uploaded, request 1) and the BRDF (request 2)
+// sent.
+std::unique_ptr<client::LiveCall> OpenLiveOn(ShrmClient* c, const std::string& map,
+                                             const std::string& brdf) {
+  absl::StatusOr<std::string> sha = c->UploadIfMissing(map);
+  EXPECT_TRUE(sha.ok()) << sha.status();
   absl::StatusOr<std::unique_ptr<client::LiveCall>> call = c->OpenLive(LiveOpenAt(kTestFaceSize));
   EXPECT_TRUE(call.ok()) << call.status();
-  if (!call.ok()) return nullptr;
-  EXPECT_TRUE((*call)->Send(LiveEnvironment(sha, map)));
+  if (!sha.ok() || !call.ok()) return nullptr;
+  EXPECT_TRUE((*call)->Send(LiveEnvironment(*sha, map)));
   EXPECT_TRUE((*call)->Send(LiveBrdf(brdf)));
   return *std::move(call);
 }
@@ -840,9 +843,7 @@ std::optional<client::LiveFrameOutcome> FrameOf(client::LiveCall* call, uint64_t
 TEST_F(ServiceTest, LiveFramesAreThePrefilterFilesOfEachState) {
   auto c = StartServer();
   const std::string map = MapPath("courtyard.exr");
-  absl::StatusOr<std::string> sha = c->UploadIfMissing(map);
-  ASSERT_TRUE(sha.ok()) << sha.status();
-  std::unique_ptr<client::LiveCall> call = OpenLiveOn(c.get(), *sha, map, "microfacet:sigma=0.3");
+  std::unique_ptr<client::LiveCall> call = OpenLiveOn(c.get(), map, "microfacet:sigma=0.3");
   ASSERT_NE(call, nullptr);
   client::LiveCall& live = *call;
   std::optional<client::LiveFrameOutcome> f = FrameOf(&live, 2);
@@ -878,9 +879,7 @@ TEST_F(ServiceTest, LiveSendsTheLatestStateAndCountsTheDroppedOnes) {
   };
   auto c = StartServer(opt);
   const std::string map = MapPath("courtyard.exr");
-  absl::StatusOr<std::string> sha = c->UploadIfMissing(map);
-  ASSERT_TRUE(sha.ok()) << sha.status();
-  std::unique_ptr<client::LiveCall> call = OpenLiveOn(c.get(), *sha, map, "microfacet:sigma=0.3");
+  std::unique_ptr<client::LiveCall> call = OpenLiveOn(c.get(), map, "microfacet:sigma=0.3");
   ASSERT_NE(call, nullptr);
   client::LiveCall& live = *call;
   for (int k = 1; k <= 10; ++k) ASSERT_TRUE(live.Send(LiveRotation(9.0 * k)));
