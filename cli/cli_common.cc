@@ -22,6 +22,7 @@
 #include "core/io/sha256.h"
 #include "jobs/job_options.h"
 #include "jobs/option_text.h"
+#include "jobs/point_jobs.h"
 
 namespace shrm::cli {
 
@@ -216,23 +217,7 @@ absl::Status OutputTransaction::Commit() {
 }
 
 absl::Status WriteRadianceCross(const std::string& path, const RadianceCube& cube) {
-  const int s = cube.face_size;
-  Image img;
-  img.width = 4 * s;
-  img.height = 3 * s;
-  img.channels = 3;
-  img.pixels.assign(static_cast<size_t>(img.width) * img.height * 3, 0.0f);
-  // (column, row) cell of each GL face in the horizontal cross.
-  constexpr int kCell[6][2] = {{2, 1}, {0, 1}, {1, 0}, {1, 2}, {1, 1}, {3, 1}};
-  for (int f = 0; f < kCubeFaceCount; ++f)
-    for (int y = 0; y < s; ++y)
-      for (int x = 0; x < s; ++x)
-        for (int c = 0; c < 3; ++c)
-          img.pixels[((static_cast<size_t>(kCell[f][1]) * s + y) * img.width + kCell[f][0] * s +
-                      x) *
-                         3 +
-                     c] = cube.data[cube.Index(f, x, y, std::min(c, cube.channels - 1))];
-  return WriteExr(path, img);
+  return WriteExr(path, jobs::RadianceCrossImage(cube));
 }
 
 }  // namespace shrm::cli

@@ -163,8 +163,9 @@ void PrintTotal(const LiveArgs& a, const nlohmann::json& report, double seconds,
 // --server: the maps uploaded (each once), one Live call; each frame waited for before the next
 // state is sent, so none is dropped. The files are the embedded run's.
 absl::Status RunLiveRemote(const LiveArgs& a, const std::vector<FrameJob>& frames) {
+  std::optional<Vec3> view;
   if (!a.view.empty()) {
-    return absl::InvalidArgumentError("--view is not available with --server (yet)");
+    SHRM_ASSIGN_OR_RETURN(view, ParseDirection(a.view, "--view"));
   }
   SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> client, ConnectServer(a.server));
   std::map<std::string, std::string> sha_of;
@@ -194,6 +195,14 @@ absl::Status RunLiveRemote(const LiveArgs& a, const std::vector<FrameJob>& frame
   brdf.set_brdf(a.brdf);
   if (!call->Send(brdf)) return ended("before the BRDF was sent");
   uint64_t request = 1;
+  if (view) {
+    v1::LiveRequest r;
+    r.mutable_view()->mutable_direction()->set_x(view->x);
+    r.mutable_view()->mutable_direction()->set_y(view->y);
+    r.mutable_view()->mutable_direction()->set_z(view->z);
+    if (!call->Send(r)) return ended("before the view was sent");
+    ++request;
+  }
   const auto start = std::chrono::steady_clock::now();
   nlohmann::json report = nlohmann::json::array();
   uint64_t dropped = 0;
@@ -220,6 +229,10 @@ absl::Status RunLiveRemote(const LiveArgs& a, const std::vector<FrameJob>& frame
     const std::string shrm_path = FramePath(a.output, static_cast<int>(k), "shrm.exr");
     SHRM_RETURN_IF_ERROR(WriteFileAtomically(shrm_path, frame->shrm_file));
     FrameFigures fig;
+    if (view) {
+      fig.view_path = FramePath(a.output, static_cast<int>(k), "view.exr");
+      SHRM_RETURN_IF_ERROR(WriteFileAtomically(fig.view_path, frame->view_file));
+    }
     fig.f_b = frame->f_b;
     fig.p_b = frame->p_b;
     for (const v1::StageTiming& t : frame->timings) {

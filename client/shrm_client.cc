@@ -367,6 +367,7 @@ absl::StatusOr<std::unique_ptr<LiveCall>> ShrmClient::OpenLive(const v1::LiveOpe
   SetDeadline(&call->context_, deadline);
   Authorize(&call->context_);
   call->stream_ = stub_->Live(&call->context_);
+  call->view_only_ = open.view_only();
   v1::LiveRequest request;
   *request.mutable_open() = open;
   if (!call->stream_->Write(request)) {
@@ -379,7 +380,8 @@ absl::StatusOr<std::unique_ptr<LiveCall>> ShrmClient::OpenLive(const v1::LiveOpe
 absl::StatusOr<std::optional<LiveFrameOutcome>> LiveCall::Next() {
   v1::LiveEvent ev;
   std::optional<LiveFrameOutcome> out;
-  FileAssembler file("live frame");
+  FileAssembler file("live frame"), view_file("live view map");
+  bool file_done = view_only_, view_done = true;
   while (stream_->Read(&ev)) {
     if (!out) {
       out.emplace();
@@ -388,15 +390,33 @@ absl::StatusOr<std::optional<LiveFrameOutcome>> LiveCall::Next() {
       out->f_b = ev.f_b();
       out->p_b = ev.p_b();
       out->timings.assign(ev.timings().begin(), ev.timings().end());
+      if (ev.has_view()) {
+        out->view = std::array<double, 3>{ev.view().x(), ev.view().y(), ev.view().z()};
+        view_done = false;
+      }
     } else if (ev.update() != out->update) {
       return absl::DataLossError("a live frame's chunks belong to two updates");
     }
-    SHRM_RETURN_IF_ERROR(file.Add(ev.shrm_file()));
-    if (ev.shrm_file().last()) {
-      SHRM_RETURN_IF_ERROR(file.Finish().status());
-      out->shrm_file = std::move(file.bytes());
-      return out;
+    if (ev.has_shrm_file()) {
+      if (file_done) return absl::DataLossError("a live frame has an unexpected SHRM file chunk");
+      SHRM_RETURN_IF_ERROR(file.Add(ev.shrm_file()));
+      if (ev.shrm_file().last()) {
+        SHRM_RETURN_IF_ERROR(file.Finish().status());
+        out->shrm_file = std::move(file.bytes());
+        file_done = true;
+      }
+    } else if (ev.has_view_file()) {
+      if (view_done) return absl::DataLossError("a live frame has an unexpected view map chunk");
+      SHRM_RETURN_IF_ERROR(view_file.Add(ev.view_file()));
+      if (ev.view_file().last()) {
+        SHRM_RETURN_IF_ERROR(view_file.Finish().status());
+        out->view_file = std::move(view_file.bytes());
+        view_done = true;
+      }
+    } else {
+      return absl::DataLossError("a live event without a file chunk");
     }
+    if (file_done && view_done) return out;
   }
   if (out) return absl::DataLossError("the live call ended inside a frame");
   return std::optional<LiveFrameOutcome>();

@@ -8,6 +8,7 @@
 #ifndef SHRM_CLIENT_SHRM_CLIENT_H_
 #define SHRM_CLIENT_SHRM_CLIENT_H_
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <filesystem>
@@ -76,7 +77,11 @@ struct LiveFrameOutcome {
   uint64_t dropped = 0;  // states the server did not compute so far
   int f_b = 0, p_b = 0;
   std::vector<shrm::v1::StageTiming> timings;
-  std::string shrm_file;  // SHA-256 verified
+  std::string shrm_file;  // SHA-256 verified; empty with LiveOpen.view_only
+  // With a view set (LiveRequest.view): the frame's view (normalized) and its view map, a
+  // horizontal-cross float EXR (jobs::RadianceCrossImage), SHA-256 verified.
+  std::optional<std::array<double, 3>> view;
+  std::string view_file;
 };
 
 // A live call: Send updates (false once the call has ended: Finish says why), CloseSending after
@@ -95,6 +100,7 @@ class LiveCall {
   LiveCall() = default;
   grpc::ClientContext context_;
   std::unique_ptr<grpc::ClientReaderWriter<shrm::v1::LiveRequest, shrm::v1::LiveEvent>> stream_;
+  bool view_only_ = false;
 };
 
 class ShrmClient {

@@ -1,9 +1,11 @@
 #include "jobs/point_jobs.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
 #include "core/base/constants.h"
+#include "core/base/cubemap.h"
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
 #include "core/shrm/shrm_explicit.h"
@@ -39,6 +41,26 @@ ibl::LevelError MeasureIrradianceSh9(const EnvMap& map, const Mat3& rotation,
   for (float& v : level.cube.data) v = static_cast<float>(v / kPi);  // E / pi: the Lambert sum
   return ibl::MeasureLevelError(map, ibl::SpecularLobe::kLambert, level, rotation, count, kSeed,
                                 threads);
+}
+
+Image RadianceCrossImage(const RadianceCube& cube) {
+  const int s = cube.face_size;
+  Image img;
+  img.width = 4 * s;
+  img.height = 3 * s;
+  img.channels = 3;
+  img.pixels.assign(static_cast<size_t>(img.width) * img.height * 3, 0.0f);
+  // (column, row) cell of each GL face in the horizontal cross.
+  constexpr int kCell[6][2] = {{2, 1}, {0, 1}, {1, 0}, {1, 2}, {1, 1}, {3, 1}};
+  for (int f = 0; f < kCubeFaceCount; ++f)
+    for (int y = 0; y < s; ++y)
+      for (int x = 0; x < s; ++x)
+        for (int c = 0; c < 3; ++c)
+          img.pixels[((static_cast<size_t>(kCell[f][1]) * s + y) * img.width + kCell[f][0] * s +
+                      x) *
+                         3 +
+                     c] = cube.data[cube.Index(f, x, y, std::min(c, cube.channels - 1))];
+  return img;
 }
 
 }  // namespace shrm::jobs

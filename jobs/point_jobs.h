@@ -14,6 +14,8 @@
 #include "core/base/geometry.h"
 #include "core/envmap/envmap.h"
 #include "core/ibl/split_sum.h"
+#include "core/io/image.h"
+#include "core/shrm/radiance_cube.h"
 
 namespace shrm::jobs {
 
@@ -42,6 +44,11 @@ inline constexpr int kMaxIrradianceVerify = 100000;
 // per normal, 3-10% on the bundled maps): stated, not a tolerance. count = 0 gives zeros.
 ibl::LevelError MeasureIrradianceSh9(const EnvMap& map, const Mat3& rotation,
                                      std::span<const double> e9, int count, int threads);
+
+// A radiance cube as a horizontal-cross image (4S x 3S: [. +Y . .] [-X +Z +X -Z] [. -Y . .], GL
+// face orientation, as core/envmap reads it back; grey cubes repeated in RGB): the file of
+// `shrm render`, `shrm live --view` and the Live call's view maps (EncodeImage kExrFloat).
+Image RadianceCrossImage(const RadianceCube& cube);
 
 }  // namespace shrm::jobs
 

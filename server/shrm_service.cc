@@ -4,8 +4,10 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <thread>
 #include <utility>
 #include <vector>
@@ -15,6 +17,9 @@
 #include "core/base/status_macros.h"
 #include "core/brdf/brdf_projection.h"
 #include "core/envmap/envmap.h"
+#include "core/io/image.h"
+#include "core/io/sha256.h"
+#include "core/sh/sh.h"
 #include "core/shrm/live_session.h"
 #include "core/shrm/shrm_file.h"
 #include "core/shrm/shrm_reference.h"
@@ -742,6 +747,13 @@ namespace {
 
 // What a live call's frames are made from, as of one session update: the job whose file
 // attributes the frame's file gets, its provenance, and the number of the request it came from.
+// The highest degree of lighting coefficients a live call takes ((256 + 1)^2 x 3 doubles, 1.6 MB:
+// well above any F_rho the analysis picks) and the relative slack of the energy check (the
+// caller's energy and sum of squares come from two quadratures of the same map: they agree to
+// rounding for band-limited lighting).
+constexpr int kMaxLiveCoefficientsLmax = 256;
+constexpr double kLiveEnergySlack = 1e-9;
+
 struct LiveSnapshot {
   uint64_t request = 0;
   jobs::PrefilterJob job;
@@ -768,6 +780,60 @@ absl::StatusOr<jobs::PrefilterJob> LiveJobFromOpen(const v1::LiveOpen& open) {
   return job;
 }
 
+// Lighting coefficients of a live request, checked: the degree, the count, finite values, and
+// an energy per channel at least the coefficients' own (an orthonormal expansion cannot hold more
+// than the function: Parseval), or that sum when none is given.
+struct LiveLighting {
+  int lmax = 0;
+  std::shared_ptr<const std::vector<double>> rgb;
+  std::array<double, 3> energy{};
+  jobs::SourceIdentity source;
+};
+
+absl::StatusOr<LiveLighting> LiveLightingFromRequest(const v1::LightingCoefficients& c) {
+  if (c.lmax() < 0 || c.lmax() > kMaxLiveCoefficientsLmax) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "coefficients.lmax = ", c.lmax(), " must be in [0, ", kMaxLiveCoefficientsLmax, "]"));
+  }
+  const size_t count = static_cast<size_t>(ShCount(c.lmax())) * 3;
+  if (static_cast<size_t>(c.rgb_size()) != count) {
+    return absl::InvalidArgumentError(absl::StrCat("coefficients.rgb holds ", c.rgb_size(),
+                                                   " values; degree ", c.lmax(), " needs ", count,
+                                                   " ((lmax + 1)^2 x RGB)"));
+  }
+  LiveLighting out;
+  out.lmax = c.lmax();
+  std::array<double, 3> own{};
+  for (int i = 0; i < c.rgb_size(); ++i) {
+    if (!std::isfinite(c.rgb(i))) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("coefficients.rgb[", i, "] is not finite (", c.rgb(i), ")"));
+    }
+    own[i % 3] += c.rgb(i) * c.rgb(i);
+  }
+  if (c.energy_size() == 0) {
+    out.energy = own;
+  } else if (c.energy_size() != 3) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("coefficients.energy holds ", c.energy_size(), " values; 3 (RGB) or none"));
+  } else {
+    for (int ch = 0; ch < 3; ++ch) {
+      const double e = c.energy(ch);
+      if (!std::isfinite(e) || e < own[ch] * (1 - kLiveEnergySlack)) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "coefficients.energy[", ch, "] = ", e, " is below the coefficients' own energy ",
+            own[ch], " (the sum of their squares: the lighting cannot hold less)"));
+      }
+      out.energy[ch] = e;
+    }
+  }
+  std::string bytes(reinterpret_cast<const char*>(c.rgb().data()), count * sizeof(double));
+  bytes.append(reinterpret_cast<const char*>(out.energy.data()), sizeof(out.energy));
+  out.source = {absl::StrCat("coefficients (degree ", c.lmax(), ")"), Sha256Hex(bytes)};
+  out.rgb = std::make_shared<const std::vector<double>>(c.rgb().begin(), c.rgb().end());
+  return out;
+}
+
 }  // namespace
 
 grpc::Status ShrmServiceImpl::Live(
@@ -786,6 +852,7 @@ grpc::Status ShrmServiceImpl::Live(
     return fail(absl::Status(job.status().code(),
                              absl::StrCat("live: request 0: ", job.status().message())));
   }
+  const bool view_only = request.open().view_only();
   PrefilterOptions options = jobs::CorePrefilterOptions(*job, options_.job_threads);
   options.max_cube_values = kMaxCubeValues;
   // Memory: twice the largest cube (the frame computed and the one being sent) and twice the
@@ -826,31 +893,54 @@ grpc::Status ShrmServiceImpl::Live(
         }
       }
       sent = frame->update;
-      if (frame->incomplete || frame->tag == nullptr) continue;  // no map or BRDF yet
+      if (frame->incomplete || frame->tag == nullptr) continue;       // no map or BRDF yet
+      if (view_only && frame->status.ok() && !frame->view) continue;  // nothing asked for yet
       const LiveSnapshot& snap = *std::static_pointer_cast<const LiveSnapshot>(frame->tag);
       absl::Status s = frame->status;
-      std::string file;
-      if (s.ok()) {
+      std::string file, view_file;
+      if (s.ok() && !view_only) {
         absl::StatusOr<std::string> bytes = EncodeShrmFile(
             "the live frame", frame->result.cube,
             jobs::PrefilterFileAttributes(snap.job, snap.provenance, frame->result), false);
         if (bytes.ok()) file = *std::move(bytes);
         s = bytes.status();
       }
+      if (s.ok() && frame->view) {
+        absl::StatusOr<std::string> bytes =
+            EncodeImage(jobs::RadianceCrossImage(frame->view_map), ImageEncoding::kExrFloat);
+        if (bytes.ok()) view_file = *std::move(bytes);
+        s = bytes.status();
+      }
       if (s.ok()) {
         const LiveStats stats = (*session)->Stats();
+        // Every event of the frame carries its figures; the SHRM file's chunks, then the view's.
+        auto event = [&](v1::LiveEvent* ev) {
+          ev->set_update(snap.request);
+          ev->set_dropped(stats.dropped);
+          ev->set_f_b(frame->result.analysis.f_b);
+          ev->set_p_b(frame->result.analysis.p_b);
+          for (const StageTiming& t : frame->result.timings) {
+            v1::StageTiming* st = ev->add_timings();
+            st->set_stage(t.stage);
+            st->set_ms(t.ms);
+          }
+          if (frame->view) {
+            ev->mutable_view()->set_x(frame->view->x);
+            ev->mutable_view()->set_y(frame->view->y);
+            ev->mutable_view()->set_z(frame->view->z);
+          }
+        };
         s = WhileWatched(context, "reading live frames", [&](IdleWatchdog::Call* watch) {
-          return StreamFile(file, stream, &log, watch, [&](v1::LiveEvent* ev) {
-            ev->set_update(snap.request);
-            ev->set_dropped(stats.dropped);
-            ev->set_f_b(frame->result.analysis.f_b);
-            ev->set_p_b(frame->result.analysis.p_b);
-            for (const StageTiming& t : frame->result.timings) {
-              v1::StageTiming* st = ev->add_timings();
-              st->set_stage(t.stage);
-              st->set_ms(t.ms);
-            }
-            return ev->mutable_shrm_file();
+          if (!view_only) {
+            SHRM_RETURN_IF_ERROR(StreamFile(file, stream, &log, watch, [&](v1::LiveEvent* ev) {
+              event(ev);
+              return ev->mutable_shrm_file();
+            }));
+          }
+          if (!frame->view) return absl::OkStatus();
+          return StreamFile(view_file, stream, &log, watch, [&](v1::LiveEvent* ev) {
+            event(ev);
+            return ev->mutable_view_file();
           });
         });
       } else {
@@ -923,9 +1013,35 @@ grpc::Status ShrmServiceImpl::Live(
                   (*session)->SetBrdf(std::shared_ptr<const Brdf>(std::move(brdf->brdf)), tag());
               break;
             }
+            case v1::LiveRequest::kCoefficients: {
+              absl::StatusOr<LiveLighting> light = LiveLightingFromRequest(request.coefficients());
+              if (!light.ok()) return at(light.status());
+              if (absl::Status s = grow(2 * light->rgb->size() * sizeof(double), &reserved_maps,
+                                        "two sets of lighting coefficients");
+                  !s.ok()) {
+                return at(s);
+              }
+              current.job.env.files = {"coefficients"};
+              current.provenance.source = light->source;
+              current.provenance.layout = EnvLayout::kAuto;
+              update = (*session)->SetCoefficients(light->rgb, light->lmax, light->energy, tag());
+              break;
+            }
+            case v1::LiveRequest::kView: {
+              std::optional<Vec3> view;
+              if (request.view().has_direction()) {
+                absl::StatusOr<Vec3> v =
+                    RequestDirection(true, request.view().direction(), "view.direction");
+                if (!v.ok()) return at(v.status());
+                view = *v;
+              }
+              update = (*session)->SetView(view, tag());
+              break;
+            }
             default:
               return at(absl::InvalidArgumentError(
-                  "expected environment, rotation or brdf (open only as request 0)"));
+                  "expected environment, rotation, brdf, coefficients or view (open only as "
+                  "request 0)"));
           }
           {
             std::lock_guard<std::mutex> lock(mu);

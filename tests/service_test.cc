@@ -26,6 +26,7 @@
 #include "core/brdf/brdf.h"
 #include "core/brdf/brdf_table.h"
 #include "core/envmap/envmap.h"
+#include "core/envmap/lighting.h"
 #include "core/io/sha256.h"
 #include "core/shrm/prefilter.h"
 #include "core/shrm/shrm_file.h"
@@ -866,6 +867,117 @@ TEST_F(ServiceTest, LiveFramesAreThePrefilterFilesOfEachState) {
   EXPECT_TRUE(live.Finish().ok());
 }
 
+// The cube of an SHRM file's bytes (read back through a temporary file).
+std::vector<float> CubeOfFile(const std::string& bytes) {
+  const std::string path = testing::UniqueTempPath("live_frame") + ".shrm.exr";
+  std::ofstream(path, std::ios::binary) << bytes;
+  absl::StatusOr<ShrmFile> f = ReadShrmFile(path);
+  std::filesystem::remove(path);
+  EXPECT_TRUE(f.ok()) << f.status();
+  return f.ok() ? f->cube.data : std::vector<float>{};
+}
+
+v1::LiveRequest LiveCoefficientsOf(const std::vector<double>& rgb, int lmax,
+                                   std::optional<std::array<double, 3>> energy) {
+  v1::LiveRequest r;
+  r.mutable_coefficients()->set_lmax(lmax);
+  for (double v : rgb) r.mutable_coefficients()->add_rgb(v);
+  if (energy) {
+    for (double e : *energy) r.mutable_coefficients()->add_energy(e);
+  }
+  return r;
+}
+
+v1::LiveRequest LiveViewOf(std::optional<std::array<double, 3>> v) {
+  v1::LiveRequest r;
+  r.mutable_view();
+  if (v) {
+    r.mutable_view()->mutable_direction()->set_x((*v)[0]);
+    r.mutable_view()->mutable_direction()->set_y((*v)[1]);
+    r.mutable_view()->mutable_direction()->set_z((*v)[2]);
+  }
+  return r;
+}
+
+// The lighting as SH coefficients: the map's own L_lm (to a degree above F_rho, with the map's
+// energy, computed here by core's transform) give the map's frame, cube for cube (the session
+// truncates them to F_rho, as the map's transform at F_rho gives them); a rotation then turns them
+// as it turns the map. A view adds its eq. 5.35 map to each frame; view_only sends only that.
+TEST_F(ServiceTest, LiveCoefficientsGiveTheMapsFramesAndViewsTheirMaps) {
+  auto c = StartServer();
+  const std::string map = MapPath("courtyard.exr");
+  const std::string brdf = "microfacet:sigma=0.3";
+  constexpr int kLmax = 20;  // above F_rho of the BRDF at epsilon 0.03, below the map's H / 2
+  absl::StatusOr<EnvMap> env = EnvMap::Load({.paths = {map}});
+  ASSERT_TRUE(env.ok()) << env.status();
+  absl::StatusOr<std::vector<double>> light =
+      LightingCoefficients(*env, kLmax, Mat3::Identity(), /*threads=*/1);
+  ASSERT_TRUE(light.ok()) << light.status();
+  const std::array<double, 3> energy = LightingEnergy(*env);
+
+  std::unique_ptr<client::LiveCall> call = OpenLiveOn(c.get(), map, brdf);
+  ASSERT_NE(call, nullptr);
+  client::LiveCall& live = *call;
+  std::optional<client::LiveFrameOutcome> f = FrameOf(&live, 2);
+  ASSERT_TRUE(f.has_value());
+  EXPECT_FALSE(f->view.has_value());
+  EXPECT_TRUE(f->view_file.empty());
+  const std::vector<float> of_map = CubeOfFile(f->shrm_file);
+  ASSERT_FALSE(of_map.empty());
+
+  const std::array<double, 3> view{0.3, 0.5, -0.8};
+  ASSERT_TRUE(live.Send(LiveViewOf(view)));
+  f = FrameOf(&live, 3);
+  ASSERT_TRUE(f.has_value());
+  EXPECT_TRUE(f->shrm_file == EmbeddedLiveFile(map, brdf, std::nullopt)) << "only the view changed";
+  ASSERT_TRUE(f->view.has_value());
+  const double norm = std::sqrt(0.09 + 0.25 + 0.64);
+  EXPECT_NEAR((*f->view)[0], 0.3 / norm, 1e-15);
+  const std::string view_file = f->view_file;
+  EXPECT_FALSE(view_file.empty());
+  ASSERT_TRUE(live.Send(LiveViewOf(std::nullopt)));
+  f = FrameOf(&live, 4);
+  ASSERT_TRUE(f.has_value());
+  EXPECT_FALSE(f->view.has_value());
+  EXPECT_TRUE(f->view_file.empty());
+
+  ASSERT_TRUE(live.Send(LiveCoefficientsOf(*light, kLmax, energy)));
+  f = FrameOf(&live, 5);
+  ASSERT_TRUE(f.has_value());
+  EXPECT_TRUE(CubeOfFile(f->shrm_file) == of_map)
+      << "the coefficients' frame differs from the map's";
+  ASSERT_TRUE(live.Send(LiveRotation(90)));
+  ASSERT_TRUE(live.CloseSending());
+  f = FrameOf(&live, 6);
+  ASSERT_TRUE(f.has_value());
+  EXPECT_TRUE(CubeOfFile(f->shrm_file) ==
+              CubeOfFile(EmbeddedLiveFile(map, brdf, std::array<double, 3>{90, 0, 0})));
+  absl::StatusOr<std::optional<client::LiveFrameOutcome>> end = live.Next();
+  ASSERT_TRUE(end.ok()) << end.status();
+  EXPECT_FALSE(end->has_value());
+  EXPECT_TRUE(live.Finish().ok());
+
+  // view_only: the view maps alone, nothing before the view is set.
+  absl::StatusOr<std::string> sha = c->UploadIfMissing(map);
+  ASSERT_TRUE(sha.ok()) << sha.status();
+  v1::LiveOpen open = LiveOpenAt(kTestFaceSize);
+  open.set_view_only(true);
+  absl::StatusOr<std::unique_ptr<client::LiveCall>> only = c->OpenLive(open);
+  ASSERT_TRUE(only.ok()) << only.status();
+  ASSERT_TRUE((*only)->Send(LiveEnvironment(*sha, map)));
+  ASSERT_TRUE((*only)->Send(LiveBrdf(brdf)));
+  ASSERT_TRUE((*only)->Send(LiveViewOf(view)));
+  ASSERT_TRUE((*only)->CloseSending());
+  f = FrameOf(only->get(), 3);
+  ASSERT_TRUE(f.has_value());
+  EXPECT_TRUE(f->shrm_file.empty());
+  EXPECT_TRUE(f->view_file == view_file);
+  end = (*only)->Next();
+  ASSERT_TRUE(end.ok()) << end.status();
+  EXPECT_FALSE(end->has_value());
+  EXPECT_TRUE((*only)->Finish().ok());
+}
+
 // Ten rotations while the session's worker is held (a producer far faster than the computation):
 // once every request is read, the one frame computed is the last state's, the eleven states
 // before it dropped and counted. By the order of events, not by timing.
@@ -909,8 +1021,9 @@ TEST_F(ServiceTest, CliLiveRemoteWritesTheEmbeddedFiles) {
        {absl::StrCat("--sequence ", a, " ", b), absl::StrCat("--env ", a, " --turntable 3")}) {
     const std::string local = testing::UniqueTempPath("live_local");
     const std::string remote = testing::UniqueTempPath("live_remote");
-    const std::string common = absl::StrCat(
-        SHRM_CLI_PATH, " live ", frames, " --brdf microfacet:sigma=0.3 --size 16 > /dev/null 2>&1");
+    const std::string common =
+        absl::StrCat(SHRM_CLI_PATH, " live ", frames,
+                     " --brdf microfacet:sigma=0.3 --size 16 --view 0.2,0.5,-1 > /dev/null 2>&1");
     ASSERT_EQ(std::system(absl::StrCat(common, " -o ", local).c_str()), 0) << common;
     ASSERT_EQ(
         std::system(absl::StrCat(common, " -o ", remote, " --server 127.0.0.1:", port_).c_str()), 0)
@@ -920,6 +1033,10 @@ TEST_F(ServiceTest, CliLiveRemoteWritesTheEmbeddedFiles) {
       const std::string want = ReadFile(local + name);
       EXPECT_FALSE(want.empty()) << name;
       EXPECT_TRUE(want == ReadFile(remote + name)) << frames << name << ": the remote file differs";
+      const std::string view = absl::StrCat("/frame_000", k, ".view.exr");
+      const std::string want_view = ReadFile(local + view);
+      EXPECT_FALSE(want_view.empty()) << view;
+      EXPECT_TRUE(want_view == ReadFile(remote + view)) << frames << view << ": differs";
     }
     std::filesystem::remove_all(local);
     std::filesystem::remove_all(remote);
@@ -951,6 +1068,20 @@ TEST_F(ServiceTest, LiveBadRequestsEndTheCallNamingTheRequest) {
   EXPECT_NE(s.message().find("request 2"), std::string::npos) << s;
   s = ended({LiveBrdf("table:/etc/passwd")});
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << s;
+  // Coefficients: a count that does not fit the degree, a degree out of range, a NaN, an energy
+  // below the coefficients' own; a zero view.
+  const std::vector<double> nine(27, 0.5);
+  for (const v1::LiveRequest& bad_light :
+       {LiveCoefficientsOf(nine, 3, std::nullopt), LiveCoefficientsOf(nine, 257, std::nullopt),
+        LiveCoefficientsOf(nine, -1, std::nullopt),
+        LiveCoefficientsOf(std::vector<double>(27, std::nan("")), 2, std::nullopt),
+        LiveCoefficientsOf(nine, 2, std::array<double, 3>{1.0, 1.0, 1.0}),
+        LiveCoefficientsOf(nine, 2, std::array<double, 3>{-1.0, 3.0, 3.0}),
+        LiveViewOf(std::array<double, 3>{0, 0, 0})}) {
+    s = ended({LiveBrdf("phong:s=32"), bad_light});
+    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << s;
+    EXPECT_NE(s.message().find("request 2"), std::string::npos) << s;
+  }
   v1::LiveRequest open_again;
   *open_again.mutable_open() = LiveOpenAt(16);
   s = ended({open_again});
