@@ -20,6 +20,7 @@ void RegisterIbl(CLI::App& app, absl::Status* status);
 void RegisterInfo(CLI::App& app, absl::Status* status);
 void RegisterBatch(CLI::App& app, absl::Status* status);
 void RegisterLive(CLI::App& app, absl::Status* status);
+void RegisterSky(CLI::App& app, absl::Status* status);
 
 }  // namespace shrm::cli
 

@@ -1,6 +1,6 @@
 // The `shrm` command: frequency-space prefiltering of HDR environment maps, embedded
 // (in-process). Subcommands: analyze, prefilter, eval, reference, render, explicit, irradiance,
-// ibl, info, batch. docs/cli.md documents every option and the exit codes.
+// ibl, info, batch, live, sky. docs/cli.md documents every option and the exit codes.
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <string>
@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
   shrm::cli::RegisterInfo(app, &status);
   shrm::cli::RegisterBatch(app, &status);
   shrm::cli::RegisterLive(app, &status);
+  shrm::cli::RegisterSky(app, &status);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -513,5 +513,45 @@ else
   fail "ibl happy path: $(head -c 400 "$TMP/ibl_ok.stderr")"
 fi
 
+# --- shrm sky: the Preetham sky of a date, time and place (docs/sky.md) ----------------------
+# Bad input leaves nothing behind: out-of-range values are input errors (1), malformed or
+# conflicting options usage errors (2).
+cd "$TMP" || exit 2
+SKY=(sky --width 64 -o sky.exr)
+expect_error sky_turbidity 1 'turbidity 12 is outside.*\[2, 10\]' "$SHRM" "${SKY[@]}" --turbidity 12
+expect_error sky_date_does_not_exist 1 '2023-02-29 is not a date' "$SHRM" "${SKY[@]}" --date 2023-02-29
+expect_error sky_date_form 2 'YYYY-MM-DD' "$SHRM" "${SKY[@]}" --date 21/03/2023
+expect_error sky_time_form 2 'HH:MM' "$SHRM" "${SKY[@]}" --time noon
+expect_error sky_latitude 1 'latitude 95 deg is outside' "$SHRM" "${SKY[@]}" --lat 95
+expect_error sky_odd_width 1 'width 101 must be even' "$SHRM" sky --width 101 -o sky.exr
+expect_error sky_elevation_alone 2 'sun-azimuth' "$SHRM" "${SKY[@]}" --sun-elevation 30
+expect_error sky_elevation_and_date 2 'excludes' \
+  "$SHRM" "${SKY[@]}" --sun-elevation 30 --sun-azimuth 90 --day 100
+expect_error sky_not_exr 1 'name it \*\.exr' "$SHRM" sky --width 64 -o sky.png
+expect_error sky_folder_missing 1 'no/such' "$SHRM" sky --width 64 -o no/such/sky.exr
+# Happy path: the equinox (day 81) at 40 N on its meridian, at the standard time of solar noon
+# (12:00 minus the paper's equation of time, -7.1 min): the sun 50 degrees high, due south.
+CHECKS=$((CHECKS + 1))
+mkdir -p "$TMP/sky_ok"
+if "$SHRM" sky --day 81 --time 12:07:06 --lat 40 --lon 0 --meridian 0 --width 64 \
+  -o "$TMP/sky_ok/sky.exr" --json >"$TMP/sky_ok/sky.json" 2>"$TMP/sky_ok/stderr"; then
+  ELEV=$(sed -n 's/^ *"elevation_deg": \([-0-9.eE+]*\),\{0,1\}$/\1/p' "$TMP/sky_ok/sky.json")
+  AZIM=$(sed -n 's/^ *"azimuth_deg": \([-0-9.eE+]*\),\{0,1\}$/\1/p' "$TMP/sky_ok/sky.json")
+  if ! json_ok "$TMP/sky_ok/sky.json"; then
+    fail "sky: the --json output is not valid JSON"
+  elif [ ! -s "$TMP/sky_ok/sky.exr" ] || [ -n "$(find "$TMP/sky_ok" -name '*.tmp-*')" ]; then
+    fail "sky: sky.exr missing, or temporaries left"
+  elif ! awk -v e="$ELEV" -v a="$AZIM" 'BEGIN { exit !(e - 50 < 0.01 && 50 - e < 0.01 && a - 180 < 0.01 && 180 - a < 0.01) }'; then
+    fail "sky: equinox noon at 40 N: elevation $ELEV, azimuth $AZIM; expected 50, 180"
+  elif ! "$SHRM" prefilter --env "$TMP/sky_ok/sky.exr" --brdf phong:s=8 --epsilon 0.03 --verify 0 \
+    --size 8 -o "$TMP/sky_ok/sky.shrm.exr" >/dev/null 2>&1; then
+    fail "sky: sky.exr is not a map prefilter reads"
+  else
+    echo "ok: sky: equinox noon at 40 N is 50 deg high, due south; sky.exr written"
+  fi
+else
+  fail "sky happy path: $(head -c 400 "$TMP/sky_ok/stderr")"
+fi
+
 echo "$CHECKS checks, $FAILURES failures"
 [ "$FAILURES" -eq 0 ]
