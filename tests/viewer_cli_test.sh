@@ -118,6 +118,45 @@ expect_error ref_width_odd 2 'ref-width must be even' "${ENV[@]}" "${BRDF[@]}" -
   --screenshot a.png
 expect_error bench_and_shot 2 'exclusive' "${ENV[@]}" "${BRDF[@]}" --bench-frames 2 --screenshot a.png
 expect_error bad_exposure 2 'exposure' "${ENV[@]}" "${BRDF[@]}" --exposure 1e9 --screenshot a.png
+# --live (docs/viewer.md "Live"; the live screenshots are tests/viewer_live_cli_test.sh's).
+LIVE_BRDF=(--brdf microfacet:sigma=0.2)
+expect_error live_unknown_kind 2 'live' "${ENV[@]}" "${LIVE_BRDF[@]}" --live spin --screenshot a.png
+expect_error live_step_without_live 2 'live-step needs --live' "${ENV[@]}" "${LIVE_BRDF[@]}" \
+  --live-step 1 --screenshot a.png
+expect_error sequence_without_live 2 'sequence needs --live' "${ENV[@]}" "${LIVE_BRDF[@]}" \
+  --sequence a.exr --screenshot a.png
+expect_error live_without_brdf 2 'live needs --brdf' "${ENV[@]}" --live rotate --screenshot a.png
+expect_error live_rotate_without_env 2 'live rotate needs --env' "${LIVE_BRDF[@]}" --live rotate \
+  --screenshot a.png
+expect_error live_sequence_without_files 2 'needs --sequence' "${LIVE_BRDF[@]}" --live sequence \
+  --screenshot a.png
+expect_error live_sequence_with_env 2 'env is not used' "${ENV[@]}" "${LIVE_BRDF[@]}" \
+  --live sequence --sequence "$MAP" --screenshot a.png
+expect_error live_with_file 2 'does not show a file' some.shrm.exr "${ENV[@]}" "${LIVE_BRDF[@]}" \
+  --live rotate --screenshot a.png
+expect_error live_tolerance 2 'tolerance' "${ENV[@]}" "${LIVE_BRDF[@]}" --live rotate \
+  --tolerance 0.01 --screenshot a.png
+expect_error live_verify 2 'verify' "${ENV[@]}" "${LIVE_BRDF[@]}" --live rotate --verify 8 \
+  --screenshot a.png
+expect_error live_mode 2 'mode 1 or 2' "${ENV[@]}" "${LIVE_BRDF[@]}" --live rotate --mode 5 \
+  --screenshot a.png
+expect_error live_diff 2 'diff' "${ENV[@]}" "${LIVE_BRDF[@]}" --live rotate --diff --screenshot a.png
+expect_error live_fps_rotate 2 'live-fps needs --live sequence' "${ENV[@]}" "${LIVE_BRDF[@]}" \
+  --live rotate --live-fps 3 --screenshot a.png
+expect_error live_speed_sequence 2 'live-speed applies to' "${LIVE_BRDF[@]}" --live sequence \
+  --sequence "$MAP" --live-speed 3 --screenshot a.png
+expect_error live_bad_step 2 'live-step' "${ENV[@]}" "${LIVE_BRDF[@]}" --live rotate --live-step 0 \
+  --screenshot a.png
+expect_error live_sky_with_env 2 'env is not used' "${ENV[@]}" "${LIVE_BRDF[@]}" --live sky \
+  --screenshot a.png
+expect_error live_sky_options 2 'need --live sky' "${ENV[@]}" "${LIVE_BRDF[@]}" --live rotate \
+  --lat 10 --screenshot a.png
+expect_error live_bad_date 2 'date must be a date' "${LIVE_BRDF[@]}" --live sky --date 2023-02-29 \
+  --screenshot a.png
+expect_error live_bad_time 2 'time must be a time' "${LIVE_BRDF[@]}" --live sky --time 25:00 \
+  --screenshot a.png
+expect_error live_bad_turbidity 2 'turbidity' "${LIVE_BRDF[@]}" --live sky --turbidity 1 \
+  --screenshot a.png
 
 # --- input errors (exit 1) --------------------------------------------------------------------
 expect_error missing_shrm 1 'missing\.shrm\.exr' missing.shrm.exr --screenshot a.png

@@ -5,6 +5,7 @@
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -21,6 +22,7 @@
 #include "viewer/brdf_edit.h"
 #include "viewer/error_report.h"
 #include "viewer/gl_util.h"
+#include "viewer/live_source.h"
 #include "viewer/mesh.h"
 #include "viewer/renderer.h"
 #include "viewer/scene_source.h"
@@ -121,6 +123,7 @@ class Viewer {
   // Loads everything that does not need GL.
   [[nodiscard]] absl::Status Load() {
     SHRM_ASSIGN_OR_RETURN(mesh_, BuildMesh(o_.mesh));
+    if (o_.live_mode) return LoadLive();
     if (!o_.env.empty()) {
       const auto t0 = Clock::now();
       SHRM_ASSIGN_OR_RETURN(scene_.env, LoadEnvironment(o_.env, o_.reference_width, o_.threads));
@@ -176,6 +179,7 @@ class Viewer {
   // --screenshot: one frame (waiting for a computation and the ground truth), then the file.
   [[nodiscard]] absl::Status Screenshot() {
     if (job_ != nullptr) SHRM_RETURN_IF_ERROR(TakeJobResult(job_->Wait()));
+    if (live_ != nullptr) SHRM_RETURN_IF_ERROR(LiveFramesBeforeScreenshot());
     if (scene_.shrm == nullptr && (settings_.mode == 1 || settings_.mode == 2)) {
       return absl::FailedPreconditionError("no SHRM to show");
     }
@@ -196,8 +200,7 @@ class Viewer {
     }
     glFinish();
     const double ms = Ms(Clock::now() - t0);
-    const std::vector<std::string> lines = OverlayLines(
-        *FindMode(settings_.mode), scene_, *renderer_, ms, settings_.diff, exposure_, error_line_);
+    const std::vector<std::string> lines = Lines(ms);
     std::printf("%s\n", Overlay(lines).c_str());
     if (o_.overlay) {  // --overlay: the same frame again with the text drawn in
       settings_.overlay = lines;
@@ -227,6 +230,7 @@ class Viewer {
 
   // --bench-frames N: N frames per ready mode, the camera turning 1 degree per frame.
   [[nodiscard]] absl::Status Bench() {
+    if (live_ != nullptr) return LiveBench();
     if (job_ != nullptr) SHRM_RETURN_IF_ERROR(TakeJobResult(job_->Wait()));
     settings_.exposure = static_cast<float>(exposure_);
     std::printf("frame times at %d x %d (%s), mesh %s, %d frames per mode:\n", renderer_->width(),
@@ -291,11 +295,17 @@ class Viewer {
     std::string last_stats;
     int frames = 0;
     while (!glfwWindowShouldClose(w)) {
-      // --frames counts the frames drawn once no computation is pending.
+      // --frames counts the frames drawn once no computation is pending (live: every frame).
       if (o_.quit_after_frames > 0 && !(job_ != nullptr && job_->busy()) &&
           frames++ >= o_.quit_after_frames)
         break;
       glfwPollEvents();
+      if (live_ != nullptr) {
+        // A lighting or frame error is reported once; the loop goes on with the last SHRM.
+        const absl::Status s = LiveTick(false);
+        if (!s.ok() && s != live_error_) ReportError(s);
+        if (!s.ok()) live_error_ = s;
+      }
       if (job_ != nullptr) {
         if (std::optional<absl::StatusOr<ShrmData>> r = job_->Poll()) {
           ReportError(TakeJobResult(std::move(r)));
@@ -322,14 +332,13 @@ class Viewer {
       }
       renderer_->BlitToWindow(fw, fh);
       glfwSwapBuffers(w);
+      ++rendered_;
       const auto now = Clock::now();
       frame_ms = 0.9 * frame_ms + 0.1 * Ms(now - prev);
       prev = now;
       if (now - last_title > std::chrono::milliseconds(250)) {
         last_title = now;
-        std::vector<std::string> lines =
-            OverlayLines(*FindMode(settings_.mode), scene_, *renderer_, frame_ms, settings_.diff,
-                         exposure_, error_line_);
+        std::vector<std::string> lines = Lines(frame_ms);
         if (job_ != nullptr && job_->busy())
           lines.push_back(
               absl::StrFormat("computing %s %.0f%%", job_->stage(), 100 * job_->fraction()));
@@ -353,6 +362,153 @@ class Viewer {
   }
 
  private:
+  // The overlay's items (OverlayLines, and the live mode's figures after the SHRM's).
+  std::vector<std::string> Lines(double frame_ms) const {
+    std::vector<std::string> lines = OverlayLines(*FindMode(settings_.mode), scene_, *renderer_,
+                                                  frame_ms, settings_.diff, exposure_, error_line_);
+    if (live_ != nullptr && live_shown_ != nullptr) {
+      const std::vector<std::string> live = LiveOverlayLines(
+          o_.live, *live_shown_, live_->Stats(), live_rate_.rate(), render_rate_.rate());
+      lines.insert(lines.begin() + std::min<size_t>(lines.size(), 3), live.begin(), live.end());
+    }
+    return lines;
+  }
+
+  // --live: the lighting source (its first map decoded or rendered, every sequence header
+  // checked: input errors before the window), the session, the BRDF.
+  [[nodiscard]] absl::Status LoadLive() {
+    SHRM_ASSIGN_OR_RETURN(std::unique_ptr<Brdf> brdf, ParseBrdfSpec(o_.brdf));
+    brdf_spec_ = brdf->spec();
+    scene_.brdf = std::move(brdf);
+    scene_.brdf_spec = brdf_spec_;
+    const auto t0 = Clock::now();
+    SHRM_ASSIGN_OR_RETURN(live_lighting_, LiveLighting::Create(o_.live, o_.threads));
+    ComputeRequest req;
+    req.brdf_spec = brdf_spec_;
+    req.epsilon = o_.epsilon;
+    req.f = o_.f;
+    req.p = o_.p;
+    req.verify = 0;  // the session has no per-frame check (docs/live.md)
+    req.face_size = o_.face_size;
+    SHRM_ASSIGN_OR_RETURN(
+        live_,
+        LiveDriver::Create(PrefilterJobFor(req, live_lighting_->first()->env->path), o_.threads));
+    scene_.env = live_lighting_->first()->env;  // the automatic exposure: the first map's
+    exposure_ = o_.exposure_set ? o_.exposure : AutoExposure(scene_);
+    Log(absl::StrFormat("live %s: %s, %d x %d (%.0f ms), %s", LiveKindName(o_.live.kind),
+                        live_lighting_->first()->label, scene_.env->map.width(),
+                        scene_.env->map.height(), Ms(Clock::now() - t0), brdf_spec_));
+    return absl::OkStatus();
+  }
+
+  // One frame of the live mode: the lighting at the clock and the material pushed into the
+  // session, then the newest frame taken (wait, or the deterministic clock: this state's frame).
+  [[nodiscard]] absl::Status LiveTick(bool wait) {
+    const auto now = Clock::now();
+    const bool step = o_.live.step > 0;
+    if (rendered_ == 0 && live_shown_ == nullptr) live_last_tick_ = now;  // the clock starts here
+    if (!live_paused_) live_t_ += std::chrono::duration<double>(now - live_last_tick_).count();
+    live_last_tick_ = now;
+    const double t = step ? static_cast<double>(live_steps_) * o_.live.step : live_t_;
+    if (step && !live_paused_) ++live_steps_;
+    SHRM_ASSIGN_OR_RETURN(const LiveLightingState lighting, live_lighting_->At(t, step));
+    live_->SetNeedLocal(settings_.mode == 2);
+    SHRM_ASSIGN_OR_RETURN(const uint64_t update, live_->Push(lighting, brdf_spec_));
+    std::shared_ptr<const LiveShown> shown;
+    if (step || wait) {
+      SHRM_ASSIGN_OR_RETURN(shown, live_->WaitFor(update, kLiveWait));
+    } else {
+      shown = live_->Latest();
+    }
+    const double seconds = std::chrono::duration<double>(now - live_start_).count();
+    live_rate_.Add(seconds, live_->Stats().frames);
+    render_rate_.Add(seconds, rendered_);
+    // Mode 2 takes a frame once its local SHRM is converted (LiveDriver::SetNeedLocal).
+    const bool usable =
+        shown != nullptr && (settings_.mode != 2 || shown->has_local || !shown->status.ok());
+    if (usable && shown != live_shown_) {
+      live_shown_ = shown;
+      if (!shown->status.ok()) return shown->status;  // the last SHRM stays on screen
+      live_error_ = absl::OkStatus();
+      scene_.shrm = shown->shrm;
+      scene_.env = shown->map->env;
+      settings_.background_rotation = shown->rotation;
+      if (renderer_ != nullptr) UploadScene();
+      ++live_totals_.frames;
+      for (const StageTiming& st : shown->timings) {
+        auto it = std::find_if(live_totals_.stage_ms.begin(), live_totals_.stage_ms.end(),
+                               [&](const auto& e) { return e.first == st.stage; });
+        if (it == live_totals_.stage_ms.end()) {
+          live_totals_.stage_ms.emplace_back(st.stage, st.ms);
+        } else {
+          it->second += st.ms;
+        }
+      }
+      live_totals_.compute_ms += shown->compute_ms;
+      live_totals_.convert_ms += shown->convert_ms;
+    } else if (usable && !shown->status.ok()) {
+      return shown->status;
+    }
+    return absl::OkStatus();
+  }
+
+  // --screenshot with --live: --frames N frames (default 1), the last one waiting for its state;
+  // with --live-step, frame k shows clock k x step.
+  [[nodiscard]] absl::Status LiveFramesBeforeScreenshot() {
+    const int frames = std::max(1, o_.quit_after_frames);
+    settings_.exposure = static_cast<float>(exposure_);
+    for (int k = 0; k < frames; ++k) {
+      SHRM_RETURN_IF_ERROR(LiveTick(k + 1 == frames));
+      if (k + 1 < frames && renderer_->ModeReady(settings_.mode)) {
+        SHRM_RETURN_IF_ERROR(renderer_->Render(camera_, settings_));
+        ++rendered_;
+      }
+    }
+    return absl::OkStatus();
+  }
+
+  // --bench-frames N with --live: N frames of the loop (the wall clock, or --live-step), then
+  // the render and live frames per second and the mean ms per stage of the frames shown.
+  [[nodiscard]] absl::Status LiveBench() {
+    settings_.exposure = static_cast<float>(exposure_);
+    SHRM_RETURN_IF_ERROR(LiveTick(true));  // warm-up: the first frame, programs, uploads
+    SHRM_RETURN_IF_ERROR(renderer_->Render(camera_, settings_));
+    glFinish();
+    const uint64_t rendered0 = rendered_, frames0 = live_->Stats().frames;
+    live_totals_ = {};
+    const auto t0 = Clock::now();
+    for (int k = 0; k < o_.bench_frames; ++k) {
+      SHRM_RETURN_IF_ERROR(LiveTick(false));
+      if (renderer_->ModeReady(settings_.mode)) {
+        SHRM_RETURN_IF_ERROR(renderer_->Render(camera_, settings_));
+        glFinish();
+        ++rendered_;
+      }
+    }
+    const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    const LiveStats stats = live_->Stats();
+    std::printf(
+        "live %s at %d x %d (%s), mode %d, %s: %llu frames rendered in %.2f s (%.1f frames/s); "
+        "%llu live frames computed (%.1f frames/s), %llu of %llu states dropped\n",
+        LiveKindName(o_.live.kind), renderer_->width(), renderer_->height(),
+        context_->Describe().c_str(), settings_.mode, brdf_spec_.c_str(),
+        static_cast<unsigned long long>(rendered_ - rendered0), seconds,
+        (rendered_ - rendered0) / seconds, static_cast<unsigned long long>(stats.frames - frames0),
+        (stats.frames - frames0) / seconds, static_cast<unsigned long long>(stats.dropped),
+        static_cast<unsigned long long>(stats.updates));
+    const LiveTotals& t = live_totals_;
+    std::string stages;
+    for (const auto& [stage, ms] : t.stage_ms)
+      absl::StrAppendFormat(&stages, " %s %.2f", stage, ms / std::max(1, t.frames));
+    std::printf("  mean ms per shown frame (%d frames):%s | compute %.2f convert %.2f\n", t.frames,
+                stages.c_str(), t.compute_ms / std::max(1, t.frames),
+                t.convert_ms / std::max(1, t.frames));
+    if (live_shown_ != nullptr && live_shown_->shrm != nullptr) {
+      std::printf("  %s\n", ShrmSummaryLine(*live_shown_->shrm).c_str());
+    }
+    return absl::OkStatus();
+  }
+
   void Log(const std::string& line) {
     std::printf("%s\n", line.c_str());
     std::fflush(stdout);
@@ -361,13 +517,18 @@ class Viewer {
   void PrintHelp() {
     Log("keys: 1-5 mode, D difference view, B next BRDF, [ ] lobe narrower/wider, +/- exposure,\n"
         "      M next mesh, O overlay, arrows orbit, PgUp/PgDn zoom, R reset view, H help,\n"
-        "      Esc quit;\n"
+        "      Space pause/resume the live lighting (--live), Esc quit;\n"
         "      mouse: drag to orbit, wheel to zoom");
     for (const ModeInfo& m : RegisteredModes())
       Log(absl::StrFormat("  mode %d %-12s %s", m.key, m.name, m.description));
   }
 
   void StartCompute(const std::string& spec) {
+    if (live_ != nullptr) {  // the next frame pushes the material into the session
+      brdf_spec_ = pending_spec_ = spec;
+      Log(absl::StrCat("material ", spec));
+      return;
+    }
     if (job_ == nullptr) {
       Log("changing the BRDF needs --env (the map the SHRM is computed from)");
       return;
@@ -409,7 +570,8 @@ class Viewer {
   // go on (the renderer keeps each mode's error for a screenshot in that mode: ModeError). The
   // same error again (the next SHRM for the same BRDF) is not reported twice.
   void UploadScene() {
-    const absl::Status s = renderer_->SetScene(scene_);
+    const absl::Status s = renderer_->SetScene(
+        scene_, live_ != nullptr ? std::optional<int>(settings_.mode) : std::nullopt);
     if (s.ok()) {
       // Every available mode takes the scene: earlier errors are over, unavailable modes are not.
       const absl::Status unavailable = renderer_->InitErrors();
@@ -425,6 +587,21 @@ class Viewer {
     if (key >= GLFW_KEY_1 && key <= GLFW_KEY_9) {
       const int m = key - GLFW_KEY_0;
       const ModeInfo* info = FindMode(m);
+      if (live_ != nullptr && info != nullptr) {
+        if (m != 1 && m != 2) {
+          Log(absl::StrCat("mode ", m, ": the live mode shows the SHRM in modes 1 and 2"));
+          return;
+        }
+        // The live scene goes to the active mode only; mode 2 waits for a frame converted to
+        // the local SHRM (the next frame, or the newest converted again).
+        settings_.mode = m;
+        live_->SetNeedLocal(m == 2);
+        if (scene_.shrm != nullptr && (m == 1 || !scene_.shrm->local.data.empty())) {
+          ReportError(renderer_->SyncMode(m));
+        }
+        Log(absl::StrCat("mode ", m, ": ", info->description));
+        return;
+      }
       if (info == nullptr) {
         Log(absl::StrCat("mode ", m, " is not available in this build"));
       } else if (!renderer_->ModeReady(m)) {
@@ -446,8 +623,16 @@ class Viewer {
       case GLFW_KEY_Q:
         glfwSetWindowShouldClose(context_->window(), GLFW_TRUE);
         break;
+      case GLFW_KEY_SPACE:
+        if (live_ != nullptr) {
+          live_paused_ = !live_paused_;
+          Log(live_paused_ ? "live lighting paused" : "live lighting resumed");
+        }
+        break;
       case GLFW_KEY_D:
-        if (scene_.env == nullptr || scene_.brdf == nullptr) {
+        if (live_ != nullptr) {
+          Log("the difference view needs the ground truth of a fixed map: not in live mode");
+        } else if (scene_.env == nullptr || scene_.brdf == nullptr) {
           Log("the difference view needs --env and a BRDF");
         } else {
           settings_.diff = !settings_.diff;
@@ -544,6 +729,22 @@ class Viewer {
   int preset_ = -1;
   double exposure_ = 0;
   std::unique_ptr<AsyncShrmJob> job_;
+  // --live: the lighting source, the session, the frame on screen and the figures.
+  std::unique_ptr<LiveLighting> live_lighting_;
+  std::unique_ptr<LiveDriver> live_;
+  std::shared_ptr<const LiveShown> live_shown_;
+  absl::Status live_error_;  // the last lighting or frame error reported
+  int64_t live_steps_ = 0;   // --live-step: frames the clock has advanced
+  double live_t_ = 0;        // the wall clock's live time, seconds (paused: not advancing)
+  bool live_paused_ = false;
+  Clock::time_point live_last_tick_, live_start_ = Clock::now();
+  RateMeter live_rate_, render_rate_;
+  uint64_t rendered_ = 0;
+  struct LiveTotals {
+    int frames = 0;
+    std::vector<std::pair<std::string, double>> stage_ms;  // in the session's order
+    double compute_ms = 0, convert_ms = 0;
+  } live_totals_;
   std::unique_ptr<GlContext> context_;
   std::unique_ptr<Renderer> renderer_;
   bool dragging_ = false;

@@ -15,9 +15,10 @@ constexpr char kBackgroundFragment[] = R"(#version 330 core
 in vec2 v_ndc;
 uniform sampler2D u_env;
 uniform vec3 u_forward, u_right, u_up;  // right, up scaled by tan(fov/2) (and the aspect)
+uniform mat3 u_inverse_rotation;        // R^-1 of the lighting's rotation (identity: none)
 out vec4 o_color;
 void main() {
-  vec3 d = normalize(u_forward + v_ndc.x * u_right + v_ndc.y * u_up);
+  vec3 d = u_inverse_rotation * normalize(u_forward + v_ndc.x * u_right + v_ndc.y * u_up);
   // docs/conventions.md: d = (sin t sin p, cos t, -sin t cos p), u = p / 2pi + 1/2, v = t / pi.
   float t = acos(clamp(d.y, -1.0, 1.0));
   float p = atan(d.x, -d.z);
@@ -181,7 +182,7 @@ void Renderer::SetMesh(const Mesh& mesh) {
   ++mesh_version_;
 }
 
-absl::Status Renderer::SetScene(const SceneData& scene) {
+absl::Status Renderer::SetScene(const SceneData& scene, std::optional<int> only_mode) {
   const bool new_env = scene.env != scene_.env;
   scene_ = scene;
   ++scene_version_;
@@ -201,12 +202,26 @@ absl::Status Renderer::SetScene(const SceneData& scene) {
   // go on. The errors of all of them, in one status.
   std::vector<absl::Status> errors;
   for (ModeSlot& slot : modes_) {
-    if (!slot.init_status.ok()) continue;
-    const absl::Status s = slot.mode->Upload(scene_);
-    slot.last_error = s.ok() ? s : NameMode(*slot.info, s);
-    if (!s.ok()) errors.push_back(slot.last_error);
+    if (!slot.init_status.ok() || (only_mode && slot.info->key != *only_mode)) continue;
+    const absl::Status s = UploadTo(slot);
+    if (!s.ok()) errors.push_back(s);
   }
   return JoinErrors(errors);
+}
+
+absl::Status Renderer::UploadTo(ModeSlot& slot) {
+  const absl::Status s = slot.mode->Upload(scene_);
+  slot.last_error = s.ok() ? s : NameMode(*slot.info, s);
+  slot.scene_version = scene_version_;
+  return slot.last_error;
+}
+
+absl::Status Renderer::SyncMode(int key) {
+  ModeSlot* slot = Slot(key);
+  if (slot == nullptr || !slot->init_status.ok() || slot->scene_version == scene_version_) {
+    return absl::OkStatus();
+  }
+  return UploadTo(*slot);
 }
 
 Renderer::ModeSlot* Renderer::Slot(int key) {
@@ -254,7 +269,7 @@ bool Renderer::ModeKey(int mode, int key, std::string* message) {
   return m != nullptr && m->OnKey(key, message);
 }
 
-void Renderer::DrawBackground(const OrbitCamera& camera, float aspect) {
+void Renderer::DrawBackground(const OrbitCamera& camera, float aspect, const Mat3& rotation) {
   const double t = std::tan(camera.fov_y_deg() * kPi / 360);
   const Vec3 f = camera.Forward(), r = camera.Right() * (t * aspect), u = camera.Up() * t;
   const GLuint program = background_program_.get();
@@ -265,6 +280,11 @@ void Renderer::DrawBackground(const OrbitCamera& camera, float aspect) {
              static_cast<float>(r.z));
   SetUniform(program, "u_up", static_cast<float>(u.x), static_cast<float>(u.y),
              static_cast<float>(u.z));
+  // R^-1 = R^T; GL takes columns: column j of R^T is row j of R, so R's rows in order.
+  float inverse[9];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) inverse[3 * i + j] = static_cast<float>(rotation.m[i][j]);
+  glUniformMatrix3fv(glGetUniformLocation(program, "u_inverse_rotation"), 1, GL_FALSE, inverse);
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D, env_texture_.get());
   SetUniform(program, "u_env", 0);
@@ -400,7 +420,9 @@ absl::Status Renderer::Render(const OrbitCamera& camera, const RenderSettings& s
   glClearColor(0, 0, 0, 0);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   glDisable(GL_DEPTH_TEST);
-  if (settings.background && env_texture_) DrawBackground(camera, static_cast<float>(aspect));
+  if (settings.background && env_texture_) {
+    DrawBackground(camera, static_cast<float>(aspect), settings.background_rotation);
+  }
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
   if (mode->ready()) {

@@ -9,6 +9,7 @@
 #define SHRM_VIEWER_RENDERER_H_
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -34,6 +35,9 @@ struct RenderSettings {
   bool reference_may_restart = true;
   // In-frame text overlay (viewer/overlay_gl.h), one item per line, top-left; none if empty.
   std::vector<std::string> overlay;
+  // World rotation R of the lighting (the live mode's turning map): the background shows the
+  // rotated map, L(R^-1 d) along each pixel ray d (docs/envmap.md "Rotation").
+  Mat3 background_rotation = Mat3::Identity();
 };
 
 // Statistics of the difference view once the ground truth of the view is complete.
@@ -58,9 +62,14 @@ class Renderer {
   int height() const { return height_; }
 
   void SetMesh(const Mesh& mesh);
-  // New scene data: uploaded to every available mode. The error names each mode that cannot
+  // New scene data: uploaded to every available mode, or only to mode `only_mode` (the live
+  // mode's scene changes every frame: the other modes would recompute their tables for nothing;
+  // SyncMode uploads it to a mode when it becomes active). The error names each mode that cannot
   // take it (the others go on; ModeError(key) keeps each mode's own).
-  [[nodiscard]] absl::Status SetScene(const SceneData& scene);
+  [[nodiscard]] absl::Status SetScene(const SceneData& scene,
+                                      std::optional<int> only_mode = std::nullopt);
+  // Uploads the current scene to `key`'s mode if a SetScene skipped it (its error, else OK).
+  [[nodiscard]] absl::Status SyncMode(int key);
   const SceneData& scene() const { return scene_; }
 
   // Whether `key`'s mode is registered, available and has its inputs.
@@ -93,13 +102,15 @@ class Renderer {
   struct ModeSlot {
     const ModeInfo* info;
     std::unique_ptr<RenderMode> mode;
-    absl::Status init_status;  // not OK: unavailable (never uploaded or drawn)
-    absl::Status last_error;   // of the last Upload() or Draw()
+    absl::Status init_status;    // not OK: unavailable (never uploaded or drawn)
+    absl::Status last_error;     // of the last Upload() or Draw()
+    uint64_t scene_version = 0;  // the scene it has (SetScene's scene_version_)
   };
+  absl::Status UploadTo(ModeSlot& slot);
   ModeSlot* Slot(int key);
   const ModeSlot* Slot(int key) const;
   RenderMode* Mode(int key) const;
-  void DrawBackground(const OrbitCamera& camera, float aspect);
+  void DrawBackground(const OrbitCamera& camera, float aspect, const Mat3& rotation);
   void UpdateReference(const OrbitCamera& camera, const RenderSettings& settings);
   void ComputeDiffStats();
 

@@ -40,14 +40,12 @@ absl::StatusOr<Image> DownsampleLatLong(const Image& image, int width) {
   return out;
 }
 
-absl::StatusOr<std::shared_ptr<const EnvironmentData>> LoadEnvironment(const std::string& path,
-                                                                       int reference_width,
+absl::StatusOr<std::shared_ptr<EnvironmentData>> EnvironmentBackground(EnvMap map,
+                                                                       const std::string& path,
                                                                        int threads) {
-  EnvMapOptions options;
-  options.paths = {path};
-  SHRM_ASSIGN_OR_RETURN(EnvMap map, EnvMap::Load(options));
   auto env = std::make_shared<EnvironmentData>(std::move(map));
   env->path = path;
+  env->sh_lmax = -1;
   int width = env->map.NativeLatLongWidth();
   width = std::min(kMaxBackgroundWidth, std::max(2, width + (width & 1)));
   if (const Image* ll = env->map.lat_long_image(); ll != nullptr && ll->width <= width) {
@@ -60,6 +58,18 @@ absl::StatusOr<std::shared_ptr<const EnvironmentData>> LoadEnvironment(const std
     lum += 0.2126 * env->latlong.pixels[i] + 0.7152 * env->latlong.pixels[i + 1] +
            0.0722 * env->latlong.pixels[i + 2];
   env->mean_luminance = lum / std::max<size_t>(1, env->latlong.pixels.size() / 3);
+  return env;
+}
+
+absl::StatusOr<std::shared_ptr<const EnvironmentData>> LoadEnvironment(const std::string& path,
+                                                                       int reference_width,
+                                                                       int threads) {
+  EnvMapOptions options;
+  options.paths = {path};
+  SHRM_ASSIGN_OR_RETURN(EnvMap map, EnvMap::Load(options));
+  SHRM_ASSIGN_OR_RETURN(std::shared_ptr<EnvironmentData> env,
+                        EnvironmentBackground(std::move(map), path, threads));
+  env->sh_lmax = kSceneLightLmax;
   if (env->map.layout() == EnvLayout::kLatLong) {  // what the map's own grid resolves
     env->sh_lmax =
         std::max(0, std::min({env->sh_lmax, env->map.height() - 1, (env->map.width() - 1) / 2}));
@@ -79,10 +89,15 @@ absl::StatusOr<std::shared_ptr<const EnvironmentData>> LoadEnvironment(const std
 
 absl::StatusOr<ShrmData> ShrmDataFromCube(ShrmCube cube,
                                           std::map<std::string, std::string> attributes,
-                                          std::string origin, int threads) {
+                                          std::string origin, int threads, bool convert) {
   ShrmData d;
   const ShrmKind other = cube.kind == ShrmKind::kGlobal ? ShrmKind::kLocal : ShrmKind::kGlobal;
-  SHRM_ASSIGN_OR_RETURN(ShrmCube converted, ConvertShrmKind(cube, other, threads));
+  ShrmCube converted;
+  if (convert) {
+    SHRM_ASSIGN_OR_RETURN(converted, ConvertShrmKind(cube, other, threads));
+  } else {
+    converted.kind = other;
+  }
   if (cube.kind == ShrmKind::kGlobal) {
     d.global = std::move(cube);
     d.local = std::move(converted);

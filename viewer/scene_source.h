@@ -43,7 +43,7 @@ struct EnvironmentData {
   std::string path;
   EnvMap map;
   Image latlong;                  // working-space linear RGB, rows from the top (background)
-  int sh_lmax = kSceneLightLmax;  // less for lat-long maps too small to resolve it
+  int sh_lmax = kSceneLightLmax;  // less for lat-long maps too small to resolve it; -1: no sh
   std::vector<double> sh;         // RGB real SH L_lm, sh[ShIndex(l, m) * 3 + c], SH frame
   int reference_width = 0;        // lat-long width of the reference's samples
   std::shared_ptr<const ReferenceIntegrator> reference;
@@ -52,6 +52,12 @@ struct EnvironmentData {
   std::shared_ptr<const FastReference> fast_reference;
   double mean_luminance = 0;  // of the lat-long map, for the automatic exposure
 };
+
+// The part of EnvironmentData a map's background needs: the map, its lat-long copy (at most
+// kMaxBackgroundWidth wide) and mean luminance; no SH lighting (sh_lmax -1) and no ground truth
+// (the live mode's maps, viewer/live_source.h). Errors: those of the resampling.
+[[nodiscard]] absl::StatusOr<std::shared_ptr<EnvironmentData>> EnvironmentBackground(
+    EnvMap map, const std::string& path, int threads);
 
 // Loads --env: decode (layout by aspect ratio), lat-long copy, SH to kSceneLightLmax, and the
 // reference integrator over the map box-filtered to a reference_width x reference_width/2
@@ -82,9 +88,11 @@ struct ShrmData {
 };
 
 // Fills global + local from one cube (conversion, `threads` workers) and the fields from the
-// attributes.
+// attributes. convert = false leaves the other kind empty (face_size 0): the live mode converts
+// only while mode 2 shows the local SHRM.
 [[nodiscard]] absl::StatusOr<ShrmData> ShrmDataFromCube(
-    ShrmCube cube, std::map<std::string, std::string> attributes, std::string origin, int threads);
+    ShrmCube cube, std::map<std::string, std::string> attributes, std::string origin, int threads,
+    bool convert = true);
 [[nodiscard]] absl::StatusOr<ShrmData> LoadShrmData(const std::string& path, int threads);
 
 // The overlay's SHRM line: orders, size, the rule, and the measured error of the job's check

@@ -13,6 +13,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
+#include "core/envmap/sky.h"
 #include "jobs/cli_validators.h"
 #include "shrm/version.h"
 #include "viewer/error_report.h"
@@ -32,6 +33,82 @@ bool FolderExists(const std::string& path) {
   if (dir.empty()) dir = ".";
   std::error_code ec;
   return std::filesystem::is_directory(dir, ec);
+}
+
+// --date YYYY-MM-DD -> day of the year (1 = January 1st; sky::DayOfYear: the date must exist).
+bool ParseDayOfYear(const std::string& text, int* day) {
+  const std::vector<std::string> parts = absl::StrSplit(text, '-');
+  int y = 0, m = 0, d = 0;
+  if (parts.size() != 3 || !absl::SimpleAtoi(parts[0], &y) || !absl::SimpleAtoi(parts[1], &m) ||
+      !absl::SimpleAtoi(parts[2], &d)) {
+    return false;
+  }
+  const absl::StatusOr<int> doy = sky::DayOfYear(y, m, d);
+  if (!doy.ok()) return false;
+  *day = *doy;
+  return true;
+}
+
+// --time HH:MM[:SS] -> hours in [0, 24).
+bool ParseHours(const std::string& text, double* hours) {
+  const std::vector<std::string> parts = absl::StrSplit(text, ':');
+  int h = 0, m = 0, sec = 0;
+  if (parts.size() < 2 || parts.size() > 3 || !absl::SimpleAtoi(parts[0], &h) ||
+      !absl::SimpleAtoi(parts[1], &m) || (parts.size() == 3 && !absl::SimpleAtoi(parts[2], &sec)) ||
+      h < 0 || h > 23 || m < 0 || m > 59 || sec < 0 || sec > 59) {
+    return false;
+  }
+  *hours = h + m / 60.0 + sec / 3600.0;
+  return true;
+}
+
+// The live options' consistency (docs/viewer.md "Live"): "" if fine, else the usage message.
+std::string CheckLive(const CLI::App& app, const ViewerOptions& o, const std::string& kind) {
+  const char* const kLiveOnly[] = {"--live-speed", "--live-fps",  "--live-step", "--sequence",
+                                   "--date",       "--time",      "--lat",       "--lon",
+                                   "--meridian",   "--turbidity", "--sky-width"};
+  if (kind.empty()) {
+    for (const char* name : kLiveOnly)
+      if (app.count(name) > 0) return absl::StrCat(name, " needs --live rotate|sequence|sky");
+    return "";
+  }
+  if (!o.shrm_file.empty()) {
+    return "--live computes each frame's SHRM from the lighting: it does not show a file";
+  }
+  if (!o.server.empty()) return "--live runs its session here: --server is not supported with it";
+  if (app.count("--tolerance") > 0) {
+    return "--tolerance: the live session uses the paper's --epsilon rule or --orders (the "
+           "tolerance rule takes seconds per frame; shrm prefilter has it)";
+  }
+  if (app.count("--verify") > 0) {
+    return "--verify: live frames are not checked against brute force (shrm prefilter --verify "
+           "is)";
+  }
+  if (o.brdf.empty()) return "--live needs --brdf SPEC";
+  if (o.mode != 1 && o.mode != 2) {
+    return absl::StrCat("--live shows the SHRM in mode 1 or 2, got --mode ", o.mode);
+  }
+  if (o.diff) return "--diff needs the ground truth of a fixed map: not with --live";
+  const bool sky_options = app.count("--date") + app.count("--time") + app.count("--lat") +
+                               app.count("--lon") + app.count("--meridian") +
+                               app.count("--turbidity") + app.count("--sky-width") >
+                           0;
+  if (kind != "sky" && sky_options) {
+    return "--date, --time, --lat, --lon, --meridian, --turbidity and --sky-width need --live sky";
+  }
+  if (kind != "sequence" && app.count("--sequence") > 0) return "--sequence needs --live sequence";
+  if (kind != "sequence" && app.count("--live-fps") > 0) return "--live-fps needs --live sequence";
+  if (kind == "sequence" && app.count("--live-speed") > 0) {
+    return "--live-speed applies to --live rotate and sky (a sequence plays at --live-fps)";
+  }
+  if (kind == "rotate" && o.env.empty()) return "--live rotate needs --env MAP (the map turned)";
+  if (kind == "sequence" && o.live.sequence.empty()) {
+    return "--live sequence needs --sequence FILES... or --sequence FOLDER";
+  }
+  if (kind != "rotate" && !o.env.empty()) {
+    return absl::StrCat("--live ", kind, " makes its own lighting: --env is not used with it");
+  }
+  return "";
 }
 
 }  // namespace
@@ -87,7 +164,8 @@ int ParseViewerOptions(int argc, char** argv, ViewerOptions* o) {
                  "render N frames offscreen per mode and print ms/frame")
       ->check(CLI::Range(1, 100000));
   app.add_option("--frames", o->quit_after_frames,
-                 "interactive window: close after N frames (smoke tests)")
+                 "interactive window: close after N frames (smoke tests); with --live and "
+                 "--screenshot: the frames rendered before it (frame k at clock k x --live-step)")
       ->check(CLI::Range(1, 100000000));
   app.add_option("--ref-width", o->reference_width,
                  "lat-long width of the map the ground truth integrates (even)")
@@ -97,6 +175,43 @@ int ParseViewerOptions(int argc, char** argv, ViewerOptions* o) {
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--verbose", o->verbose, "print GL information and timings");
+  // --live (docs/viewer.md "Live").
+  std::string live, date, time;
+  app.add_option("--live", live,
+                 "live lighting, each frame's SHRM recomputed: rotate (--env turned about +Y), "
+                 "sequence (--sequence maps), sky (a procedural sky, moving sun)")
+      ->check(CLI::IsMember({"rotate", "sequence", "sky"}));
+  app.add_option("--live-speed", o->live.speed,
+                 "rotate: degrees per second (default 30); sky: hours of the day per second "
+                 "(default 0.5)")
+      ->check(CLI::Range(-1e4, 1e4));
+  app.add_option("--live-fps", o->live.fps, "sequence: frames per second, looping")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-3, 1e3));
+  app.add_option("--live-step", o->live.step,
+                 "deterministic clock: SECONDS of live time per rendered frame, each frame "
+                 "waiting for its state's SHRM (screenshots, tests)")
+      ->check(CLI::Range(1e-6, 86400.0));
+  app.add_option("--sequence", o->live.sequence,
+                 "sequence: the maps, one per frame (FILES...), or a folder of .exr frames")
+      ->expected(1, -1);
+  app.add_option("--date", date, "sky: date YYYY-MM-DD (default 2024-06-21)");
+  app.add_option("--time", time, "sky: local standard time at the start, HH:MM (default 06:00)");
+  app.add_option("--lat", o->live.sky.latitude_deg, "sky: latitude, degrees north")
+      ->capture_default_str()
+      ->check(CLI::Range(-90.0, 90.0));
+  app.add_option("--lon", o->live.sky.longitude_deg, "sky: longitude, degrees EAST")
+      ->capture_default_str()
+      ->check(CLI::Range(-180.0, 180.0));
+  app.add_option("--meridian", o->live.sky.meridian_deg,
+                 "sky: standard meridian of the time zone, degrees east (default 15 round(lon/15))")
+      ->check(CLI::Range(-180.0, 180.0));
+  app.add_option("--turbidity", o->live.sky.turbidity, "sky: atmospheric turbidity")
+      ->capture_default_str()
+      ->check(CLI::Range(sky::kMinTurbidity, sky::kMaxTurbidity));
+  app.add_option("--sky-width", o->live.sky.width, "sky: lat-long width of the rendered sky")
+      ->capture_default_str()
+      ->check(CLI::Range(16, 4096));
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -141,8 +256,31 @@ int ParseViewerOptions(int argc, char** argv, ViewerOptions* o) {
     Usage(absl::StrCat("--ref-width must be even, got ", o->reference_width));
     return kExitUsage;
   }
+  if (const std::string live_error = CheckLive(app, *o, live); !live_error.empty()) {
+    Usage(live_error);
+    return kExitUsage;
+  }
+  o->live_mode = !live.empty();
+  if (o->live_mode) {
+    o->live.kind = live == "rotate"     ? LiveKind::kRotate
+                   : live == "sequence" ? LiveKind::kSequence
+                                        : LiveKind::kSky;
+    o->live.env = o->env;
+    if (!date.empty() && !ParseDayOfYear(date, &o->live.sky.day_of_year)) {
+      Usage(absl::StrCat("--date must be a date YYYY-MM-DD, got '", date, "'"));
+      return kExitUsage;
+    }
+    if (!time.empty() && !ParseHours(time, &o->live.sky.time_h)) {
+      Usage(absl::StrCat("--time must be a time HH:MM[:SS] in 00:00 .. 23:59, got '", time, "'"));
+      return kExitUsage;
+    }
+    if (o->live.sky.width % 2 != 0) {
+      Usage(absl::StrCat("--sky-width must be even, got ", o->live.sky.width));
+      return kExitUsage;
+    }
+  }
   // Sources.
-  if (o->shrm_file.empty() && (o->env.empty() || o->brdf.empty())) {
+  if (!o->live_mode && o->shrm_file.empty() && (o->env.empty() || o->brdf.empty())) {
     Usage("nothing to show: give an SHRM file, or --env MAP --brdf SPEC");
     return kExitUsage;
   }

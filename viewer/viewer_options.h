@@ -8,6 +8,7 @@
 
 #include "jobs/prefilter_job.h"
 #include "viewer/camera.h"
+#include "viewer/live_source.h"
 #include "viewer/scene_source.h"
 
 namespace shrm::viewer {
@@ -45,6 +46,10 @@ struct ViewerOptions {
   int reference_width = 128;
   int threads = 0;  // 0 = hardware concurrency
   bool verbose = false;
+  // --live KIND (docs/viewer.md "Live"): the lighting changes with a clock, each state's SHRM
+  // recomputed by a live session; `live` holds its options when live_mode.
+  bool live_mode = false;
+  LiveSpec live;
 };
 
 // Parses argv. Returns -1 to go on, or the exit code to exit with (0 after --help); messages go
