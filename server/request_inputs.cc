@@ -38,6 +38,11 @@ class BlobBrdf final : public Brdf {
   void ReparamTransferAll(double theta_i, double theta_o, double phi, double* out) const override {
     inner_->ReparamTransferAll(theta_i, theta_o, phi, out);
   }
+  void ReparamTransferArc(double theta_i, double theta_o, std::span<const double> phi,
+                          double* out) const override {
+    inner_->ReparamTransferArc(theta_i, theta_o, phi, out);
+  }
+  bool analytic() const override { return inner_->analytic(); }
 
  private:
   std::unique_ptr<Brdf> inner_;

@@ -44,6 +44,25 @@ void Brdf::ReparamTransferAll(double theta_i, double theta_o, double phi, double
   for (int c = 0; c < channels(); ++c) out[c] = ReparamTransfer(theta_i, theta_o, phi, c);
 }
 
+void Brdf::ReparamTransferArc(double theta_i, double theta_o, std::span<const double> phi,
+                              double* out) const {
+  for (size_t k = 0; k < phi.size(); ++k) {
+    ReparamTransferAll(theta_i, theta_o, phi[k], out + k * channels());
+  }
+}
+
+void Brdf::TransferArc(double theta_i, double theta_o, std::span<const double> phi,
+                       double* out) const {
+  // MakeReparamGeometry with theta_i and theta_o's sines and cosines taken once.
+  const ReparamGeometry g0 = MakeReparamGeometry(reparam(), theta_i, theta_o, 0.0);
+  const double si = std::sin(theta_i);
+  const int nc = channels();
+  for (size_t k = 0; k < phi.size(); ++k) {
+    const Vec3 w{si * std::cos(phi[k]), si * std::sin(phi[k]), g0.w.z};
+    for (int c = 0; c < nc; ++c) out[k * nc + c] = Transfer(g0.n, g0.v, w, c);
+  }
+}
+
 void ReparamAngles(ReparamKind kind, const Vec3& n, const Vec3& v, const Vec3& w, double* theta_i,
                    double* theta_o, double* phi) {
   Vec3 pole = kind == ReparamKind::kTangent ? n : n * (2.0 * n.Dot(v)) - v;

@@ -31,6 +31,10 @@ class LambertBrdf final : public Brdf {
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override { return {16, 8}; }
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
+  void ReparamTransferArc(double theta_i, double theta_o, std::span<const double> phi,
+                          double* out) const override {
+    TransferArc(theta_i, theta_o, phi, out);
+  }
 
  private:
   double albedo_;
@@ -57,6 +61,10 @@ class MicrofacetBrdf final : public Brdf {
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
+  void ReparamTransferArc(double theta_i, double theta_o, std::span<const double> phi,
+                          double* out) const override {
+    TransferArc(theta_i, theta_o, phi, out);
+  }
   double ReparamTransfer(double theta_i, double theta_o, double phi, int c) const override;
 
  private:
@@ -80,6 +88,10 @@ class LafortuneBrdf final : public Brdf {
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
+  void ReparamTransferArc(double theta_i, double theta_o, std::span<const double> phi,
+                          double* out) const override {
+    TransferArc(theta_i, theta_o, phi, out);
+  }
 
  private:
   std::vector<LafortuneLobe> lobes_;
@@ -106,6 +118,10 @@ class WardBrdf final : public Brdf {
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
+  void ReparamTransferArc(double theta_i, double theta_o, std::span<const double> phi,
+                          double* out) const override {
+    TransferArc(theta_i, theta_o, phi, out);
+  }
 
  private:
   double alpha_x_, alpha_y_, rho_s_, rho_d_;
@@ -122,6 +138,10 @@ class GgxBrdf final : public Brdf {
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
+  void ReparamTransferArc(double theta_i, double theta_o, std::span<const double> phi,
+                          double* out) const override {
+    TransferArc(theta_i, theta_o, phi, out);
+  }
   // f_r itself (no cosine), for MERL generation and tests.
   double Evaluate(const Vec3& n, const Vec3& v, const Vec3& w) const;
   double alpha() const { return alpha_; }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -107,6 +108,26 @@ class AzimuthRule {
     }
   }
 
+  // Horizon-clipped models: Cosines() and Squares() from the same evaluations (the visible arc's
+  // Gauss-Legendre nodes), for the split rule.
+  void CosinesAndSquares(double theta_i, double cos_i, double sin_i, double theta_o, double* cq,
+                         double* sq) {
+    std::fill(cq, cq + (qmax_ + 1) * channels_, 0.0);
+    std::fill(sq, sq + channels_, 0.0);
+    const double arc = VisibleArc(cos_i, sin_i, theta_o);
+    if (arc <= 0) return;
+    arc_phi_.resize(n_phi_);
+    arc_values_.resize(static_cast<size_t>(n_phi_) * channels_);
+    for (int m = 0; m < n_phi_; ++m) arc_phi_[m] = arc * 0.5 * (1.0 + gl_.cos_theta[m]);
+    brdf_.ReparamTransferArc(theta_i, theta_o, arc_phi_, arc_values_.data());
+    for (int m = 0; m < n_phi_; ++m) {
+      const double w = arc * 0.5 * gl_.weight[m];
+      const double* v = &arc_values_[static_cast<size_t>(m) * channels_];
+      AddCosines(arc_phi_[m], w / kPi, v, cq);
+      for (int c = 0; c < channels_; ++c) sq[c] += w * v[c] * v[c];
+    }
+  }
+
   // out[c] = integral_0^pi rho-hat^2 dphi.
   void Squares(double theta_i, double cos_i, double sin_i, double theta_o, double* out) {
     std::fill(out, out + channels_, 0.0);
@@ -136,13 +157,17 @@ class AzimuthRule {
  private:
   void Accumulate(double theta_i, double theta_o, double phi, double weight, double* cq) {
     brdf_.ReparamTransferAll(theta_i, theta_o, phi, values_.data());
+    AddCosines(phi, weight, values_.data(), cq);
+  }
+  // cq[q * channels + c] += weight cos(q phi) values[c], q = 0..qmax.
+  void AddCosines(double phi, double weight, const double* values, double* cq) {
     const double c1 = std::cos(phi);
     cosq_[0] = 1.0;
     if (qmax_ >= 1) cosq_[1] = c1;
     for (int q = 2; q <= qmax_; ++q) cosq_[q] = 2.0 * c1 * cosq_[q - 1] - cosq_[q - 2];
     for (int q = 0; q <= qmax_; ++q) {
       const double wq = weight * cosq_[q];
-      for (int c = 0; c < channels_; ++c) cq[q * channels_ + c] += wq * values_[c];
+      for (int c = 0; c < channels_; ++c) cq[q * channels_ + c] += wq * values[c];
     }
   }
 
@@ -152,9 +177,61 @@ class AzimuthRule {
   const RingQuadrature gl_;
   std::vector<double> uniform_phi_, uniform_w_;
   std::vector<double> values_, cosq_;
+  std::vector<double> arc_phi_, arc_values_;
 };
 
 int Or(int value, int fallback) { return value > 0 ? value : fallback; }
+
+// lambda_l^m(cos theta) for m <= mmax only, by the recurrences of NormalizedLegendre (core/sh/sh.h)
+// with their coefficients computed once: out[m * (lmax + 1) + l], l >= m.
+class LegendreColumns {
+ public:
+  LegendreColumns(int lmax, int mmax) : nl_(lmax + 1), mmax_(std::min(mmax, lmax)) {
+    a_.assign(static_cast<size_t>(mmax_ + 1) * nl_, 0.0);
+    b_.assign(a_.size(), 0.0);
+    for (int m = 0; m <= mmax_; ++m) {
+      for (int l = m + 2; l < nl_; ++l) {
+        const double ll = static_cast<double>(l) * l, mm = static_cast<double>(m) * m;
+        a_[m * nl_ + l] = std::sqrt((4.0 * ll - 1.0) / (ll - mm));
+        b_[m * nl_ + l] =
+            std::sqrt(((l - 1.0) * (l - 1.0) - mm) / (4.0 * (l - 1.0) * (l - 1.0) - 1.0));
+      }
+    }
+  }
+  size_t size() const { return static_cast<size_t>(mmax_ + 1) * nl_; }
+  void Eval(double x, double s, double* out) const {
+    double pmm = std::sqrt(1.0 / (4.0 * kPi));  // lambda_0^0
+    for (int m = 0; m <= mmax_; ++m) {
+      double* col = out + static_cast<size_t>(m) * nl_;
+      if (m > 0) pmm *= -std::sqrt((2.0 * m + 1.0) / (2.0 * m)) * s;
+      col[m] = pmm;
+      if (m + 1 >= nl_) continue;
+      double p2 = pmm, p1 = std::sqrt(2.0 * m + 3.0) * x * pmm;
+      col[m + 1] = p1;
+      const double* a = &a_[m * nl_];
+      const double* b = &b_[m * nl_];
+      for (int l = m + 2; l < nl_; ++l) {
+        const double p = a[l] * (x * p1 - b[l] * p2);
+        col[l] = p;
+        p2 = p1;
+        p1 = p;
+      }
+    }
+  }
+
+ private:
+  int nl_, mmax_;
+  std::vector<double> a_, b_;
+};
+
+// The fewest Gauss-Legendre nodes of each piece of the split rule.
+constexpr int kSplitMinNodes = 16;
+
+bool UsesSplitRule(const Brdf& brdf, const BrdfSampling& s) {
+  return brdf.analytic() && brdf.clipped_at_normal_horizon() &&
+         brdf.reparam() == ReparamKind::kReflection && !brdf.azimuth_independent() &&
+         !s.coefficients_uniform;
+}
 
 absl::Status CheckSampling(const BrdfSampling& s) {
   const int values[] = {s.theta_i,
@@ -205,6 +282,103 @@ void RadialCoefficients(const Brdf& brdf, int lmax, const BrdfSampling& s, BrdfC
       out->values[out->Index(l, 0, 0, c)] = std::sqrt(4.0 * kPi) * rho[l * channels + c];
     }
   }
+}
+
+// Horizon-clipped models (the split rule, docs/brdf.md "Sampling"): for each theta_o' node the
+// theta_i' integral is split where the visible azimuth arc starts to shrink (a = pi/2 - t_o/2)
+// and where it closes (b = pi/2 + t_o/2; nothing is visible beyond). On [0, a] the integrand is
+// smooth: Gauss-Legendre in cos theta_i'. On [a, b] it has square-root ends: the substitution
+// theta = a + (b - a)(3u^2 - 2u^3), whose derivative vanishes at both ends, makes it smooth in u.
+// Both rules then converge fast, where one Gauss-Legendre rule over the whole [-1, 1] converges
+// only algebraically across the kinks. The same evaluations give the energy (the integral of
+// rho-hat^2, eq. 5.18), so the coefficients and their denominator come from one pass.
+void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling& s,
+                       BrdfCoefficients* out) {
+  const int channels = brdf.channels();
+  const int qmax = pmax;
+  const int sharp = brdf.bandwidth_hint().lmax;
+  // Nodes: the fully visible piece (width <= pi/2) resolves degree lmax times the lobe; the
+  // shrinking piece (width theta_o' <= pi, its nodes gathered at both ends by the substitution)
+  // takes as many per radian at its widest, fewer as it narrows.
+  const int n_full = Or(s.theta_i, std::max(kSplitMinNodes, (lmax + sharp) / 2 + 8));
+  const int n_shrink_max = std::max(kSplitMinNodes, (lmax + sharp) / 2 + lmax / 2 + 12);
+  const int n_o = Or(s.theta_o, std::max(4 * pmax + 16, 40));
+  const int n_phi = Or(s.phi, std::max(2 * pmax + 12, 20));
+  const RingQuadrature ro = GaussLegendreRule(n_o);
+  const RingQuadrature g_full = GaussLegendreRule(n_full);
+  std::map<int, RingQuadrature> g_shrink;  // by node count
+  const int nl = lmax + 1, np = pmax + 1, nq = qmax + 1;
+  const LegendreColumns legendre_i(lmax, qmax), legendre_o(pmax, qmax);
+  std::vector<double> lam_i(legendre_i.size()), lam_o(legendre_o.size());
+  AzimuthRule azimuth(brdf, n_phi, qmax);
+  std::vector<double> cq(nq * channels), sq(channels);
+  std::vector<double> acc(static_cast<size_t>(channels) * nq * nl);  // [(c * nq + q) * nl + l]
+  std::vector<double> energy(channels, 0.0), energy_k(channels);
+  const double scale = 4.0 * kPi * kPi;
+  // One theta_i' node: its Legendre values, azimuthal integrals and weighted sums.
+  auto node = [&](double theta_i, double cos_i, double sin_i, double theta_o, double w) {
+    azimuth.CosinesAndSquares(theta_i, cos_i, sin_i, theta_o, cq.data(), sq.data());
+    for (int c = 0; c < channels; ++c) energy_k[c] += w * sq[c];
+    legendre_i.Eval(cos_i, sin_i, lam_i.data());
+    for (int q = 0; q <= qmax; ++q) {
+      const double* lam = &lam_i[static_cast<size_t>(q) * nl];
+      for (int c = 0; c < channels; ++c) {
+        const double a = w * cq[q * channels + c];
+        if (a == 0) continue;
+        double* dst = &acc[(c * nq + q) * nl];
+        for (int l = q; l <= lmax; ++l) dst[l] += a * lam[l];
+      }
+    }
+  };
+  for (int k = 0; k < n_o; ++k) {
+    std::fill(acc.begin(), acc.end(), 0.0);
+    std::fill(energy_k.begin(), energy_k.end(), 0.0);
+    // theta_o' = pi (3u^2 - 2u^3): at the grazing end (theta_o' -> pi, N.V = cos(theta_o'/2) -> 0)
+    // models with 1/(N.V) factors (GGX, Ward) have square-root and 1/x behaviour that this
+    // substitution turns smooth; the weight carries sin theta_o'.
+    const double u_o = 0.5 * (1.0 + ro.cos_theta[k]);
+    const double theta_o = kPi * u_o * u_o * (3.0 - 2.0 * u_o);
+    const double cos_o = std::cos(theta_o), sin_o = std::sin(theta_o);
+    const double w_o = 0.5 * ro.weight[k] * kPi * 6.0 * u_o * (1.0 - u_o) * sin_o;
+    const double a = 0.5 * kPi - 0.5 * theta_o, b = 0.5 * kPi + 0.5 * theta_o;
+    // [0, a] in x = cos theta_i' over [cos a, 1] (dx = sin theta dtheta).
+    const double xa = std::cos(a);
+    for (int j = 0; j < n_full; ++j) {
+      const double x = xa + (1.0 - xa) * 0.5 * (1.0 + g_full.cos_theta[j]);
+      const double w = (1.0 - xa) * 0.5 * g_full.weight[j];
+      const double sin_i = std::sqrt(std::max(0.0, 1.0 - x * x));
+      node(std::acos(x), x, sin_i, theta_o, w);
+    }
+    // [a, b], smoothed.
+    if (b - a > 0) {
+      const int n =
+          std::max(kSplitMinNodes, static_cast<int>(std::ceil(n_shrink_max * (b - a) / kPi)));
+      auto it = g_shrink.find(n);
+      if (it == g_shrink.end()) it = g_shrink.emplace(n, GaussLegendreRule(n)).first;
+      const RingQuadrature& g = it->second;
+      for (int j = 0; j < n; ++j) {
+        const double u = 0.5 * (1.0 + g.cos_theta[j]);
+        const double t = a + (b - a) * u * u * (3.0 - 2.0 * u);
+        const double dt = (b - a) * 6.0 * u * (1.0 - u);
+        const double sin_i = std::sin(t);
+        node(t, std::cos(t), sin_i, theta_o, 0.5 * g.weight[j] * dt * sin_i);
+      }
+    }
+    for (int c = 0; c < channels; ++c) energy[c] += w_o * energy_k[c];
+    legendre_o.Eval(cos_o, sin_o, lam_o.data());
+    for (int q = 0; q <= qmax; ++q) {
+      for (int p = q; p <= pmax; ++p) {
+        const double bq = scale * w_o * lam_o[static_cast<size_t>(q) * np + p];
+        for (int c = 0; c < channels; ++c) {
+          const double* src = &acc[(c * nq + q) * nl];
+          for (int l = q; l <= lmax; ++l) out->values[out->Index(l, p, q, c)] += bq * src[l];
+        }
+      }
+    }
+  }
+  // 2 pi (phi_o') * 2 (phi over [0, pi] only, rho-hat even) = 4 pi (eq. 5.18).
+  out->total_energy.assign(channels, 0.0);
+  for (int c = 0; c < channels; ++c) out->total_energy[c] = 4.0 * kPi * energy[c];
 }
 
 void SeparableCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling& s,
@@ -375,6 +549,9 @@ absl::StatusOr<BrdfCoefficients> ComputeBrdfCoefficients(const Brdf& brdf, int l
   out.values.assign(static_cast<size_t>(lmax + 1) * (pmax + 1) * (pmax + 1) * out.channels, 0.0);
   if (brdf.radially_symmetric()) {
     RadialCoefficients(brdf, lmax, sampling, &out);
+  } else if (UsesSplitRule(brdf, sampling)) {
+    SplitCoefficients(brdf, lmax, pmax, sampling, &out);
+    return out;  // the energy from the same evaluations
   } else {
     SeparableCoefficients(brdf, lmax, pmax, sampling, &out);
   }

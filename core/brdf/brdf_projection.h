@@ -49,6 +49,15 @@ struct BrdfSampling {
   int energy_panel_order = 0;
   int energy_phi = 0;
   bool energy_uniform_panels = false;
+  // Horizon-clipped models (microfacet, GGX, Ward, Lafortune, ...) take the split rule for their
+  // coefficients by default: per theta_o' node, theta_i' split where the visible arc starts to
+  // shrink and where it closes, Gauss-Legendre on each piece (the second smoothed by a
+  // substitution), the energy from the same evaluations. There theta_i is the nodes of the fully
+  // visible piece (default max(16, (lmax + h) / 2 + 8), the shrinking piece half of it, >= 16),
+  // theta_o default max(2 pmax + 16, 32) and phi max(2 pmax + 12, 20) nodes on the visible arc.
+  // coefficients_uniform = true takes the single rules above instead (and BrdfEnergy): the
+  // slower rule the split one is tested against.
+  bool coefficients_uniform = false;
 };
 
 // Coefficients for l <= lmax, p <= pmax (0 <= lmax <= kMaxBrdfLmax, 0 <= pmax <= kMaxBrdfPmax),

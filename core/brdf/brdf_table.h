@@ -57,6 +57,7 @@ class TableBrdf final : public Brdf {
   std::string spec() const override { return "table:" + path_; }
   int channels() const override { return table_.channels; }
   ReparamKind reparam() const override { return table_.reparam; }
+  bool analytic() const override { return false; }
   bool clipped_at_normal_horizon() const override { return table_.clipped_at_normal_horizon; }
   bool azimuth_independent() const override { return table_.n_phi == 1; }
   BrdfBandwidthHint bandwidth_hint() const override;

@@ -66,6 +66,7 @@ class MerlBrdf final : public Brdf {
       : data_(std::move(data)), path_(std::move(path)) {}
   std::string spec() const override { return "merl:" + path_; }
   int channels() const override { return 3; }
+  bool analytic() const override { return false; }
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override { return {48, 6}; }
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
