@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -14,6 +16,17 @@ namespace shrm {
 namespace {
 
 constexpr int kRadialPanelOrder = 10;
+
+// Gauss-Legendre rules by node count, computed once per process (their Newton iterations took a
+// quarter of a BRDF stage's time). Rules are immutable; the references stay valid.
+const RingQuadrature& CachedGaussLegendre(int n) {
+  static std::mutex mu;
+  static auto* rules = new std::map<int, std::unique_ptr<const RingQuadrature>>();
+  std::lock_guard<std::mutex> lock(mu);
+  auto& rule = (*rules)[n];
+  if (rule == nullptr) rule = std::make_unique<const RingQuadrature>(GaussLegendreRule(n));
+  return *rule;
+}
 constexpr int kDefaultEnergyPanelOrder = 8;
 
 struct Rule1D {
@@ -72,7 +85,7 @@ class AzimuthRule {
         n_phi_(n_phi),
         clipped_(brdf.clipped_at_normal_horizon() && brdf.reparam() == ReparamKind::kReflection),
         flat_(brdf.azimuth_independent()),
-        gl_(GaussLegendreRule(n_phi)),
+        gl_(CachedGaussLegendre(n_phi)),
         values_(channels_),
         cosq_(qmax + 1) {
     if (!clipped_ && !flat_) {
@@ -123,7 +136,7 @@ class AzimuthRule {
     for (int m = 0; m < n_phi_; ++m) {
       const double w = arc * 0.5 * gl_.weight[m];
       const double* v = &arc_values_[static_cast<size_t>(m) * channels_];
-      AddCosines(arc_phi_[m], w / kPi, v, cq);
+      AddCosines(std::cos(arc_phi_[m]), w / kPi, v, cq);
       for (int c = 0; c < channels_; ++c) sq[c] += w * v[c] * v[c];
     }
   }
@@ -157,11 +170,10 @@ class AzimuthRule {
  private:
   void Accumulate(double theta_i, double theta_o, double phi, double weight, double* cq) {
     brdf_.ReparamTransferAll(theta_i, theta_o, phi, values_.data());
-    AddCosines(phi, weight, values_.data(), cq);
+    AddCosines(std::cos(phi), weight, values_.data(), cq);
   }
-  // cq[q * channels + c] += weight cos(q phi) values[c], q = 0..qmax.
-  void AddCosines(double phi, double weight, const double* values, double* cq) {
-    const double c1 = std::cos(phi);
+  // cq[q * channels + c] += weight cos(q phi) values[c], q = 0..qmax (c1 = cos phi).
+  void AddCosines(double c1, double weight, const double* values, double* cq) {
     cosq_[0] = 1.0;
     if (qmax_ >= 1) cosq_[1] = c1;
     for (int q = 2; q <= qmax_; ++q) cosq_[q] = 2.0 * c1 * cosq_[q - 1] - cosq_[q - 2];
@@ -174,7 +186,7 @@ class AzimuthRule {
   const Brdf& brdf_;
   const int channels_, qmax_, n_phi_;
   const bool clipped_, flat_;
-  const RingQuadrature gl_;
+  const RingQuadrature& gl_;
   std::vector<double> uniform_phi_, uniform_w_;
   std::vector<double> values_, cosq_;
   std::vector<double> arc_phi_, arc_values_;
@@ -304,9 +316,8 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
   const int n_shrink_max = std::max(kSplitMinNodes, (lmax + sharp) / 2 + lmax / 2 + 12);
   const int n_o = Or(s.theta_o, std::max(4 * pmax + 16, 40));
   const int n_phi = Or(s.phi, std::max(2 * pmax + 12, 20));
-  const RingQuadrature ro = GaussLegendreRule(n_o);
-  const RingQuadrature g_full = GaussLegendreRule(n_full);
-  std::map<int, RingQuadrature> g_shrink;  // by node count
+  const RingQuadrature& ro = CachedGaussLegendre(n_o);
+  const RingQuadrature& g_full = CachedGaussLegendre(n_full);
   const int nl = lmax + 1, np = pmax + 1, nq = qmax + 1;
   const LegendreColumns legendre_i(lmax, qmax), legendre_o(pmax, qmax);
   std::vector<double> lam_i(legendre_i.size()), lam_o(legendre_o.size());
@@ -353,9 +364,7 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
     if (b - a > 0) {
       const int n =
           std::max(kSplitMinNodes, static_cast<int>(std::ceil(n_shrink_max * (b - a) / kPi)));
-      auto it = g_shrink.find(n);
-      if (it == g_shrink.end()) it = g_shrink.emplace(n, GaussLegendreRule(n)).first;
-      const RingQuadrature& g = it->second;
+      const RingQuadrature& g = CachedGaussLegendre(n);
       for (int j = 0; j < n; ++j) {
         const double u = 0.5 * (1.0 + g.cos_theta[j]);
         const double t = a + (b - a) * u * u * (3.0 - 2.0 * u);
