@@ -315,7 +315,7 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
   const int n_full = Or(s.theta_i, std::max(kSplitMinNodes, (lmax + sharp) / 2 + 8));
   const int n_shrink_max = std::max(kSplitMinNodes, (lmax + sharp) / 2 + lmax / 2 + 12);
   const int n_o = Or(s.theta_o, std::max(4 * pmax + 16, 40));
-  const int n_phi = Or(s.phi, std::max(2 * pmax + 12, 20));
+  const int n_phi = Or(s.phi, std::max(2 * pmax + 8, 16));
   const RingQuadrature& ro = CachedGaussLegendre(n_o);
   const RingQuadrature& g_full = CachedGaussLegendre(n_full);
   const int nl = lmax + 1, np = pmax + 1, nq = qmax + 1;

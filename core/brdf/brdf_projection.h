@@ -54,7 +54,7 @@ struct BrdfSampling {
   // shrink and where it closes, Gauss-Legendre on each piece (the second smoothed by a
   // substitution), the energy from the same evaluations. There theta_i is the nodes of the fully
   // visible piece (default max(16, (lmax + h) / 2 + 8), the shrinking piece half of it, >= 16),
-  // theta_o default max(2 pmax + 16, 32) and phi max(2 pmax + 12, 20) nodes on the visible arc.
+  // theta_o default max(4 pmax + 16, 40) and phi max(2 pmax + 8, 16) nodes on the visible arc.
   // coefficients_uniform = true takes the single rules above instead (and BrdfEnergy): the
   // slower rule the split one is tested against.
   bool coefficients_uniform = false;
