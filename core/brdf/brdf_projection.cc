@@ -331,7 +331,7 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
     azimuth.CosinesAndSquares(theta_i, cos_i, sin_i, theta_o, cq.data(), sq.data());
     for (int c = 0; c < channels; ++c) energy_k[c] += w * sq[c];
     legendre_i.Eval(cos_i, sin_i, lam_i.data());
-    for (int q = 0; q <= qmax; ++q) {
+    for (int q = 0; q <= std::min(qmax, lmax); ++q) {  // rho_lpq needs l >= q (lam_i: m <= lmax)
       const double* lam = &lam_i[static_cast<size_t>(q) * nl];
       for (int c = 0; c < channels; ++c) {
         const double a = w * cq[q * channels + c];
