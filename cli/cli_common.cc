@@ -3,8 +3,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <thread>
 
@@ -19,6 +21,7 @@
 #include "core/envmap/lighting.h"
 #include "core/io/atomic_file.h"
 #include "core/io/image.h"
+#include "core/io/image_module.h"
 #include "core/io/sha256.h"
 #include "jobs/job_options.h"
 #include "jobs/option_text.h"
@@ -81,18 +84,34 @@ void WarnReplacedNonFinite(int64_t count) {
 }
 
 namespace {
-// The security flags of --server (one subcommand runs per process).
-client::ClientOptions& ServerFlags() {
-  static client::ClientOptions options;
-  return options;
+
+// The security flags of --server (one subcommand runs per process), as given.
+struct ServerFlagValues {
+  std::string token_file, tls_ca_file, tls_cert_file, tls_key_file, tls_server_name;
+};
+ServerFlagValues& ServerFlags() {
+  static ServerFlagValues flags;
+  return flags;
 }
+
+struct CommandLine {
+  int argc = 0;
+  char** argv = nullptr;
+};
+CommandLine& ThisCommandLine() {
+  static CommandLine line;
+  return line;
+}
+
 }  // namespace
+
+void SetCommandLine(int argc, char** argv) { ThisCommandLine() = {argc, argv}; }
 
 void AddServerOption(CLI::App* app, std::string* server) {
   app->add_option("--server", *server,
                   "run on an shrmd service at host:port (or dns:///host:port) instead of "
                   "in-process; the map files are uploaded when the server lacks them");
-  client::ClientOptions& o = ServerFlags();
+  ServerFlagValues& o = ServerFlags();
   app->add_option("--token-file", o.token_file,
                   "with --server: file whose first line is the bearer token (else "
                   "$SHRM_TOKEN_FILE)")
@@ -111,11 +130,19 @@ void AddServerOption(CLI::App* app, std::string* server) {
                   "with --server: the name checked against the server certificate");
 }
 
+#if SHRM_CLI_HAS_CLIENT
+
 absl::StatusOr<std::unique_ptr<client::ShrmClient>> ConnectServer(const std::string& server) {
-  const client::ClientOptions& o = ServerFlags();
-  if (!o.tls_cert_file.empty() != !o.tls_key_file.empty()) {
+  const ServerFlagValues& f = ServerFlags();
+  if (!f.tls_cert_file.empty() != !f.tls_key_file.empty()) {
     return absl::InvalidArgumentError("--tls-cert and --tls-key go together");
   }
+  client::ClientOptions o;
+  o.token_file = f.token_file;
+  o.tls_ca_file = f.tls_ca_file;
+  o.tls_cert_file = f.tls_cert_file;
+  o.tls_key_file = f.tls_key_file;
+  o.tls_server_name = f.tls_server_name;
   absl::StatusOr<std::unique_ptr<client::ShrmClient>> c = client::ShrmClient::Connect(server, o);
   if (!c.ok()) return WithMessage(c.status(), absl::StrCat("--server: ", c.status().message()));
   return c;
@@ -128,6 +155,31 @@ client::RetryCallback RetryReporter(const std::string& server, bool quiet) {
                  std::string(s.message()).c_str(), attempt, max_attempts);
   };
 }
+
+#else
+
+absl::Status RunWithClient() {
+  const CommandLine& line = ThisCommandLine();
+  if (line.argv == nullptr) {
+    return absl::InternalError("--server: the command line was not kept (SetCommandLine)");
+  }
+  std::vector<std::string> tried;
+  for (const std::string& dir : image_module::SearchDirs()) {
+    const std::string path = absl::StrCat(dir, "/", kRemoteProgram);
+    if (::access(path.c_str(), X_OK) != 0) {
+      tried.push_back(absl::StrCat(path, " (", std::strerror(errno), ")"));
+      continue;
+    }
+    std::fflush(nullptr);
+    ::execv(path.c_str(), line.argv);  // returns only on failure
+    tried.push_back(absl::StrCat(path, " (", std::strerror(errno), ")"));
+  }
+  return absl::FailedPreconditionError(absl::StrCat(
+      "--server needs shrm's service client (", kRemoteProgram, "), which cannot be run; tried: ",
+      absl::StrJoin(tried, "; "), ". Reinstall shrm or set SHRM_MODULE_DIR"));
+}
+
+#endif
 
 absl::StatusOr<Vec3> ParseDirection(const std::string& text, const char* what) {
   return jobs::ParseDirectionText(text, what);

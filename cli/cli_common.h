@@ -7,13 +7,16 @@
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#if SHRM_CLI_HAS_CLIENT
 #include "client/remote_jobs.h"
 #include "client/shrm_client.h"
+#endif
 #include "core/base/geometry.h"
 #include "core/envmap/envmap.h"
 #include "core/shrm/radiance_cube.h"
@@ -50,10 +53,23 @@ void WarnReplacedNonFinite(int64_t count);
 // connection's security flags --token-file, --tls-ca, --tls-cert, --tls-key, --tls-server-name
 // (they override SHRM_TOKEN_FILE, SHRM_TLS_CA, SHRM_TLS_CERT, SHRM_TLS_KEY; docs/server.md).
 void AddServerOption(CLI::App* app, std::string* server);
+#if SHRM_CLI_HAS_CLIENT
 // A client for --server with the security flags given to this process.
 absl::StatusOr<std::unique_ptr<client::ShrmClient>> ConnectServer(const std::string& server);
 // Prints each retry of a remote job on stderr unless `quiet`.
 client::RetryCallback RetryReporter(const std::string& server, bool quiet);
+#else
+// The `shrm` program has no service client: gRPC and Protobuf would cost every command their
+// start-up time (docs/architecture.md "Start-up"). A command line with --server is run again,
+// whole and as given, by the program that has the client (shrm-remote, found where the image
+// module is: core/io/image_module.h). Replaces the process; returns only when that program
+// cannot be run, with an error that names where it looked.
+[[nodiscard]] absl::Status RunWithClient();
+#endif
+// The program that runs command lines with --server (installed to LIBDIR/shrm).
+inline constexpr char kRemoteProgram[] = "shrm-remote";
+// Keeps the command line of this process (for RunWithClient).
+void SetCommandLine(int argc, char** argv);
 
 // Parses "x,y,z" into a unit vector; errors name `what` (e.g. "--normal").
 absl::StatusOr<Vec3> ParseDirection(const std::string& text, const char* what);

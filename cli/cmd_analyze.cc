@@ -189,6 +189,9 @@ absl::Status AnalyzeBoth(const AnalyzeArgs& a, const Brdf& brdf) {
 
 // --server: the analysis on shrmd (needs --brdf; the lighting-only analysis is embedded only).
 absl::Status AnalyzeRemote(const AnalyzeArgs& a) {
+#if !SHRM_CLI_HAS_CLIENT
+  return RunWithClient();
+#else
   if (a.brdf.empty()) {
     return absl::InvalidArgumentError(
         "--server needs --brdf (lighting-only analysis runs "
@@ -246,6 +249,7 @@ absl::Status AnalyzeRemote(const AnalyzeArgs& a) {
     }
   }
   return absl::OkStatus();
+#endif  // SHRM_CLI_HAS_CLIENT
 }
 
 absl::Status RunAnalyze(const AnalyzeArgs& a) {
@@ -266,10 +270,8 @@ absl::Status RunAnalyze(const AnalyzeArgs& a) {
 
 }  // namespace
 
-void RegisterAnalyze(CLI::App& app, absl::Status* status) {
+void DefineAnalyze(CLI::App* sub, absl::Status* status) {
   auto args = std::make_shared<AnalyzeArgs>();
-  CLI::App* sub = app.add_subcommand(
-      "analyze", "orders and error estimates (sec. 5.5) of a map, a BRDF, or both");
   AddEnvOptions(sub, &args->env, /*required=*/false);
   sub->add_option("map", args->env.files, "environment map (same as --env)");
   sub->add_option("--brdf", args->brdf, "BRDF spec, e.g. phong:s=32 (docs/brdf.md)");

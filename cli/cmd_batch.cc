@@ -493,6 +493,9 @@ absl::Status WriteReportIndex(const std::string& index, const std::string& manif
 }
 
 absl::Status RunBatch(const BatchArgs& args) {
+#if !SHRM_CLI_HAS_CLIENT
+  if (!args.server.empty()) return RunWithClient();  // before anything is read or written
+#endif
   if (args.jobs < 1) return absl::InvalidArgumentError("--jobs must be >= 1");
   std::ifstream in(args.manifest, std::ios::binary);
   if (!in) return absl::NotFoundError(absl::StrCat(args.manifest, ": cannot open the manifest"));
@@ -529,6 +532,7 @@ absl::Status RunBatch(const BatchArgs& args) {
     }
   }
 
+#if SHRM_CLI_HAS_CLIENT
   if (!args.server.empty()) {
     // Upload each map once, before the jobs (which then find it by hash); a failure here is
     // left to the jobs to report.
@@ -538,6 +542,7 @@ absl::Status RunBatch(const BatchArgs& args) {
       if (c.ok() && uploaded.insert(job.map).second) (void)(*c)->UploadIfMissing(job.map);
     }
   }
+#endif  // SHRM_CLI_HAS_CLIENT
 
   const int hw = ResolveThreads(0);
   const int workers = std::min<int>(args.jobs, static_cast<int>(jobs.size()));
@@ -715,10 +720,8 @@ absl::Status RunBatch(const BatchArgs& args) {
 
 }  // namespace
 
-void RegisterBatch(CLI::App& app, absl::Status* status) {
+void DefineBatch(CLI::App* sub, absl::Status* status) {
   auto args = std::make_shared<BatchArgs>();
-  CLI::App* sub =
-      app.add_subcommand("batch", "prefilter every map of a manifest with every BRDF (resumable)");
   sub->add_option("manifest", args->manifest, "the manifest (JSON, docs/cli.md)")->required();
   sub->add_option("--jobs", args->jobs, "jobs run at once")
       ->capture_default_str()

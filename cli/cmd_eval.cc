@@ -8,7 +8,9 @@
 #include "absl/strings/str_cat.h"
 #include "cli/cli_common.h"
 #include "cli/commands.h"
+#if SHRM_CLI_HAS_CLIENT
 #include "client/shrm_client.h"
+#endif
 #include "core/base/status_macros.h"
 #include "core/brdf/brdf.h"
 #include "core/envmap/lighting.h"
@@ -21,7 +23,9 @@
 namespace shrm::cli {
 namespace {
 
+#if SHRM_CLI_HAS_CLIENT
 namespace v1 = ::shrm::v1;
+#endif
 
 struct PointArgs {
   std::string shrm;
@@ -71,6 +75,9 @@ absl::Status RunReference(const PointArgs& a) {
   SHRM_RETURN_IF_ERROR(ParseGeometry(a, brdf->reparam() == ReparamKind::kTangent, &index, &v));
   SHRM_ASSIGN_OR_RETURN(const jobs::EnvironmentSpec spec, EnvSpecFromArgs(a.env));
   if (!a.server.empty()) {
+#if !SHRM_CLI_HAS_CLIENT
+    return RunWithClient();
+#else
     // The same sum on shrmd (the map and a BRDF file uploaded when it lacks them).
     SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> c, ConnectServer(a.server));
     v1::ReferenceRequest req;
@@ -96,6 +103,7 @@ absl::Status RunReference(const PointArgs& a) {
     if (resp.rgb_size() != 3) return absl::DataLossError("the server's answer lacks 3 values");
     PrintRgb({resp.rgb(0), resp.rgb(1), resp.rgb(2)}, a.json);
     return absl::OkStatus();
+#endif  // SHRM_CLI_HAS_CLIENT
   }
   SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(spec));
   PrintRgb(BrdfReferenceRadiance(env.samples(), *brdf, jobs::EnvironmentRotation(spec), index, v),
@@ -133,9 +141,8 @@ absl::Status RunInfo(const std::string& path, bool json) {
 
 }  // namespace
 
-void RegisterEval(CLI::App& app, absl::Status* status) {
+void DefineEval(CLI::App* sub, absl::Status* status) {
   auto args = std::make_shared<PointArgs>();
-  CLI::App* sub = app.add_subcommand("eval", "reflected radiance from an SHRM file at one (N, V)");
   sub->add_option("--shrm", args->shrm, "SHRM file")->required();
   sub->add_option("--normal", args->normal, "unit normal N as x,y,z (world, +Y up)")
       ->check(jobs::kDirection);
@@ -148,10 +155,8 @@ void RegisterEval(CLI::App& app, absl::Status* status) {
   sub->callback([args, status] { *status = RunEval(*args); });
 }
 
-void RegisterReference(CLI::App& app, absl::Status* status) {
+void DefineReference(CLI::App* sub, absl::Status* status) {
   auto args = std::make_shared<PointArgs>();
-  CLI::App* sub = app.add_subcommand(
-      "reference", "brute-force reflected radiance over the map's pixels at one (N, V)");
   AddEnvOptions(sub, &args->env, /*required=*/true);
   sub->add_option("--brdf", args->brdf, "BRDF spec (docs/brdf.md)")->required();
   sub->add_option("--normal", args->normal, "unit normal N as x,y,z (world, +Y up)")
@@ -166,10 +171,9 @@ void RegisterReference(CLI::App& app, absl::Status* status) {
   sub->callback([args, status] { *status = RunReference(*args); });
 }
 
-void RegisterInfo(CLI::App& app, absl::Status* status) {
+void DefineInfo(CLI::App* sub, absl::Status* status) {
   auto path = std::make_shared<std::string>();
   auto json = std::make_shared<bool>(false);
-  CLI::App* sub = app.add_subcommand("info", "print an SHRM file's header and sizes");
   sub->add_option("file", *path, "SHRM file")->required();
   sub->add_flag("--json", *json, "machine-readable output");
   sub->callback([path, json, status] { *status = RunInfo(*path, *json); });

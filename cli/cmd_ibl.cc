@@ -16,7 +16,9 @@
 #include "cli/cli_common.h"
 #include "cli/commands.h"
 #include "cli/ibl_job.h"
+#if SHRM_CLI_HAS_CLIENT
 #include "client/remote_jobs.h"
+#endif
 #include "core/base/status_macros.h"
 #include "core/io/atomic_file.h"
 #include "jobs/ibl_job.h"
@@ -90,6 +92,9 @@ absl::StatusOr<IblResult> RunEmbedded(const jobs::IblJob& job, const IblCommandR
 // --server: the same job on shrmd; the files it returns (each checked against its SHA-256 by the
 // client library) are byte-identical to the embedded run's.
 absl::StatusOr<IblResult> RunRemote(const jobs::IblJob& job, const IblCommandRun& run) {
+#if !SHRM_CLI_HAS_CLIENT
+  return RunWithClient();
+#else
   SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> client, ConnectServer(run.server));
   Progress progress(run.verbose, run.quiet || run.json);
   StageLines lines(&progress);
@@ -121,6 +126,7 @@ absl::StatusOr<IblResult> RunRemote(const jobs::IblJob& job, const IblCommandRun
     out.timings.push_back({absl::StrCat("server_", t.stage()), t.ms()});
   }
   return out;
+#endif  // SHRM_CLI_HAS_CLIENT
 }
 
 void PrintSummary(const IblCommandRun& run, const IblResult& r) {
@@ -260,12 +266,9 @@ absl::Status RunIblJob(const jobs::IblJob& job, const IblCommandRun& run, IblJob
   return jobs::IblOutcome(job, report);
 }
 
-void RegisterIbl(CLI::App& app, absl::Status* status) {
+void DefineIbl(CLI::App* sub, absl::Status* status) {
   auto args = std::make_shared<IblArgs>();
   auto run = std::make_shared<IblCommandRun>();
-  CLI::App* sub = app.add_subcommand(
-      "ibl",
-      "the split-sum IBL set: GGX (and sheen) radiance mips, irradiance cube and SH, DFG LUT");
   AddIblJobOptions(sub, args.get());
   sub->add_option("-o,--output", run->output, "output folder (created if missing)")->required();
   sub->add_option("--threads", run->threads, "worker threads (0: all cores)")

@@ -18,7 +18,10 @@
 #include "absl/strings/str_format.h"
 #include "cli/cli_common.h"
 #include "cli/commands.h"
+#if SHRM_CLI_HAS_CLIENT
 #include "client/shrm_client.h"
+#include "proto/job_codec.h"
+#endif
 #include "core/base/status_macros.h"
 #include "core/io/atomic_file.h"
 #include "core/io/image.h"
@@ -27,12 +30,13 @@
 #include "jobs/cli_validators.h"
 #include "jobs/option_text.h"
 #include "jobs/prefilter_job.h"
-#include "proto/job_codec.h"
 
 namespace shrm::cli {
 namespace {
 
+#if SHRM_CLI_HAS_CLIENT
 namespace v1 = ::shrm::v1;
+#endif
 
 // Frames a turntable may have (one per degree step of 0.1 at most).
 constexpr int kMaxTurntableFrames = 3600;
@@ -163,6 +167,9 @@ void PrintTotal(const LiveArgs& a, const nlohmann::json& report, double seconds,
 // --server: the maps uploaded (each once), one Live call; each frame waited for before the next
 // state is sent, so none is dropped. The files are the embedded run's.
 absl::Status RunLiveRemote(const LiveArgs& a, const std::vector<FrameJob>& frames) {
+#if !SHRM_CLI_HAS_CLIENT
+  return RunWithClient();
+#else
   std::optional<Vec3> view;
   if (!a.view.empty()) {
     SHRM_ASSIGN_OR_RETURN(view, ParseDirection(a.view, "--view"));
@@ -255,6 +262,7 @@ absl::Status RunLiveRemote(const LiveArgs& a, const std::vector<FrameJob>& frame
              std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
              dropped, absl::StrCat("server ", a.server));
   return absl::OkStatus();
+#endif  // SHRM_CLI_HAS_CLIENT
 }
 
 absl::Status RunLive(const LiveArgs& a) {
@@ -353,10 +361,8 @@ absl::Status RunLive(const LiveArgs& a) {
 
 }  // namespace
 
-void RegisterLive(CLI::App& app, absl::Status* status) {
+void DefineLive(CLI::App* sub, absl::Status* status) {
   auto args = std::make_shared<LiveArgs>();
-  CLI::App* sub = app.add_subcommand(
-      "live", "prefilter a sequence of lighting states with one live session (docs/live.md)");
   sub->add_option("--sequence", args->sequence, "maps, one per frame (e.g. frames/*.exr)")
       ->expected(1, -1);
   sub->add_option("--env", args->env, "one map turned about the vertical axis (with --turntable)");

@@ -10,7 +10,9 @@
 #include "absl/strings/str_format.h"
 #include "cli/cli_common.h"
 #include "cli/commands.h"
+#if SHRM_CLI_HAS_CLIENT
 #include "client/shrm_client.h"
+#endif
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
 #include "core/export/ktx2.h"
@@ -27,7 +29,9 @@
 namespace shrm::cli {
 namespace {
 
+#if SHRM_CLI_HAS_CLIENT
 namespace v1 = ::shrm::v1;
+#endif
 
 struct OutputArgs {
   std::string shrm;
@@ -113,6 +117,9 @@ absl::Status RunIrradiance(const OutputArgs& a) {
   std::vector<double> e9;
   ibl::LevelError measured;
   if (!a.server.empty()) {
+#if !SHRM_CLI_HAS_CLIENT
+    return RunWithClient();
+#else
     // The coefficients from shrmd (decode + transform there); the cube is built here from them,
     // so the files equal the embedded run's.
     SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> c, ConnectServer(a.server));
@@ -133,6 +140,7 @@ absl::Status RunIrradiance(const OutputArgs& a) {
     }
     e9.assign(resp.coefficients().begin(), resp.coefficients().end());
     measured = {resp.measured_count(), resp.measured_rms(), resp.measured_max()};
+#endif  // SHRM_CLI_HAS_CLIENT
   } else {
     SHRM_ASSIGN_OR_RETURN(EnvMap env, LoadEnv(spec));
     const Mat3 rotation = jobs::EnvironmentRotation(spec);
@@ -178,10 +186,8 @@ absl::Status RunIrradiance(const OutputArgs& a) {
 
 }  // namespace
 
-void RegisterRender(CLI::App& app, absl::Status* status) {
+void DefineRender(CLI::App* sub, absl::Status* status) {
   auto args = std::make_shared<OutputArgs>();
-  CLI::App* sub =
-      app.add_subcommand("render", "the reflection map of an SHRM for one view (eq. 5.35)");
   sub->add_option("--shrm", args->shrm, "SHRM file")->required();
   sub->add_option("--view", args->view, "view direction V (towards the viewer) as x,y,z")
       ->required()
@@ -194,10 +200,8 @@ void RegisterRender(CLI::App& app, absl::Status* status) {
   sub->callback([args, status] { *status = RunRender(*args); });
 }
 
-void RegisterExplicit(CLI::App& app, absl::Status* status) {
+void DefineExplicit(CLI::App* sub, absl::Status* status) {
   auto args = std::make_shared<OutputArgs>();
-  CLI::App* sub = app.add_subcommand(
-      "explicit", "explicit reflection maps from an SHRM: Cabral, Kautz-McCool or a view grid");
   sub->add_option("--shrm", args->shrm, "SHRM file")->required();
   sub->add_option("--form", args->form,
                   "cabral (12 icosahedral views), kautz-mccool (T_B "
@@ -210,10 +214,8 @@ void RegisterExplicit(CLI::App& app, absl::Status* status) {
   sub->callback([args, status] { *status = RunExplicit(*args); });
 }
 
-void RegisterIrradiance(CLI::App& app, absl::Status* status) {
+void DefineIrradiance(CLI::App* sub, absl::Status* status) {
   auto args = std::make_shared<OutputArgs>();
-  CLI::App* sub = app.add_subcommand(
-      "irradiance", "Lambertian irradiance: 9 SH coefficients and an irradiance cube map");
   AddEnvOptions(sub, &args->env, /*required=*/true);
   sub->add_option("--size", args->size, "cube face size of the irradiance map")
       ->capture_default_str()

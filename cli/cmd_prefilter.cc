@@ -12,7 +12,9 @@
 #include "cli/cli_common.h"
 #include "cli/commands.h"
 #include "cli/prefilter_job.h"
+#if SHRM_CLI_HAS_CLIENT
 #include "client/remote_jobs.h"
+#endif
 #include "core/base/status_macros.h"
 #include "core/export/shrm_ktx2.h"
 #include "core/io/atomic_file.h"
@@ -81,6 +83,9 @@ void PrintSummary(const jobs::PrefilterJob& job, const PrefilterRun& run,
 // run's (tests/service_test.cc).
 absl::Status RunPrefilterRemote(const jobs::PrefilterJob& job, const PrefilterRun& run,
                                 PrefilterJobOutcome* outcome) {
+#if !SHRM_CLI_HAS_CLIENT
+  return RunWithClient();
+#else
   SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> client, ConnectServer(run.server));
   Progress progress(run.verbose, run.quiet);
   StageLines lines(&progress);
@@ -165,6 +170,7 @@ absl::Status RunPrefilterRemote(const jobs::PrefilterJob& job, const PrefilterRu
   std::printf("  server %s: lighting cache %s, BRDF cache %s\n", run.server.c_str(),
               rep.cache().lighting_hit() ? "hit" : "miss", rep.cache().brdf_hit() ? "hit" : "miss");
   return jobs::ToleranceOutcome(job, report);
+#endif  // SHRM_CLI_HAS_CLIENT
 }
 
 absl::Status RunPrefilterEmbedded(const jobs::PrefilterJob& job, const PrefilterRun& run,
@@ -306,10 +312,9 @@ absl::Status RunPrefilterJob(const jobs::PrefilterJob& job, const PrefilterRun& 
   return RunPrefilterEmbedded(job, run, outcome);
 }
 
-void RegisterPrefilter(CLI::App& app, absl::Status* status) {
+void DefinePrefilter(CLI::App* sub, absl::Status* status) {
   auto args = std::make_shared<PrefilterArgs>();
   auto run = std::make_shared<PrefilterRun>();
-  CLI::App* sub = app.add_subcommand("prefilter", "compute the SHRM of a map and a BRDF");
   AddPrefilterJobOptions(sub, args.get());
   sub->add_option("-o,--output", run->output, "output SHRM file (.shrm.exr)")->required();
   sub->add_option("--report", run->report, "write a JSON report here");

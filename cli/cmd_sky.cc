@@ -242,12 +242,8 @@ absl::Status RunSky(const SkyArgs& a) {
 
 }  // namespace
 
-void RegisterSky(CLI::App& app, absl::Status* status) {
+void DefineSky(CLI::App* sub, absl::Status* status) {
   auto args = std::make_shared<SkyArgs>();
-  CLI::App* sub = app.add_subcommand(
-      "sky",
-      "a procedural daylight sky (Preetham 1999) with the sun of a date, time and place, "
-      "as a lat-long EXR (docs/sky.md)");
   CLI::Option* date =
       sub->add_option("--date", args->date, "date YYYY-MM-DD (default: day 80, about March 21)")
           ->check(kDateText);

@@ -1,6 +1,7 @@
 # Install rules (docs/install.md): `cmake --install build --prefix DIR` and the Debian packages
 # (cmake/ShrmPackaging.cmake) install the same files, by component:
-#   shrm       bin/shrm, its man pages, bash completion, the bundled maps, the docs
+#   shrm       bin/shrm (and LIBDIR/shrm/shrm-remote, which it runs for --server), its man
+#              pages, bash completion, the bundled maps, the docs
 #   shrmd      sbin/shrmd, shrmd(8), the systemd units, the sysusers file, etc/shrmd/shrmd.conf
 #   shrm-view  bin/shrm-view, shrm-view(1), bash completion
 #   imageio    LIBDIR/shrm/libshrm_imageio.so: OpenImageIO and OpenColorIO, loaded on demand
@@ -163,6 +164,11 @@ endif()
 if(TARGET shrm)
   shrm_program(shrm COMPONENT shrm DESTINATION ${CMAKE_INSTALL_BINDIR} SECTION 1
                SEE_ALSO "shrmd(8),shrm-view(1)")
+endif()
+if(TARGET shrm-remote)
+  # `shrm` with the service client, which `shrm` runs for --server (cli/CMakeLists.txt): an
+  # internal program, beside the image module (no man page, not on PATH).
+  install(TARGETS shrm-remote RUNTIME DESTINATION ${CMAKE_INSTALL_LIBDIR}/shrm COMPONENT shrm)
 endif()
 if(TARGET shrm-view)
   shrm_program(shrm-view COMPONENT shrm-view DESTINATION ${CMAKE_INSTALL_BINDIR} SECTION 1

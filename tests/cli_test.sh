@@ -228,6 +228,15 @@ if readelf -d "$SHRM" | grep -qiE 'NEEDED.*(OpenImageIO|OpenColorIO)'; then
 else
   echo "ok: module: $SHRM links neither OpenImageIO nor OpenColorIO"
 fi
+# Start-up (docs/architecture.md "Start-up"): the program loads no service client (gRPC,
+# Protobuf: shrm-remote has them, for --server), no shared Abseil and no libcrypto (loaded on the
+# first hash).
+CHECKS=$((CHECKS + 1))
+if readelf -d "$SHRM" | grep -qiE 'NEEDED.*(grpc|protobuf|absl|crypto|ssl|fftw)'; then
+  fail "start-up: $SHRM loads $(readelf -d "$SHRM" | grep -ioE '(grpc|protobuf|absl|crypto|ssl|fftw)[^]]*' | tr '\n' ' ')"
+else
+  echo "ok: start-up: $SHRM loads no gRPC, Protobuf, shared Abseil, FFTW or libcrypto"
+fi
 mkdir -p "$TMP/lonely/bin"
 cp "$SHRM" "$TMP/lonely/bin/shrm"
 LONELY_DIRS=$(SHRM_MODULE_DIR=/nonexistent "$TMP/lonely/bin/shrm" prefilter --brdf phong:s=8 --size 8 \
@@ -243,6 +252,11 @@ if grep -q "libshrm_imageio.so.*cannot be loaded" <<<"$LONELY_DIRS"; then
   else
     fail "module: an EXR job needs the module: $(head -c 400 "$TMP/lonely/err")"
   fi
+  # --server is run by shrm-remote, looked for where the module is: a copy without it says so
+  # (exit 1, every place tried named) and writes nothing.
+  expect_error remote_missing 1 'shrm-remote.*cannot be run.*/nonexistent/shrm-remote' \
+    env SHRM_MODULE_DIR=/nonexistent "$TMP/lonely/bin/shrm" prefilter --brdf phong:s=8 \
+    --size 8 --env "$MAP" --server localhost:1 -o out.shrm.exr
 else
   note "module: an installed module answers for the copy (install prefix); missing-module case not run"
 fi

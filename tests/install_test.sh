@@ -65,7 +65,7 @@ if ! "$CMAKE" --install "$BUILD" --prefix "$P" >install.log 2>&1; then
 fi
 LIBDIR=$(cd "$P" && ls -d lib/*/cmake/shrm 2>/dev/null | sed 's|/cmake/shrm$||')
 [ -n "$LIBDIR" ] || LIBDIR=lib
-for f in bin/shrm sbin/shrmd bin/shrm-view "$LIBDIR/shrm/libshrm_imageio.so" \
+for f in bin/shrm sbin/shrmd bin/shrm-view "$LIBDIR/shrm/libshrm_imageio.so" "$LIBDIR/shrm/shrm-remote" \
   "$LIBDIR/libshrm_client.a" "$LIBDIR/libshrm_jobs.a" "$LIBDIR/libshrm_shrm.a" \
   "$LIBDIR/cmake/shrm/shrmConfig.cmake" "$LIBDIR/cmake/shrm/shrmConfigVersion.cmake" \
   "$LIBDIR/cmake/shrm/shrmTargets.cmake" "$LIBDIR/pkgconfig/shrm-core.pc" \
@@ -138,6 +138,15 @@ if out=$("$P/bin/shrm" analyze --env "$TMP/map.png" --epsilon 0.1 2>&1); then
   pass "installed shrm reads a PNG map (module $LIBDIR/shrm/libshrm_imageio.so)"
 else
   fail "installed shrm cannot read a PNG map: $out"
+fi
+# --server runs the installed shrm-remote (the client's own check of the TLS flags answers,
+# before any connection is tried).
+touch "$TMP/cert.pem"
+out=$("$P/bin/shrm" analyze --brdf phong:s=8 --server 127.0.0.1:1 --tls-cert "$TMP/cert.pem" 2>&1)
+if grep -q -- '--tls-cert and --tls-key go together' <<<"$out"; then
+  pass "installed shrm runs --server through $LIBDIR/shrm/shrm-remote"
+else
+  fail "installed shrm --server: $out"
 fi
 
 # Completion: one shell (with bash-completion when installed) answers every query: a line of
@@ -327,7 +336,7 @@ has() {  # has PACKAGE FILE...
   shift
   for f in "$@"; do grep -qxF "$f" "files-$pkg.txt" || fail "package $pkg: $f missing"; done
 }
-has shrm /usr/bin/shrm /usr/share/man/man1/shrm.1.gz /usr/share/man/man1/shrm-batch.1.gz \
+has shrm /usr/bin/shrm "/usr/$LIBDIR/shrm/shrm-remote" /usr/share/man/man1/shrm.1.gz /usr/share/man/man1/shrm-batch.1.gz \
   /usr/share/bash-completion/completions/shrm /usr/share/shrm/envmaps/$MAP \
   /usr/share/doc/shrm/copyright /usr/share/doc/shrm/changelog.Debian.gz
 has shrmd /usr/sbin/shrmd /usr/share/man/man8/shrmd.8.gz /lib/systemd/system/shrmd.service \

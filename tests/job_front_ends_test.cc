@@ -132,11 +132,11 @@ TEST(JobFrontEnds, CommandLineCarriesEveryDeclaredOption) {
 // there.
 template <typename Option>
 void CheckNoUndeclaredFlags(std::span<const Option> table, const char* subcommand,
-                            void (*register_command)(CLI::App&, absl::Status*)) {
+                            void (*define_command)(CLI::App*, absl::Status*)) {
   CLI::App app;
   absl::Status status;
-  register_command(app, &status);
-  CLI::App* sub = app.get_subcommand(subcommand);
+  CLI::App* sub = app.add_subcommand(subcommand);
+  define_command(sub, &status);
   std::set<std::string> declared;
   for (const Option& o : table) {
     if (o.front_ends & jobs::kCommandLine) declared.insert(CliFlag(o).substr(2));
@@ -155,8 +155,45 @@ void CheckNoUndeclaredFlags(std::span<const Option> table, const char* subcomman
 }
 
 TEST(JobFrontEnds, CommandLineExposesNoUndeclaredJobOption) {
-  CheckNoUndeclaredFlags(jobs::PrefilterJobOptions(), "prefilter", cli::RegisterPrefilter);
-  CheckNoUndeclaredFlags(jobs::IblJobOptions(), "ibl", cli::RegisterIbl);
+  CheckNoUndeclaredFlags(jobs::PrefilterJobOptions(), "prefilter", cli::DefinePrefilter);
+  CheckNoUndeclaredFlags(jobs::IblJobOptions(), "ibl", cli::DefineIbl);
+}
+
+// The command table (cli/commands.h): `shrm --help` lists every subcommand, and only the one a
+// command line names is defined. Each entry's Define gives its subcommand options and a callback.
+TEST(CommandTable, EveryCommandIsListedOnceAndDefinesItsOptions) {
+  std::set<std::string> names;
+  for (const cli::Command& c : cli::Commands()) {
+    EXPECT_TRUE(names.insert(std::string(c.name)).second) << c.name << " listed twice";
+    EXPECT_FALSE(c.description.empty()) << c.name;
+    CLI::App app;
+    absl::Status status;
+    CLI::App* sub = app.add_subcommand(std::string(c.name), std::string(c.description));
+    const size_t before = sub->get_options().size();  // -h,--help
+    c.define(sub, &status);
+    EXPECT_GT(sub->get_options().size(), before) << c.name << " defines no option";
+  }
+  // docs/cli.md's list.
+  EXPECT_EQ(names, (std::set<std::string>{"analyze", "prefilter", "eval", "reference", "render",
+                                          "explicit", "irradiance", "ibl", "info", "batch", "live",
+                                          "sky"}));
+}
+
+// CLI11's rule: the first argument that is not an option selects the subcommand (the program's
+// own options, --help and --version, take no value).
+TEST(CommandTable, TheFirstArgumentThatIsNotAnOptionChoosesTheCommand) {
+  auto chosen = [](std::vector<const char*> argv) -> std::string {
+    argv.insert(argv.begin(), "shrm");
+    const cli::Command* c = cli::ChosenCommand(static_cast<int>(argv.size()), argv.data());
+    return c != nullptr ? std::string(c->name) : "(none)";
+  };
+  EXPECT_EQ(chosen({"prefilter", "--brdf", "phong:s=8"}), "prefilter");
+  EXPECT_EQ(chosen({"--help", "ibl"}), "ibl");
+  EXPECT_EQ(chosen({"sky", "info"}), "sky");  // one subcommand per command line
+  EXPECT_EQ(chosen({"--version"}), "(none)");
+  EXPECT_EQ(chosen({}), "(none)");
+  EXPECT_EQ(chosen({"prefilterx"}), "(none)");
+  EXPECT_EQ(chosen({"bogus", "prefilter"}), "(none)");  // CLI11 refuses "bogus" first
 }
 
 // Each declared option's manifest example, in the "options" of `base`, reaches the job that

@@ -17,7 +17,8 @@ namespace {
 
 std::atomic<bool> loaded{false};
 
-// The folders to look in, in order (image_module.h).
+}  // namespace
+
 std::vector<std::string> SearchDirs() {
   std::vector<std::string> dirs;
   if (const char* env = std::getenv("SHRM_MODULE_DIR"); env != nullptr && env[0] != '\0') {
@@ -33,6 +34,8 @@ std::vector<std::string> SearchDirs() {
   dirs.emplace_back(SHRM_INSTALL_FULL_LIBDIR "/shrm");
   return dirs;
 }
+
+namespace {
 
 struct LoadResult {
   const Api* api = nullptr;

@@ -58,6 +58,11 @@ struct Api {
 // and dlopen's reason when it cannot be loaded.
 absl::StatusOr<const Api*> Get();
 
+// The folders shrm's run-time parts (this module, the `shrm-remote` program) are looked for in,
+// in order: $SHRM_MODULE_DIR, then lib/shrm and LIBDIR/shrm under the running program's prefix
+// (the build tree; any install prefix), then the configured LIBDIR/shrm.
+std::vector<std::string> SearchDirs();
+
 // Whether this process has loaded it (tests: an EXR-only job never does).
 bool Loaded();
 

@@ -14,9 +14,19 @@ RingQuadrature FejerFirstRule(int n) {
   q.weight.resize(n);
   for (int j = 0; j < n; ++j) {
     const double t = kPi * (j + 0.5) / n;
-    // w_j = (2/n) (1 - 2 sum_{k=1}^{n/2} cos(2 k t) / (4 k^2 - 1))   (Fejer 1933)
-    double sum = 0;
-    for (int k = 1; k <= n / 2; ++k) sum += std::cos(2.0 * k * t) / (4.0 * k * k - 1.0);
+    // w_j = (2/n) (1 - 2 sum_{k=1}^{n/2} cos(2 k t) / (4 k^2 - 1))   (Fejer 1933), the cosines
+    // by the Chebyshev recurrence cos((k+1) u) = 2 cos(u) cos(k u) - cos((k-1) u), u = 2t: no
+    // trigonometric call per term (the rule of a 1024 x 512 map took ~4 ms with them); the
+    // recurrence's rounding grows like k eps, under 1e-15 in the weights once divided by 4k^2 - 1
+    // (tests/quadrature_test.cc checks them against the direct sum).
+    const double c1 = std::cos(2.0 * t);
+    double c_prev = 1.0, c = c1, sum = 0;
+    for (int k = 1; k <= n / 2; ++k) {
+      sum += c / (4.0 * k * k - 1.0);
+      const double next = 2.0 * c1 * c - c_prev;
+      c_prev = c;
+      c = next;
+    }
     q.theta[j] = t;
     q.cos_theta[j] = std::cos(t);
     q.sin_theta[j] = std::sin(t);
@@ -50,13 +60,19 @@ RingQuadrature GaussLegendreRule(int n) {
   for (int i = 0; i < (n + 1) / 2; ++i) {
     // Newton iteration in theta on P_n(cos theta), from Tricomi's estimate. With
     // (1 - x^2) P_n'(x) = n (P_{n-1} - x P_n): dP_n/dtheta = -n (P_{n-1} - x P_n) / sin(theta).
+    // Converged when the step stops shrinking: at the rounding level it no longer does, and
+    // iterating on (as a fixed threshold of 1e-16 did, to 100 steps for most nodes) only moves
+    // the node by an ulp either way. Quadratic convergence takes 3-5 steps.
     double t = kPi * (i + 0.75) / (n + 0.5);
+    double last_step = HUGE_VAL;
     for (int iter = 0; iter < 100; ++iter) {
       double pn, pn1;
       LegendrePair(n, std::cos(t), &pn, &pn1);
       const double dt = pn / (-n * (pn1 - std::cos(t) * pn) / std::sin(t));
+      if (std::abs(dt) >= last_step) break;
       t -= dt;
-      if (std::abs(dt) < 1e-16) break;
+      last_step = std::abs(dt);
+      if (last_step < 1e-16) break;
     }
     const double x = std::cos(t), s = std::sin(t);
     double pn, pn1;
