@@ -38,7 +38,7 @@ class BlobBrdf final : public Brdf {
   void ReparamTransferAll(double theta_i, double theta_o, double phi, double* out) const override {
     inner_->ReparamTransferAll(theta_i, theta_o, phi, out);
   }
-  void ReparamTransferArc(double theta_i, double theta_o, std::span<const double> phi,
+  void ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
                           double* out) const override {
     inner_->ReparamTransferArc(theta_i, theta_o, phi, out);
   }

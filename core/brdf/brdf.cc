@@ -44,21 +44,20 @@ void Brdf::ReparamTransferAll(double theta_i, double theta_o, double phi, double
   for (int c = 0; c < channels(); ++c) out[c] = ReparamTransfer(theta_i, theta_o, phi, c);
 }
 
-void Brdf::ReparamTransferArc(double theta_i, double theta_o, std::span<const double> phi,
+void Brdf::ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
                               double* out) const {
-  for (size_t k = 0; k < phi.size(); ++k) {
-    ReparamTransferAll(theta_i, theta_o, phi[k], out + k * channels());
+  for (size_t k = 0; k < phi.phi.size(); ++k) {
+    ReparamTransferAll(theta_i, theta_o, phi.phi[k], out + k * channels());
   }
 }
 
-void Brdf::TransferArc(double theta_i, double theta_o, std::span<const double> phi,
-                       double* out) const {
+void Brdf::TransferArc(double theta_i, double theta_o, const ArcAzimuths& phi, double* out) const {
   // MakeReparamGeometry with theta_i and theta_o's sines and cosines taken once.
   const ReparamGeometry g0 = MakeReparamGeometry(reparam(), theta_i, theta_o, 0.0);
   const double si = std::sin(theta_i);
   const int nc = channels();
-  for (size_t k = 0; k < phi.size(); ++k) {
-    const Vec3 w{si * std::cos(phi[k]), si * std::sin(phi[k]), g0.w.z};
+  for (size_t k = 0; k < phi.phi.size(); ++k) {
+    const Vec3 w{si * phi.cos_phi[k], si * phi.sin_phi[k], g0.w.z};
     for (int c = 0; c < nc; ++c) out[k * nc + c] = Transfer(g0.n, g0.v, w, c);
   }
 }

@@ -61,11 +61,16 @@ class Brdf {
   virtual double ReparamTransfer(double theta_i, double theta_o, double phi, int c) const;
   // All channels at once into out[0 .. channels()-1]; default loops over ReparamTransfer.
   virtual void ReparamTransferAll(double theta_i, double theta_o, double phi, double* out) const;
+  // The azimuths of an arc of the coefficient quadrature with their cosines and sines (taken once
+  // by the caller, which needs the cosines too).
+  struct ArcAzimuths {
+    std::span<const double> phi, cos_phi, sin_phi;
+  };
   // All channels at (theta_i, theta_o) and the azimuths phi[0 .. n): out[k * channels() + c] (the
   // coefficient quadrature's inner loop). Default: ReparamTransferAll per azimuth; the analytic
   // models take Transfer on ReparamTransfer's geometry with the trigonometry of theta_i and
   // theta_o done once (TransferArc).
-  virtual void ReparamTransferArc(double theta_i, double theta_o, std::span<const double> phi,
+  virtual void ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
                                   double* out) const;
   // A closed-form model (smooth in its angles away from the horizon), not a table of samples:
   // the coefficient quadrature may then take its faster rule for smooth integrands.
@@ -73,7 +78,7 @@ class Brdf {
 
  protected:
   // ReparamTransferArc through Transfer on MakeReparamGeometry's frame.
-  void TransferArc(double theta_i, double theta_o, std::span<const double> phi, double* out) const;
+  void TransferArc(double theta_i, double theta_o, const ArcAzimuths& phi, double* out) const;
 };
 
 // The local geometry of ReparamTransfer: pole +z, V = (sin t_o, 0, cos t_o),

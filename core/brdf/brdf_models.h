@@ -31,7 +31,7 @@ class LambertBrdf final : public Brdf {
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override { return {16, 8}; }
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
-  void ReparamTransferArc(double theta_i, double theta_o, std::span<const double> phi,
+  void ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
                           double* out) const override {
     TransferArc(theta_i, theta_o, phi, out);
   }
@@ -61,7 +61,7 @@ class MicrofacetBrdf final : public Brdf {
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
-  void ReparamTransferArc(double theta_i, double theta_o, std::span<const double> phi,
+  void ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
                           double* out) const override {
     TransferArc(theta_i, theta_o, phi, out);
   }
@@ -88,7 +88,7 @@ class LafortuneBrdf final : public Brdf {
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
-  void ReparamTransferArc(double theta_i, double theta_o, std::span<const double> phi,
+  void ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
                           double* out) const override {
     TransferArc(theta_i, theta_o, phi, out);
   }
@@ -118,7 +118,7 @@ class WardBrdf final : public Brdf {
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
-  void ReparamTransferArc(double theta_i, double theta_o, std::span<const double> phi,
+  void ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
                           double* out) const override {
     TransferArc(theta_i, theta_o, phi, out);
   }
@@ -138,7 +138,7 @@ class GgxBrdf final : public Brdf {
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
-  void ReparamTransferArc(double theta_i, double theta_o, std::span<const double> phi,
+  void ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
                           double* out) const override {
     TransferArc(theta_i, theta_o, phi, out);
   }

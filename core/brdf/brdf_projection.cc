@@ -130,13 +130,19 @@ class AzimuthRule {
     const double arc = VisibleArc(cos_i, sin_i, theta_o);
     if (arc <= 0) return;
     arc_phi_.resize(n_phi_);
+    arc_cos_.resize(n_phi_);
+    arc_sin_.resize(n_phi_);
     arc_values_.resize(static_cast<size_t>(n_phi_) * channels_);
-    for (int m = 0; m < n_phi_; ++m) arc_phi_[m] = arc * 0.5 * (1.0 + gl_.cos_theta[m]);
-    brdf_.ReparamTransferArc(theta_i, theta_o, arc_phi_, arc_values_.data());
+    for (int m = 0; m < n_phi_; ++m) {
+      arc_phi_[m] = arc * 0.5 * (1.0 + gl_.cos_theta[m]);
+      arc_cos_[m] = std::cos(arc_phi_[m]);
+      arc_sin_[m] = std::sin(arc_phi_[m]);
+    }
+    brdf_.ReparamTransferArc(theta_i, theta_o, {arc_phi_, arc_cos_, arc_sin_}, arc_values_.data());
     for (int m = 0; m < n_phi_; ++m) {
       const double w = arc * 0.5 * gl_.weight[m];
       const double* v = &arc_values_[static_cast<size_t>(m) * channels_];
-      AddCosines(std::cos(arc_phi_[m]), w / kPi, v, cq);
+      AddCosines(arc_cos_[m], w / kPi, v, cq);
       for (int c = 0; c < channels_; ++c) sq[c] += w * v[c] * v[c];
     }
   }
@@ -189,7 +195,7 @@ class AzimuthRule {
   const RingQuadrature& gl_;
   std::vector<double> uniform_phi_, uniform_w_;
   std::vector<double> values_, cosq_;
-  std::vector<double> arc_phi_, arc_values_;
+  std::vector<double> arc_phi_, arc_cos_, arc_sin_, arc_values_;
 };
 
 int Or(int value, int fallback) { return value > 0 ? value : fallback; }
