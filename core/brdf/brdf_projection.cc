@@ -135,8 +135,7 @@ class AzimuthRule {
     arc_values_.resize(static_cast<size_t>(n_phi_) * channels_);
     for (int m = 0; m < n_phi_; ++m) {
       arc_phi_[m] = arc * 0.5 * (1.0 + gl_.cos_theta[m]);
-      arc_cos_[m] = std::cos(arc_phi_[m]);
-      arc_sin_[m] = std::sin(arc_phi_[m]);
+      ::sincos(arc_phi_[m], &arc_sin_[m], &arc_cos_[m]);  // one range reduction for both
     }
     brdf_.ReparamTransferArc(theta_i, theta_o, {arc_phi_, arc_cos_, arc_sin_}, arc_values_.data());
     for (int m = 0; m < n_phi_; ++m) {
