@@ -119,7 +119,8 @@ absl::StatusOr<IblResult> RunRemote(const jobs::IblJob& job, const IblCommandRun
   }
   for (size_t i = 0; i < remote->outcome.files.size(); ++i) {
     client::ReceivedFile& f = remote->outcome.files[i];
-    out.files.push_back({f.name, std::move(f.bytes), rep.files(static_cast<int>(i)).what()});
+    out.files.push_back({f.name, std::move(f.bytes), rep.files(static_cast<int>(i)).what(),
+                         /*type=*/std::string()});
   }
   out.timings.push_back({"upload", upload_ms});
   for (const shrm::v1::StageTiming& t : rep.timings()) {

@@ -15,11 +15,15 @@
 #define SHRM_STATUS_CONCAT_INNER_(a, b) a##b
 #define SHRM_STATUS_CONCAT_(a, b) SHRM_STATUS_CONCAT_INNER_(a, b)
 
-// Evaluates `expr` (an absl::Status); returns it from the enclosing function if not OK.
-#define SHRM_RETURN_IF_ERROR(expr)               \
+// Evaluates `expr` (an absl::Status); returns it from the enclosing function if not OK. The
+// status variable's name is unique per expansion, so uses nested in `expr` (a lambda's body)
+// do not shadow it.
+#define SHRM_RETURN_IF_ERROR(expr) \
+  SHRM_RETURN_IF_ERROR_IMPL_(SHRM_STATUS_CONCAT_(shrm_status_, __COUNTER__), expr)
+#define SHRM_RETURN_IF_ERROR_IMPL_(status, expr) \
   do {                                           \
-    ::absl::Status shrm_status_ = (expr);        \
-    if (!shrm_status_.ok()) return shrm_status_; \
+    ::absl::Status status = (expr);              \
+    if (!status.ok()) return status;             \
   } while (0)
 
 // `lhs = value of rexpr`, where rexpr is an absl::StatusOr<T>; returns its status if not OK.
