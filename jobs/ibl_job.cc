@@ -28,12 +28,12 @@ double MsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-absl::Status Measure(const EnvMap& map, const Mat3& rotation, ibl::SpecularLobe lobe, int count,
-                     uint64_t seed, int threads, IblCube& cube) {
+absl::Status Measure(const EnvMap& map, const ibl::PixelSumTable& table, const Mat3& rotation,
+                     ibl::SpecularLobe lobe, int count, uint64_t seed, int threads, IblCube& cube) {
   cube.measured.clear();
   for (size_t k = 0; k < cube.chain.levels.size(); ++k) {
     cube.measured.push_back(ibl::MeasureLevelError(map, lobe, cube.chain.levels[k], rotation, count,
-                                                   seed + k, threads));
+                                                   seed + k, threads, &table));
   }
   return absl::OkStatus();
 }
@@ -377,22 +377,27 @@ absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
     SHRM_ASSIGN_OR_RETURN(run.dfg, ibl::ComputeDfgLut(job.dfg_size, *consumer, threads));
     run.timings.push_back({"dfg", MsSince(t0)});
   }
+  SHRM_RETURN_IF_ERROR(stage("storage"));
+  t0 = std::chrono::steady_clock::now();
   for (IblCube* cube : {&run.specular, &run.sheen, &run.irradiance}) StoreAs(job.format, *cube);
+  run.timings.push_back({"storage", MsSince(t0)});
   if (job.verify > 0) {
     SHRM_RETURN_IF_ERROR(stage("verify"));
     t0 = std::chrono::steady_clock::now();
-    SHRM_RETURN_IF_ERROR(Measure(map, rotation, ibl::SpecularLobe::kGgx, job.verify,
+    // One copy of the map's samples for every check of the job.
+    const ibl::PixelSumTable table(map);
+    SHRM_RETURN_IF_ERROR(Measure(map, table, rotation, ibl::SpecularLobe::kGgx, job.verify,
                                  kSpecularVerifySeed, threads, run.specular));
     if (job.sheen) {
-      SHRM_RETURN_IF_ERROR(Measure(map, rotation, ibl::SpecularLobe::kCharlie, job.verify,
+      SHRM_RETURN_IF_ERROR(Measure(map, table, rotation, ibl::SpecularLobe::kCharlie, job.verify,
                                    kSheenVerifySeed, threads, run.sheen));
     }
-    SHRM_RETURN_IF_ERROR(Measure(map, rotation, ibl::SpecularLobe::kLambert, job.verify,
+    SHRM_RETURN_IF_ERROR(Measure(map, table, rotation, ibl::SpecularLobe::kLambert, job.verify,
                                  kIrradianceVerifySeed, threads, run.irradiance));
     // The check of E_lm = A_l L_lm, the form `shrm irradiance` states.
     SHRM_ASSIGN_OR_RETURN(const std::vector<double> e9,
                           IrradianceCoefficients(2, 3, run.radiance_sh9));
-    run.sh9_measured = MeasureIrradianceSh9(map, rotation, e9, job.verify, threads);
+    run.sh9_measured = MeasureIrradianceSh9(map, rotation, e9, job.verify, threads, &table);
     run.timings.push_back({"verify", MsSince(t0)});
   }
   run.report = IblReportJson(job, run);

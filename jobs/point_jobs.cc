@@ -28,7 +28,8 @@ absl::StatusOr<std::vector<double>> IrradianceSh9(const EnvMap& map, const Mat3&
 }
 
 ibl::LevelError MeasureIrradianceSh9(const EnvMap& map, const Mat3& rotation,
-                                     std::span<const double> e9, int count, int threads) {
+                                     std::span<const double> e9, int count, int threads,
+                                     const ibl::PixelSumTable* table) {
   // The check's seed (the IBL job's SH9 check uses the same normals).
   constexpr uint64_t kSeed = 0x5eed'1b10'0003 + 1000;
   constexpr int kFace = 16;
@@ -40,7 +41,7 @@ ibl::LevelError MeasureIrradianceSh9(const EnvMap& map, const Mat3& rotation,
   level.cube = *std::move(cube);
   for (float& v : level.cube.data) v = static_cast<float>(v / kPi);  // E / pi: the Lambert sum
   return ibl::MeasureLevelError(map, ibl::SpecularLobe::kLambert, level, rotation, count, kSeed,
-                                threads);
+                                threads, table);
 }
 
 Image RadianceCrossImage(const RadianceCube& cube) {

@@ -42,8 +42,10 @@ inline constexpr int kMaxIrradianceVerify = 100000;
 // (ibl::MeasureLevelError: relative per channel, with the floor of the split-sum checks). This is
 // the l <= 2 truncation itself (Ramamoorthi & Hanrahan's 1-3% "on average" is an energy figure;
 // per normal, 3-10% on the bundled maps): stated, not a tolerance. count = 0 gives zeros.
+// `table`: the map's ibl::PixelSumTable when the caller has one.
 ibl::LevelError MeasureIrradianceSh9(const EnvMap& map, const Mat3& rotation,
-                                     std::span<const double> e9, int count, int threads);
+                                     std::span<const double> e9, int count, int threads,
+                                     const ibl::PixelSumTable* table = nullptr);
 
 // A radiance cube as a horizontal-cross image (4S x 3S: [. +Y . .] [-X +Z +X -Z] [. -Y . .], GL
 // face orientation, as core/envmap reads it back; grey cubes repeated in RGB): the file of

@@ -138,7 +138,7 @@ TEST_F(IblServiceTest, RemoteFilesAreTheEmbeddedBytes) {
       client::RunRemoteIbl(client_.get(), target_, job, options);
   ASSERT_TRUE(remote.ok()) << remote.status();
   EXPECT_EQ(stages, (std::vector<std::string>{"decode", "lighting", "specular", "sheen",
-                                              "irradiance", "dfg", "verify", "encode"}));
+                                              "irradiance", "dfg", "storage", "verify", "encode"}));
   const client::IblCallOutcome& out = remote->outcome;
   ASSERT_EQ(out.files.size(), embedded->size());
   for (size_t i = 0; i < embedded->size(); ++i) {

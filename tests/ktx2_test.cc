@@ -579,11 +579,14 @@ TEST(Ktx2Test, HalfRoundingAndSaturation) {
   EXPECT_EQ(FloatToHalf(0x1p-14f), 0x0400);                    // smallest normal
   EXPECT_EQ(FloatToHalf(0x1p-14f - 0x1p-25f), 0x0400);         // subnormal rounding up to normal
   EXPECT_EQ(FloatToHalf(-0.0f), 0x8000);
+  EXPECT_EQ(FloatToHalf(std::numeric_limits<float>::infinity()), 0x7BFF);  // clamped
+  EXPECT_EQ(FloatToHalf(std::numeric_limits<float>::quiet_NaN()), 0x0000);
+  EXPECT_EQ(FloatToHalf(std::nextafter(0x1p-14f, 0.0f)), 0x0400);  // largest float below normal
   // Against Imath's round-to-nearest-even conversion over the finite range.
   std::mt19937 rng(3);
   std::uniform_int_distribution<uint32_t> bits;
   int checked = 0;
-  while (checked < 100000) {
+  while (checked < 1000000) {
     const uint32_t u = bits(rng);
     float v;
     std::memcpy(&v, &u, 4);

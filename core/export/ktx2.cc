@@ -335,8 +335,25 @@ int MaxLevelCount(int width, int height) {
 bool IsValidUtf8(std::string_view s) { return ValidUtf8(s); }
 
 uint16_t FloatToHalf(float value) {
-  const uint16_t sign = std::signbit(value) ? 0x8000 : 0;
-  return static_cast<uint16_t>(sign | EncodeUnsignedSmallFloat(std::fabs(value), 10));
+  // EncodeUnsignedSmallFloat(|value|, 10) with the sign, by integer arithmetic on the float's
+  // bits (the chain's storage rounding converts millions of values per job).
+  const uint32_t bits = std::bit_cast<uint32_t>(value);
+  const auto sign = static_cast<uint16_t>((bits >> 16) & 0x8000u);
+  const uint32_t a = bits & 0x7FFFFFFFu;
+  if (a >= 0x477FF000u) {  // |value| >= 65520 (rounds past 65504), infinity or NaN
+    return a > 0x7F800000u ? sign : static_cast<uint16_t>(sign | 0x7BFFu);  // NaN: 0; else clamp
+  }
+  if (a < 0x38800000u) {  // below 2^-14: a subnormal half (or 0)
+    // 0.5 has a float ulp of 2^-24, the half subnormal's unit: the addition rounds |value| to a
+    // multiple of it, half to even, and the difference of the bits counts the units (1024 is the
+    // smallest normal's encoding, where a value rounds up to it).
+    const float t = std::bit_cast<float>(a) + 0.5f;
+    return static_cast<uint16_t>(sign | (std::bit_cast<uint32_t>(t) - 0x3F000000u));
+  }
+  // Normal: rebias the exponent (127 -> 15) and drop 13 mantissa bits, half to even (adding
+  // 0xFFF plus the kept bits' lowest bit); a carry out of the mantissa increments the exponent.
+  const uint32_t r = a - (112u << 23) + 0xFFFu + ((a >> 13) & 1u);
+  return static_cast<uint16_t>(sign | (r >> 13));
 }
 
 uint32_t PackB10G11R11(float r, float g, float b) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <random>
 
 #include "absl/strings/ascii.h"
@@ -179,32 +180,67 @@ std::vector<double> SplitSumZonal(SpecularLobe lobe, double alpha, int lmax) {
   std::vector<double> g(lmax + 1, 0.0);
   const double scale =
       lobe == SpecularLobe::kLambert ? 0.25 : std::max(1e-6, std::min(alpha, 1.0) / 4);
-  const double max_width = std::min(0.1, 2.0 / (lmax + 1));
+  // A 16-node Gauss-Legendre panel integrates P_l (cos theta) times the smooth kernel to
+  // rounding while l x width stays below about 16 (half the rule's polynomial degree, 31, in
+  // radians of oscillation); kPanelPhase = 8 keeps a factor of two in hand.
+  constexpr double kPanelPhase = 8;
+  const double max_width = std::min(0.1, kPanelPhase / (lmax + 1));
   const std::vector<double> b = Breakpoints(scale, max_width);
   const RingQuadrature gl = GaussLegendreRule(kPanelNodes);
-  double norm = 0;
-  std::vector<double> acc(lmax + 1, 0.0);
+  // The nodes first, then the Legendre recurrence over all of them at once per degree (the
+  // inner loop runs over nodes: independent lanes, vectorized).
+  std::vector<double> x, w;
+  x.reserve((b.size() - 1) * kPanelNodes);
+  w.reserve(x.capacity());
   for (size_t i = 1; i < b.size(); ++i) {
     const double mid = 0.5 * (b[i] + b[i - 1]), half = 0.5 * (b[i] - b[i - 1]);
     for (int k = 0; k < kPanelNodes; ++k) {
       // Gauss-Legendre nodes x_k = cos(theta_k) in [-1, 1], weights summing to 2.
       const double theta = mid + half * gl.cos_theta[k];
-      const double x = std::cos(theta);
-      const double w = half * gl.weight[k] * std::sin(theta) * SplitSumKernel(lobe, alpha, x);
-      if (w == 0) continue;
-      norm += w;
-      double p0 = 1, p1 = x;
-      acc[0] += w;
-      if (lmax >= 1) acc[1] += w * x;
-      for (int l = 2; l <= lmax; ++l) {
-        const double p2 = ((2 * l - 1) * x * p1 - (l - 1) * p0) / l;
-        acc[l] += w * p2;
-        p0 = p1;
-        p1 = p2;
-      }
+      const double c = std::cos(theta);
+      const double weight = half * gl.weight[k] * std::sin(theta) * SplitSumKernel(lobe, alpha, c);
+      if (weight == 0) continue;
+      x.push_back(c);
+      w.push_back(weight);
     }
   }
-  for (int l = 0; l <= lmax; ++l) g[l] = acc[l] / norm;
+  double norm = 0;
+  for (double v : w) norm += v;
+  if (x.empty() || norm == 0) return g;
+  // Padded to whole blocks of kLanes with zero weights (their terms stay 0).
+  constexpr size_t kLanes = 8;
+  const size_t n = (x.size() + kLanes - 1) / kLanes * kLanes;
+  x.resize(n, 0.0);
+  w.resize(n, 0.0);
+  // p0 = w P_{l-1}, p1 = w P_l, carried weighted so that each degree's sum is a plain sum;
+  // kLanes partial sums so that the loop vectorizes without reassociating a single sum.
+  std::vector<double> p0(w), p1(n);
+  for (size_t j = 0; j < n; ++j) p1[j] = w[j] * x[j];
+  auto lane_sum = [&](const std::vector<double>& p) {
+    double s[kLanes] = {};
+    for (size_t j = 0; j < n; j += kLanes)
+      for (size_t k = 0; k < kLanes; ++k) s[k] += p[j + k];
+    double t = 0;
+    for (double v : s) t += v;
+    return t;
+  };
+  g[0] = 1;
+  if (lmax >= 1) g[1] = lane_sum(p1) / norm;
+  for (int l = 2; l <= lmax; ++l) {
+    const double a = (2.0 * l - 1) / l, c = (l - 1.0) / l;
+    double s[kLanes] = {};
+    for (size_t j = 0; j < n; j += kLanes) {
+      for (size_t k = 0; k < kLanes; ++k) {
+        const double p2 = a * x[j + k] * p1[j + k] - c * p0[j + k];
+        p0[j + k] = p1[j + k];
+        p1[j + k] = p2;
+        s[k] += p2;
+      }
+    }
+    double t = 0;
+    for (double v : s) t += v;
+    g[l] = t / norm;
+  }
   return g;
 }
 
@@ -223,6 +259,127 @@ std::array<double, 3> SplitSumReference(const EnvMap& map, SpecularLobe lobe, do
   }
   if (norm == 0) return {0, 0, 0};
   return {sum[0] / norm, sum[1] / norm, sum[2] / norm};
+}
+
+PixelSumTable::PixelSumTable(const EnvMap& map) {
+  const std::span<const EnvSample> samples = map.samples();
+  blocks_ = static_cast<int>((samples.size() + kBlock - 1) / kBlock);
+  const size_t n = static_cast<size_t>(blocks_) * kBlock;
+  for (std::vector<float>* v : {&x_, &y_, &z_, &omega_, &r_, &g_, &b_}) v->assign(n, 0.0f);
+  cones_.resize(blocks_);
+  for (int b = 0; b < blocks_; ++b) {
+    const size_t begin = static_cast<size_t>(b) * kBlock;
+    const size_t end = std::min(samples.size(), begin + kBlock);
+    Vec3 sum{0, 0, 0};
+    for (size_t i = begin; i < end; ++i) {
+      const EnvSample& s = samples[i];
+      x_[i] = static_cast<float>(s.dir.x);
+      y_[i] = static_cast<float>(s.dir.y);
+      z_[i] = static_cast<float>(s.dir.z);
+      omega_[i] = static_cast<float>(s.solid_angle);
+      r_[i] = s.rgb[0];
+      g_[i] = s.rgb[1];
+      b_[i] = s.rgb[2];
+      sum = sum + s.dir;
+    }
+    Cone& cone = cones_[b];
+    const double len = sum.Norm();
+    // A block spread over more than a hemisphere (len ~ 0) is never skipped.
+    cone.axis = len > 1e-9 ? sum * (1 / len) : Vec3{0, 0, 1};
+    double min_cos = len > 1e-9 ? 1.0 : -1.0;
+    for (size_t i = begin; i < end; ++i) min_cos = std::min(min_cos, cone.axis.Dot(samples[i].dir));
+    // The member directions are rounded to float: widen the cone by more than that.
+    min_cos = std::max(-1.0, min_cos - 1e-6);
+    cone.sin_radius = min_cos <= 0 ? 2.0 : std::sqrt(1 - min_cos * min_cos);
+  }
+}
+
+namespace {
+
+// The kernel of SplitSumKernel up to a constant factor, as a function of e = |r - d|^2.
+struct GgxInE {
+  float a2, b;  // alpha^2, (1 - alpha^2) / 4
+  float operator()(float e) const {
+    const float q = a2 + b * e;
+    return std::max(0.0f, 1 - 0.5f * e) / (q * q);
+  }
+};
+struct CharlieInE {
+  float power;  // 1 / (2 alpha): D ~ (sin^2 theta_h)^power, sin^2 theta_h = e / 4
+  float operator()(float e) const {
+    const float c = 1 - 0.5f * e;
+    return c > 0 ? std::pow(0.25f * e, power) * c : 0.0f;
+  }
+};
+struct LambertInE {
+  float operator()(float e) const { return std::max(0.0f, 1 - 0.5f * e); }
+};
+
+}  // namespace
+
+std::vector<std::array<double, 3>> PixelSumTable::Prefiltered(SpecularLobe lobe, double alpha,
+                                                              std::span<const Vec3> dirs,
+                                                              int threads) const {
+  std::vector<std::array<double, 3>> out(dirs.size(), {0, 0, 0});
+  auto run = [&](auto kernel) {
+    ParallelChunks(static_cast<int>(dirs.size()), threads, [&](int begin, int end) {
+      constexpr int kLanes = 8;
+      std::vector<std::array<double, 4>> total(end - begin, {0, 0, 0, 0});
+      for (int blk = 0; blk < blocks_; ++blk) {
+        const Cone& cone = cones_[blk];
+        const size_t base = static_cast<size_t>(blk) * kBlock;
+        const float* px = x_.data() + base;
+        const float* py = y_.data() + base;
+        const float* pz = z_.data() + base;
+        const float* po = omega_.data() + base;
+        const float* pr = r_.data() + base;
+        const float* pg = g_.data() + base;
+        const float* pb = b_.data() + base;
+        for (int i = begin; i < end; ++i) {
+          const Vec3& dir = dirs[i];
+          // Every member at least 90 degrees from dir: K = 0 for the whole block.
+          if (cone.sin_radius <= 1 && dir.Dot(cone.axis) <= -cone.sin_radius) continue;
+          const float rx = static_cast<float>(dir.x), ry = static_cast<float>(dir.y),
+                      rz = static_cast<float>(dir.z);
+          float sw[kLanes] = {}, sr[kLanes] = {}, sg[kLanes] = {}, sb[kLanes] = {};
+          for (int j = 0; j < kBlock; j += kLanes) {
+            for (int k = 0; k < kLanes; ++k) {
+              const float dx = rx - px[j + k], dy = ry - py[j + k], dz = rz - pz[j + k];
+              const float w = kernel(dx * dx + dy * dy + dz * dz) * po[j + k];
+              sw[k] += w;
+              sr[k] += w * pr[j + k];
+              sg[k] += w * pg[j + k];
+              sb[k] += w * pb[j + k];
+            }
+          }
+          std::array<double, 4>& t = total[i - begin];
+          for (int k = 0; k < kLanes; ++k) {
+            t[0] += sw[k];
+            t[1] += sr[k];
+            t[2] += sg[k];
+            t[3] += sb[k];
+          }
+        }
+      }
+      for (int i = begin; i < end; ++i) {
+        const std::array<double, 4>& t = total[i - begin];
+        if (t[0] > 0) out[i] = {t[1] / t[0], t[2] / t[0], t[3] / t[0]};
+      }
+    });
+  };
+  const float a = static_cast<float>(alpha);
+  switch (lobe) {
+    case SpecularLobe::kGgx:
+      run(GgxInE{a * a, (1 - a * a) / 4});
+      break;
+    case SpecularLobe::kCharlie:
+      run(CharlieInE{0.5f / a});
+      break;
+    case SpecularLobe::kLambert:
+      run(LambertInE{});
+      break;
+  }
+  return out;
 }
 
 std::array<double, 3> ImportanceSampledGgx(const EnvMap& map, double alpha, const Vec3& n,
@@ -379,7 +536,8 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
 }
 
 LevelError MeasureLevelError(const EnvMap& map, SpecularLobe lobe, const SpecularLevel& level,
-                             const Mat3& rotation, int count, uint64_t seed, int threads) {
+                             const Mat3& rotation, int count, uint64_t seed, int threads,
+                             const PixelSumTable* table) {
   LevelError e;
   if (count <= 0) return e;
   const int s = level.cube.face_size;
@@ -392,23 +550,30 @@ LevelError MeasureLevelError(const EnvMap& map, SpecularLobe lobe, const Specula
          static_cast<int>((k / s) % s)};
   }
   const Mat3 inverse = rotation.Transposed();
+  std::vector<Vec3> dirs(count);
+  for (int i = 0; i < count; ++i) {
+    const auto [face, x, y] = texels[i];
+    dirs[i] = inverse * CubeTexelDirection(face, x, y, s);
+  }
+  std::vector<std::array<double, 3>> want(count);
+  if (level.alpha <= 0) {
+    for (int i = 0; i < count; ++i) want[i] = SplitSumReference(map, lobe, 0.0, dirs[i]);
+  } else {
+    std::optional<PixelSumTable> own;
+    if (table == nullptr) table = &own.emplace(map);
+    want = table->Prefiltered(lobe, level.alpha, dirs, threads);
+  }
   std::vector<double> got(count), ref(count);
-  ParallelChunks(count, threads, [&](int begin, int end) {
-    for (int i = begin; i < end; ++i) {
-      const auto [face, x, y] = texels[i];
-      const Vec3 r = CubeTexelDirection(face, x, y, s);
-      const std::array<double, 3> want = SplitSumReference(map, lobe, level.alpha, inverse * r);
-      std::array<double, 3> have;
-      for (int c = 0; c < 3; ++c) have[c] = level.cube.data[level.cube.Index(face, x, y, c)];
-      double a = 0, b = 0;
-      for (int c = 0; c < 3; ++c) {
-        a += kLuma[c] * have[c];
-        b += kLuma[c] * want[c];
-      }
-      got[i] = a;
-      ref[i] = b;
+  for (int i = 0; i < count; ++i) {
+    const auto [face, x, y] = texels[i];
+    double a = 0, b = 0;
+    for (int c = 0; c < 3; ++c) {
+      a += kLuma[c] * level.cube.data[level.cube.Index(face, x, y, c)];
+      b += kLuma[c] * want[i][c];
     }
-  });
+    got[i] = a;
+    ref[i] = b;
+  }
   double mean = 0;
   for (double v : ref) mean += std::abs(v) / count;
   for (int i = 0; i < count; ++i) {
