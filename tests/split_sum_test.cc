@@ -323,6 +323,35 @@ TEST(SplitSumTest, EveryLevelMatchesThePixelSumOnTheBundledMaps) {
   }
 }
 
+TEST(SplitSumTest, BaseLevelIsTheMapAtEveryTexelCentre) {
+  // The base level's table-driven lookups against the test's own bilinear lookup at every texel
+  // of every face (the angles agree to the rounding of the direction's normalization).
+  constexpr double kBaseTol = 1e-5;
+  auto map = EnvMap::Load({.paths = {std::string(SHRM_SOURCE_DIR) + "/data/envmaps/city.exr"}});
+  ASSERT_TRUE(map.ok()) << map.status();
+  // (Not S = 1: its texels look exactly at the poles, where the azimuth, and so the lat-long
+  // row's pixel, depends on the sign of a zero.)
+  for (int s : {2, 4, 64}) {
+    SpecularOptions opt;
+    const double zero[] = {0.0};
+    opt.chain = *MakeMipChain(RoughnessPreset::kExplicit, s, 1, zero);
+    auto chain = PrefilterSpecular(*map, opt);
+    ASSERT_TRUE(chain.ok()) << chain.status();
+    const RadianceCube& cube = chain->levels[0].cube;
+    for (int face = 0; face < kCubeFaceCount; ++face)
+      for (int y = 0; y < s; ++y)
+        for (int x = 0; x < s; ++x) {
+          const std::array<double, 3> want =
+              LatLongBilinear(*map->lat_long_image(), CubeTexelDirection(face, x, y, s));
+          for (int c = 0; c < 3; ++c) {
+            ASSERT_NEAR(cube.data[cube.Index(face, x, y, c)], want[c],
+                        kBaseTol * std::max(1.0, want[c]))
+                << "S " << s << " face " << face << " texel " << x << "," << y;
+          }
+        }
+  }
+}
+
 TEST(SplitSumTest, SheenAndLambertLevelsMatchThePixelSum) {
   constexpr double kLevelRmsTol = 1e-3;  // as for GGX: float storage, the bound
   constexpr double kLevelMaxTol = 1e-2;

@@ -465,9 +465,11 @@ void EnvMap::BuildSamples(std::vector<EnvSample>* out) const {
 }
 
 std::array<float, 3> EnvMap::LatLongRadiance(const Vec3& d) const {
+  return LatLongRadianceAt(std::atan2(std::hypot(d.x, d.z), d.y), std::atan2(d.x, -d.z));
+}
+
+std::array<float, 3> EnvMap::LatLongRadianceAt(double theta, double p) const {
   const Image& img = images_[0];
-  const double theta = std::atan2(std::hypot(d.x, d.z), d.y);
-  const double p = std::atan2(d.x, -d.z);
   const double x = (p / (2 * kPi) + 0.5) * img.width - 0.5;
   const double y = theta / kPi * img.height - 0.5;
   return Bilinear(img, x, y, /*wrap_x=*/true);

@@ -151,6 +151,10 @@ class EnvMap {
   const Image* lat_long_image() const {
     return layout_ == EnvLayout::kLatLong ? &images_[0] : nullptr;
   }
+  // Radiance() of a lat-long map at polar angle theta from +Y and azimuth phi = atan2(x, -z)
+  // (the angles Radiance() computes from a direction; docs/conventions.md), for callers that
+  // have them already (layout() must be kLatLong).
+  std::array<float, 3> LatLongRadianceAt(double theta, double phi) const;
 
  private:
   EnvMap() = default;

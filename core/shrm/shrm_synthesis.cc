@@ -538,7 +538,11 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeP0(ShrmKind kind, int face_si
       }
     }
   }
-  auto plan = GetShtPlan(ShtGrid{nb, na, ShtGridKind::kEquiangular}, f, ch);
+  // The synthesis does not depend on the analysis quadrature; the pixel-sum plan skips the exact
+  // rule's theta-resampling matrices (grids of fewer than 2F + 1 rings), which only the analysis
+  // uses and which cost more than the synthesis itself.
+  auto plan =
+      GetShtPlan(ShtGrid{nb, na, ShtGridKind::kEquiangular}, f, ch, ShtQuadrature::kPixelSum);
   if (!plan.ok()) return plan.status();
   const size_t row = static_cast<size_t>(nb) * ch;
   std::vector<float> values(row * (na + 4));
