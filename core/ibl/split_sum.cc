@@ -72,15 +72,10 @@ int GridRings(const std::vector<double>& g, const std::vector<double>& energy, i
   constexpr double kCubicRmsPerAxis = 0.404 / 24;
   constexpr double kLargestBandError = 2;
   constexpr double kInterpolationBudget = 10;
-  auto smooth = [](int v) {
-    for (int p : {2, 3, 5, 7})
-      while (v % p == 0) v /= p;
-    return v == 1;
-  };
   const int generic = std::max(32, 4 * (f + 1));
   const double budget = kInterpolationBudget * tolerance;
-  for (int na = std::max(32, (f + 1 + 7) / 8 * 8); na < generic; na += 8) {
-    if (!smooth(na)) continue;
+  for (int na = FftFriendlyRings(std::max(32, f + 1)); na < generic;
+       na = FftFriendlyRings(na + 8)) {
     const double h = kPi / na;
     double err = 0;
     for (int l = 1; l <= f; ++l) {

@@ -444,6 +444,17 @@ void ShrmSynthesizer::SynthesizeSlabs(ShrmKind kind, int na, int owned, int thre
   }
 }
 
+int FftFriendlyRings(int na) {
+  auto smooth = [](int v) {
+    for (int p : {2, 3, 5, 7})
+      while (v % p == 0) v /= p;
+    return v == 1;
+  };
+  na = (std::max(na, 1) + 7) / 8 * 8;
+  while (!smooth(na)) na += 8;
+  return na;
+}
+
 absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCube(ShrmKind kind, int face_size,
                                                     const ShrmGridOptions& options) const {
   if (face_size < 1) {
@@ -459,16 +470,7 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCube(ShrmKind kind, int face_size
     // The grid resolves a band-limited field of degree F (+ P for the global shift); 4 samples per
     // wavelength of degree F + P + 1 keep the 4-point Lagrange error ~(F h)^4 / 40 < 1e-3 of the
     // top band (docs/shrm.md), independent of S_B.
-    na = std::max(32, 4 * (lmax_ + pmax_ + 1));
-    na = (na + 7) / 8 * 8;
-    // ... and on to the next multiple of 8 whose FFT length 2 na has no prime factor above 7
-    // (e.g. 104 -> 112, 232 -> 240: an FFT of 2 * 232 = 16 * 29 costs ~1.7x that of 480).
-    auto smooth = [](int v) {
-      for (int p : {2, 3, 5, 7})
-        while (v % p == 0) v /= p;
-      return v == 1;
-    };
-    while (!smooth(na)) na += 8;
+    na = FftFriendlyRings(std::max(32, 4 * (lmax_ + pmax_ + 1)));
   }
   if (pmax_ == 0 && options.p0_sht_path) return BuildCubeP0(kind, face_size, na, options.threads);
   ShrmCube cube;

@@ -37,6 +37,10 @@
 
 namespace shrm {
 
+// The smallest grid size >= na that is a multiple of 8 and whose FFT length 2 na has no prime
+// factor above 7 (e.g. 232 -> 240: an FFT of 2 x 232 = 16 x 29 costs ~1.7x that of 480).
+int FftFriendlyRings(int na);
+
 struct ShrmGridOptions {
   // Equiangular grid rows in alpha over [0, pi] (pixel centres alpha_j = pi (j + 1/2) / N);
   // 0 = automatic: max(32, 4 (F + P + 1)) rounded up to a multiple of 8, then to the next
