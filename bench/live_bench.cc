@@ -1,4 +1,4 @@
-// The live session (core/shrm/live_session.h, issue 13): time from an update to its frame, one
+// The live session (core/live/live_session.h, issue 13): time from an update to its frame, one
 // thread, the issue's configuration: the bundled maps box-downsampled to 256 x 128, microfacet
 // sigma 0.2 at epsilon 0.03, a global SHRM of 64 x 64 x 6 texels.
 //
@@ -16,6 +16,13 @@
 //                        reused, the 64 x 64 x 6 map of the view computed
 // BM_LiveLatestWins      ten updates sent at once, then the frame of the last: what a producer
 //                        ten times faster than the computation waits for
+// BM_LiveSplitSumRotation  a session handing out the split-sum set alone (no BRDF): `shrm ibl`'s
+//                          default chain (Filament preset, 256 x 256 down to 16 x 16, and the
+//                          32 x 32 irradiance) of the full 1024 x 512 courtyard, turned about
+//                          +Y each update (the cached coefficients rotated at degree 256)
+// BM_LiveSplitSumSequence  the same set of a new 1024 x 512 map each update (decode included:
+//                          the transform to degree 511 and the chain)
+// BM_LiveSplitSumMaterial  SHRM and split-sum set together, the material changed (the set reused)
 // Targets (issue 13): lighting and material changes <= 5 ms, the sequence >= 30 frames/s.
 #include <benchmark/benchmark.h>
 
@@ -29,8 +36,9 @@
 #include "absl/strings/str_cat.h"
 #include "core/brdf/brdf.h"
 #include "core/envmap/envmap.h"
+#include "core/ibl/split_sum.h"
 #include "core/io/image.h"
-#include "core/shrm/live_session.h"
+#include "core/live/live_session.h"
 
 namespace shrm {
 namespace {
@@ -189,6 +197,57 @@ void BM_LiveLatestWins(benchmark::State& state) {
   Counters(state, *s);
 }
 BENCHMARK(BM_LiveLatestWins)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// `shrm ibl`'s defaults (jobs/ibl_job.h: 256 x 256 Filament chain, tolerance 1e-3 / 30, a
+// 32 x 32 irradiance cube).
+std::unique_ptr<LiveSession> SplitSumSession() {
+  PrefilterOptions o;
+  o.epsilon = 0.03;
+  o.face_size = kFaceSize;
+  o.threads = 1;
+  ibl::SplitSumSetOptions ss;
+  ss.chain = OrDie(ibl::MakeMipChain(ibl::RoughnessPreset::kFilament, 256, 0), "chain");
+  ss.tolerance = 1e-3 / 30;
+  ss.irradiance_size = 32;
+  return OrDie(LiveSession::Create(o, nullptr, ss), "session");
+}
+
+std::shared_ptr<const EnvMap> FullMap(const std::string& name) {
+  return std::make_shared<const EnvMap>(
+      EnvMap::FromLatLong(OrDie(ReadImageRgb(MapPath(name)), "decode")));
+}
+
+void BM_LiveSplitSumRotation(benchmark::State& state) {
+  auto s = SplitSumSession();
+  Await(state, *s, s->SetMap(FullMap("courtyard.exr"), RotationY(0.01)));
+  double yaw = 0.01;
+  for (auto _ : state) Await(state, *s, s->SetRotation(RotationY(yaw += 0.01)));
+  Counters(state, *s);
+}
+BENCHMARK(BM_LiveSplitSumRotation)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_LiveSplitSumSequence(benchmark::State& state) {
+  auto s = SplitSumSession();
+  const std::string names[4] = {"courtyard.exr", "city.exr", "forest.exr", "interior.exr"};
+  Await(state, *s, s->SetMap(FullMap(names[3])));
+  int k = 0;
+  for (auto _ : state) Await(state, *s, s->SetMap(FullMap(names[k++ % 4])));
+  Counters(state, *s);
+}
+BENCHMARK(BM_LiveSplitSumSequence)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_LiveSplitSumMaterial(benchmark::State& state) {
+  auto s = SplitSumSession();
+  const std::shared_ptr<const Brdf> brdfs[2] = {Parsed("microfacet:sigma=0.2"),
+                                                Parsed("microfacet:sigma=0.25")};
+  s->SetMap(FullMap("courtyard.exr"));
+  Await(state, *s, s->SetBrdf(brdfs[1]));
+  Await(state, *s, s->SetBrdf(brdfs[0]));
+  int k = 0;
+  for (auto _ : state) Await(state, *s, s->SetBrdf(brdfs[++k % 2]));
+  Counters(state, *s);
+}
+BENCHMARK(BM_LiveSplitSumMaterial)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 }  // namespace shrm

@@ -1,8 +1,9 @@
 // `shrm live` (docs/cli.md, docs/live.md): a sequence of lighting states prefiltered by one live
-// session (core/shrm/live_session.h): HDR frames (--sequence) or one map turned about the vertical
+// session (core/live/live_session.h): HDR frames (--sequence) or one map turned about the vertical
 // axis (--env with --turntable N). Each frame's SHRM file is the one `shrm prefilter` writes for
 // that frame (--epsilon/--orders, --verify 0, and --rotate for a turntable frame), byte for byte;
-// the next frame is decoded while the session computes the current one.
+// with --ibl each frame's split-sum set is the folder `shrm ibl --verify 0` writes for it. The
+// next frame is decoded while the session computes the current one.
 #include <array>
 #include <chrono>
 #include <cstdio>
@@ -25,9 +26,11 @@
 #include "core/base/status_macros.h"
 #include "core/io/atomic_file.h"
 #include "core/io/image.h"
-#include "core/shrm/live_session.h"
+#include "core/live/live_session.h"
 #include "core/shrm/shrm_file.h"
 #include "jobs/cli_validators.h"
+#include "jobs/ibl_job.h"
+#include "jobs/ibl_outputs.h"
 #include "jobs/option_text.h"
 #include "jobs/prefilter_job.h"
 
@@ -53,16 +56,24 @@ struct LiveArgs {
   std::string kind = jobs::ShrmKindName(ShrmKind::kGlobal);
   int size = 0;
   std::string view;
+  // --ibl: each frame's split-sum set too (the `shrm ibl` job of these options, verify 0).
+  bool ibl = false;
+  std::string ibl_preset = ibl::RoughnessPresetName(ibl::RoughnessPreset::kFilament);
+  int ibl_size = jobs::kDefaultIblFaceSize;
+  std::string ibl_format = jobs::IblFormatName(jobs::IblFormat::kRgba16f);
+  std::string ibl_containers = jobs::IblContainerName(jobs::IblContainer::kKtx2);
   std::string output;  // folder
   int threads = 0;
   bool json = false;
   std::string server;
 };
 
-// The prefilter job each frame is (its file attributes are that job's).
+// The prefilter job each frame is (its file attributes are that job's), and its IBL job with
+// --ibl (the files of its split-sum set are that job's).
 struct FrameJob {
   jobs::PrefilterJob job;
   std::string path;
+  jobs::IblJob ibl;
 };
 
 absl::StatusOr<std::vector<FrameJob>> FrameJobs(const LiveArgs& a) {
@@ -74,6 +85,9 @@ absl::StatusOr<std::vector<FrameJob>> FrameJobs(const LiveArgs& a) {
   }
   if (a.env.empty() && a.turntable > 0) {
     return absl::InvalidArgumentError("--turntable turns one map: give it with --env");
+  }
+  if (a.brdf.empty() && !a.ibl) {
+    return absl::InvalidArgumentError("give --brdf (the SHRM of each frame), --ibl, or both");
   }
   jobs::PrefilterJob base;
   base.brdf = a.brdf;
@@ -103,12 +117,43 @@ absl::StatusOr<std::vector<FrameJob>> FrameJobs(const LiveArgs& a) {
       frames.push_back(std::move(f));
     }
   }
-  for (const FrameJob& f : frames) SHRM_RETURN_IF_ERROR(jobs::ValidatePrefilterJob(f.job));
+  jobs::IblJob ibl;
+  ibl.verify = 0;
+  if (a.ibl) {
+    SHRM_ASSIGN_OR_RETURN(ibl.preset, ibl::ParseRoughnessPreset(a.ibl_preset));
+    ibl.face_size = a.ibl_size;
+    SHRM_ASSIGN_OR_RETURN(ibl.format, jobs::ParseIblFormat(a.ibl_format));
+    SHRM_ASSIGN_OR_RETURN(ibl.containers, jobs::ParseIblContainers(a.ibl_containers));
+  }
+  for (FrameJob& f : frames) {
+    if (!a.brdf.empty()) SHRM_RETURN_IF_ERROR(jobs::ValidatePrefilterJob(f.job));
+    if (!a.ibl) continue;
+    f.ibl = ibl;
+    f.ibl.env = f.job.env;
+    SHRM_RETURN_IF_ERROR(jobs::ValidateIblJobNamingOptions(
+        f.ibl, [](std::string_view option) { return "--ibl-" + std::string(option); }));
+  }
   return frames;
 }
 
 std::string FramePath(const std::string& folder, int index, const char* suffix) {
   return absl::StrFormat("%s/frame_%04d.%s", folder, index, suffix);
+}
+
+// The files of one split-sum set into `folder` (created; each file through a temporary, all
+// renamed once every one is written, as `shrm ibl` does).
+absl::Status WriteFolder(const std::string& folder, const std::vector<jobs::IblFile>& files) {
+  std::error_code ec;
+  std::filesystem::create_directories(folder, ec);
+  if (ec) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--output: cannot create folder ", folder, ": ", ec.message()));
+  }
+  OutputTransaction tx;
+  for (const jobs::IblFile& f : files) {
+    SHRM_RETURN_IF_ERROR(WriteFileAtomically(tx.Temp(folder + "/" + f.name), f.bytes));
+  }
+  return tx.Commit();
 }
 
 std::string StageText(const LiveFrame& f) {
@@ -124,6 +169,7 @@ struct FrameFigures {
   double decode_ms = 0, compute_ms = 0, write_ms = 0;
   std::string stages;  // " brdf 0.1 lighting 2.0 ..."
   std::string view_path;
+  std::string ibl_path;  // the split-sum set's folder (--ibl)
 };
 
 void ReportFrame(const LiveArgs& a, size_t k, const FrameJob& f, const std::string& shrm_path,
@@ -138,13 +184,19 @@ void ReportFrame(const LiveArgs& a, size_t k, const FrameJob& f, const std::stri
                       {"write_ms", fig.write_ms}};
   if (f.job.env.rotate_ypr_deg) j["rotate_ypr_deg"] = *f.job.env.rotate_ypr_deg;
   if (!fig.view_path.empty()) j["view_map"] = fig.view_path;
+  if (!fig.ibl_path.empty()) j["ibl"] = fig.ibl_path;
+  if (shrm_path.empty()) j.erase("output");
   report->push_back(j);
   if (!a.json) {
-    std::printf(
-        "frame %zu: %s -> %s, (F_B, P_B) = (%d, %d), %.1f ms (decode %.1f;%s; write %.1f)\n", k,
-        f.path.c_str(), shrm_path.c_str(), fig.f_b, fig.p_b,
-        fig.decode_ms + fig.compute_ms + fig.write_ms, fig.decode_ms, fig.stages.c_str(),
-        fig.write_ms);
+    std::string outputs = shrm_path;
+    if (!shrm_path.empty())
+      absl::StrAppendFormat(&outputs, ", (F_B, P_B) = (%d, %d)", fig.f_b, fig.p_b);
+    if (!fig.ibl_path.empty()) {
+      absl::StrAppend(&outputs, outputs.empty() ? "" : " and ", fig.ibl_path, "/");
+    }
+    std::printf("frame %zu: %s -> %s, %.1f ms (decode %.1f;%s; write %.1f)\n", k, f.path.c_str(),
+                outputs.c_str(), fig.decode_ms + fig.compute_ms + fig.write_ms, fig.decode_ms,
+                fig.stages.c_str(), fig.write_ms);
   }
 }
 
@@ -173,6 +225,10 @@ absl::Status RunLiveRemote(const LiveArgs& a, const std::vector<FrameJob>& frame
   std::optional<Vec3> view;
   if (!a.view.empty()) {
     SHRM_ASSIGN_OR_RETURN(view, ParseDirection(a.view, "--view"));
+  }
+  if (a.ibl) {
+    return absl::InvalidArgumentError(
+        "--ibl runs embedded only: the Live call carries SHRMs and view maps (docs/live.md)");
   }
   SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> client, ConnectServer(a.server));
   std::map<std::string, std::string> sha_of;
@@ -273,8 +329,11 @@ absl::Status RunLive(const LiveArgs& a) {
     SHRM_ASSIGN_OR_RETURN(view, ParseDirection(a.view, "--view"));
   }
   // Everything checked before the first frame: the BRDF, every map's header, the folder.
-  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<Brdf> parsed, ParseBrdfSpec(a.brdf));
-  const std::shared_ptr<const Brdf> brdf(std::move(parsed));
+  std::shared_ptr<const Brdf> brdf;
+  if (!a.brdf.empty()) {
+    SHRM_ASSIGN_OR_RETURN(std::unique_ptr<Brdf> parsed, ParseBrdfSpec(a.brdf));
+    brdf = std::move(parsed);
+  }
   std::set<std::string> probed;
   for (const FrameJob& f : frames) {
     if (probed.insert(f.path).second) SHRM_RETURN_IF_ERROR(ProbeImage(f.path).status());
@@ -285,8 +344,13 @@ absl::Status RunLive(const LiveArgs& a) {
 
   const int threads = ResolveThreads(a.threads);
   PrefilterOptions options = jobs::CorePrefilterOptions(frames.front().job, threads);
-  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<LiveSession> session, LiveSession::Create(options));
-  session->SetBrdf(brdf);
+  std::optional<ibl::SplitSumSetOptions> split_sum;
+  if (a.ibl) {
+    SHRM_ASSIGN_OR_RETURN(split_sum, jobs::IblSplitSumSetOptions(frames.front().ibl));
+  }
+  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<LiveSession> session,
+                        LiveSession::Create(options, nullptr, split_sum));
+  if (brdf) session->SetBrdf(brdf);
   session->SetView(view);
 
   // The map of frame k (decoded once for a turntable) and its source identity.
@@ -300,7 +364,7 @@ absl::Status RunLive(const LiveArgs& a) {
     Decoded d;
     SHRM_ASSIGN_OR_RETURN(EnvMap map, LoadEnv(f.job.env));
     SHRM_ASSIGN_OR_RETURN(d.provenance.source, jobs::LocalSourceIdentity(f.job.env));
-    d.provenance.brdf_spec = brdf->spec();
+    if (brdf) d.provenance.brdf_spec = brdf->spec();
     d.provenance.layout = map.layout();
     d.map = std::make_shared<const EnvMap>(std::move(map));
     d.ms =
@@ -330,13 +394,26 @@ absl::Status RunLive(const LiveArgs& a) {
                           absl::StrCat(f.path, ": ", frame->status.message()));
     }
     const auto write_start = std::chrono::steady_clock::now();
-    const auto attributes = jobs::PrefilterFileAttributes(f.job, current.provenance, frame->result);
-    const std::string shrm_path = FramePath(a.output, static_cast<int>(k), "shrm.exr");
-    SHRM_RETURN_IF_ERROR(WriteShrmFile(shrm_path, frame->result.cube, attributes));
-    std::string view_path;
-    if (view) {
-      view_path = FramePath(a.output, static_cast<int>(k), "view.exr");
-      SHRM_RETURN_IF_ERROR(WriteRadianceCross(view_path, frame->view_map));
+    std::string shrm_path, view_path, ibl_path;
+    if (frame->has_shrm) {
+      const auto attributes =
+          jobs::PrefilterFileAttributes(f.job, current.provenance, frame->result);
+      shrm_path = FramePath(a.output, static_cast<int>(k), "shrm.exr");
+      SHRM_RETURN_IF_ERROR(WriteShrmFile(shrm_path, frame->result.cube, attributes));
+      if (view) {
+        view_path = FramePath(a.output, static_cast<int>(k), "view.exr");
+        SHRM_RETURN_IF_ERROR(WriteRadianceCross(view_path, frame->view_map));
+      }
+    }
+    if (a.ibl) {
+      ibl_path = FramePath(a.output, static_cast<int>(k), "ibl");
+      SHRM_ASSIGN_OR_RETURN(
+          const jobs::IblRun run,
+          jobs::IblRunFromSet(f.ibl, *frame->split_sum, current.provenance.source,
+                              current.map->layout(), current.map->replaced_non_finite(), threads));
+      SHRM_ASSIGN_OR_RETURN(const std::vector<jobs::IblFile> files,
+                            jobs::EncodeIblOutputs(f.ibl, run));
+      SHRM_RETURN_IF_ERROR(WriteFolder(ibl_path, files));
     }
     const double write_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - write_start)
@@ -349,6 +426,7 @@ absl::Status RunLive(const LiveArgs& a) {
     fig.write_ms = write_ms;
     fig.stages = StageText(*frame);
     fig.view_path = view_path;
+    fig.ibl_path = ibl_path;
     ReportFrame(a, k, f, shrm_path, fig, &report);
     if (next) current = *std::move(next);
   }
@@ -369,8 +447,9 @@ void DefineLive(CLI::App* sub, absl::Status* status) {
   sub->add_option("--turntable", args->turntable,
                   "frames per turn of --env (frame k rotated by 360 k / N degrees of yaw)")
       ->check(CLI::Range(1, kMaxTurntableFrames));
-  sub->add_option("--brdf", args->brdf, "BRDF spec, e.g. microfacet:sigma=0.2 (docs/brdf.md)")
-      ->required();
+  sub->add_option("--brdf", args->brdf,
+                  "BRDF spec of each frame's SHRM, e.g. microfacet:sigma=0.2 (docs/brdf.md); "
+                  "optional with --ibl");
   sub->add_option("--epsilon", args->epsilon,
                   "the paper's energy tolerance for the orders (default 0.03; the tolerance "
                   "rule takes seconds per frame: use shrm prefilter for it)")
@@ -385,8 +464,25 @@ void DefineLive(CLI::App* sub, absl::Status* status) {
   sub->add_option("--view", args->view,
                   "also write each frame's reflection map for this view (eq. 5.35), x,y,z")
       ->check(jobs::kDirection);
+  sub->add_flag("--ibl", args->ibl,
+                "also each frame's split-sum IBL set: the folder frame_NNNN.ibl that "
+                "`shrm ibl --verify 0` writes for the frame");
+  sub->add_option("--ibl-preset", args->ibl_preset,
+                  "--ibl: roughness per mip (as shrm ibl --preset)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"filament", "gltf", "babylon"}));
+  sub->add_option("--ibl-size", args->ibl_size, "--ibl: base face size (as shrm ibl --size)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--ibl-format", args->ibl_format, "--ibl: storage (as shrm ibl --format)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"rgba16f", "rgba32f", "r11g11b10f", "rgb9e5"}));
+  sub->add_option("--ibl-containers", args->ibl_containers,
+                  "--ibl: containers (as shrm ibl --containers)")
+      ->capture_default_str();
   sub->add_option("-o,--output", args->output,
-                  "folder for frame_NNNN.shrm.exr (and frame_NNNN.view.exr with --view)")
+                  "folder for frame_NNNN.shrm.exr (frame_NNNN.view.exr with --view, "
+                  "frame_NNNN.ibl/ with --ibl)")
       ->required();
   sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
       ->check(CLI::NonNegativeNumber);

@@ -28,11 +28,11 @@ endif()
 # (shrm::sh, shrm::transform, shrm::io, shrm::envmap, shrm::brdf, shrm::shrm, shrm::base,
 # shrm::version, shrm::proto, shrm::wire) for programs that want less than the whole core.
 add_library(shrm_core INTERFACE)
-target_link_libraries(shrm_core INTERFACE shrm_ibl shrm_export shrm_shrm shrm_envmap shrm_brdf shrm_io shrm_transform
+target_link_libraries(shrm_core INTERFACE shrm_live shrm_ibl shrm_export shrm_shrm shrm_envmap shrm_brdf shrm_io shrm_transform
                                           shrm_sh shrm_base shrm_version)
 
 set(SHRM_EXPORTED_TARGETS shrm_base shrm_version shrm_sh shrm_transform shrm_io shrm_envmap
-                          shrm_brdf shrm_shrm shrm_ibl shrm_export shrm_core shrm_jobs)
+                          shrm_brdf shrm_shrm shrm_ibl shrm_export shrm_live shrm_core shrm_jobs)
 if(SHRM_WITH_CLIENT)
   list(APPEND SHRM_EXPORTED_TARGETS shrm_proto shrm_wire shrm_client)
 endif()

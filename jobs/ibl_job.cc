@@ -317,60 +317,40 @@ absl::StatusOr<IblRun> RunIblJob(const IblJob& job, int threads,
   return RunIblJobOnMap(job, map, source, MsSince(t0), threads, progress);
 }
 
-absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
-                                      const SourceIdentity& source, double decode_ms, int threads,
-                                      const PrefilterProgress& progress) {
-  SHRM_RETURN_IF_ERROR(ValidateIblJob(job));
-  auto stage = [&](std::string_view name) { return progress ? progress(name) : absl::OkStatus(); };
-  IblRun run;
-  run.source = source;
-  run.layout = map.layout();
-  run.replaced_non_finite = map.replaced_non_finite();
-  run.timings.push_back({"decode", decode_ms});
-  auto t0 = std::chrono::steady_clock::now();
-  const Mat3 rotation = EnvironmentRotation(job.env);
+absl::StatusOr<ibl::SplitSumSetOptions> IblSplitSumSetOptions(const IblJob& job) {
+  ibl::SplitSumSetOptions o;
+  SHRM_ASSIGN_OR_RETURN(o.chain, IblJobChain(job));
+  o.tolerance = job.tolerance / kIblSphereToDirectionFactor;
+  o.sheen = job.sheen;
+  o.irradiance_size = job.irradiance_size;
+  return o;
+}
 
-  ibl::SpecularOptions opt;
-  SHRM_ASSIGN_OR_RETURN(opt.chain, IblJobChain(job));
-  opt.tolerance = job.tolerance / kIblSphereToDirectionFactor;
-  opt.rotation = rotation;
-  opt.threads = threads;
-  SHRM_RETURN_IF_ERROR(stage("lighting"));
-  SHRM_ASSIGN_OR_RETURN(const ibl::SpecularLight light,
-                        ibl::ComputeSpecularLight(map, rotation, 0, threads));
-  run.timings.push_back({"lighting", MsSince(t0)});
-  SHRM_RETURN_IF_ERROR(stage("specular"));
-  t0 = std::chrono::steady_clock::now();
+namespace {
+
+// After the set: the SH window, the DFG table, negatives clamped and storage rounding, then (with
+// `map` and job.verify > 0) the check against the pixel sum, and the report.
+absl::Status FinishIblRun(const IblJob& job, ibl::SplitSumSet set, const EnvMap* map,
+                          const Mat3& rotation, int threads, const PrefilterProgress& progress,
+                          IblRun& run) {
+  auto stage = [&](std::string_view name) { return progress ? progress(name) : absl::OkStatus(); };
   run.specular.name = "specular";
-  SHRM_ASSIGN_OR_RETURN(run.specular.chain, ibl::PrefilterSpecular(map, opt, &light));
-  run.timings.push_back({"specular", MsSince(t0)});
-  if (job.sheen) {
-    SHRM_RETURN_IF_ERROR(stage("sheen"));
-    t0 = std::chrono::steady_clock::now();
-    opt.lobe = ibl::SpecularLobe::kCharlie;
-    run.sheen.name = "sheen";
-    SHRM_ASSIGN_OR_RETURN(run.sheen.chain, ibl::PrefilterSpecular(map, opt, &light));
-    run.timings.push_back({"sheen", MsSince(t0)});
-  }
-  SHRM_RETURN_IF_ERROR(stage("irradiance"));
-  t0 = std::chrono::steady_clock::now();
-  ibl::SpecularOptions diffuse = opt;
-  diffuse.lobe = ibl::SpecularLobe::kLambert;
-  const double one[] = {1.0};
-  SHRM_ASSIGN_OR_RETURN(diffuse.chain, ibl::MakeMipChain(ibl::RoughnessPreset::kExplicit,
-                                                         job.irradiance_size, 1, one));
+  run.specular.chain = std::move(set.specular);
+  run.sheen.name = "sheen";
+  run.sheen.chain = std::move(set.sheen);
   run.irradiance.name = "irradiance";
-  SHRM_ASSIGN_OR_RETURN(run.irradiance.chain, ibl::PrefilterSpecular(map, diffuse, &light));
-  run.radiance_sh9.assign(ShCount(2) * 3, 0.0);  // zeros above the degree of a tiny map
-  std::copy_n(light.coeffs.begin(), std::min<size_t>(light.coeffs.size(), ShCount(2) * 3),
-              run.radiance_sh9.begin());
+  run.irradiance.chain = std::move(set.irradiance);
+  run.radiance_sh9 = std::move(set.radiance_sh9);
+  auto t0 = std::chrono::steady_clock::now();
   ibl::Sh9WindowOptions window;
   window.automatic = job.sh_window != IblShWindow::kNone;
   window.cmgen_compatible = job.sh_window == IblShWindow::kCmgen;
   window.window = ibl::ShWindow::kHanning;
   SHRM_ASSIGN_OR_RETURN(run.sh_window, ibl::WindowSh9(run.radiance_sh9, 2, window));
-  run.timings.push_back({"irradiance", MsSince(t0)});
-
+  // (The window is counted with the irradiance, the stage before it.)
+  if (!run.timings.empty() && run.timings.back().stage == "irradiance") {
+    run.timings.back().ms += MsSince(t0);
+  }
   if (const std::optional<ibl::DfgConsumer> consumer = ResolvedDfg(job)) {
     SHRM_RETURN_IF_ERROR(stage("dfg"));
     t0 = std::chrono::steady_clock::now();
@@ -381,26 +361,67 @@ absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
   t0 = std::chrono::steady_clock::now();
   for (IblCube* cube : {&run.specular, &run.sheen, &run.irradiance}) StoreAs(job.format, *cube);
   run.timings.push_back({"storage", MsSince(t0)});
-  if (job.verify > 0) {
+  if (job.verify > 0 && map != nullptr) {
     SHRM_RETURN_IF_ERROR(stage("verify"));
     t0 = std::chrono::steady_clock::now();
     // One copy of the map's samples for every check of the job.
-    const ibl::PixelSumTable table(map);
-    SHRM_RETURN_IF_ERROR(Measure(map, table, rotation, ibl::SpecularLobe::kGgx, job.verify,
+    const ibl::PixelSumTable table(*map);
+    SHRM_RETURN_IF_ERROR(Measure(*map, table, rotation, ibl::SpecularLobe::kGgx, job.verify,
                                  kSpecularVerifySeed, threads, run.specular));
     if (job.sheen) {
-      SHRM_RETURN_IF_ERROR(Measure(map, table, rotation, ibl::SpecularLobe::kCharlie, job.verify,
+      SHRM_RETURN_IF_ERROR(Measure(*map, table, rotation, ibl::SpecularLobe::kCharlie, job.verify,
                                    kSheenVerifySeed, threads, run.sheen));
     }
-    SHRM_RETURN_IF_ERROR(Measure(map, table, rotation, ibl::SpecularLobe::kLambert, job.verify,
+    SHRM_RETURN_IF_ERROR(Measure(*map, table, rotation, ibl::SpecularLobe::kLambert, job.verify,
                                  kIrradianceVerifySeed, threads, run.irradiance));
     // The check of E_lm = A_l L_lm, the form `shrm irradiance` states.
     SHRM_ASSIGN_OR_RETURN(const std::vector<double> e9,
                           IrradianceCoefficients(2, 3, run.radiance_sh9));
-    run.sh9_measured = MeasureIrradianceSh9(map, rotation, e9, job.verify, threads, &table);
+    run.sh9_measured = MeasureIrradianceSh9(*map, rotation, e9, job.verify, threads, &table);
     run.timings.push_back({"verify", MsSince(t0)});
   }
   run.report = IblReportJson(job, run);
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
+                                      const SourceIdentity& source, double decode_ms, int threads,
+                                      const PrefilterProgress& progress) {
+  SHRM_RETURN_IF_ERROR(ValidateIblJob(job));
+  IblRun run;
+  run.source = source;
+  run.layout = map.layout();
+  run.replaced_non_finite = map.replaced_non_finite();
+  run.timings.push_back({"decode", decode_ms});
+  const auto t0 = std::chrono::steady_clock::now();
+  const Mat3 rotation = EnvironmentRotation(job.env);
+  SHRM_ASSIGN_OR_RETURN(const ibl::SplitSumSetOptions options, IblSplitSumSetOptions(job));
+  if (progress) SHRM_RETURN_IF_ERROR(progress("lighting"));
+  SHRM_ASSIGN_OR_RETURN(const ibl::SpecularLight light,
+                        ibl::ComputeSpecularLight(map, rotation, 0, threads));
+  run.timings.push_back({"lighting", MsSince(t0)});
+  SHRM_ASSIGN_OR_RETURN(
+      ibl::SplitSumSet set,
+      ibl::PrefilterSplitSumSet(map, light, options, threads, progress, &run.timings));
+  SHRM_RETURN_IF_ERROR(FinishIblRun(job, std::move(set), &map, rotation, threads, progress, run));
+  return run;
+}
+
+absl::StatusOr<IblRun> IblRunFromSet(const IblJob& job, ibl::SplitSumSet set,
+                                     const SourceIdentity& source, EnvLayout layout,
+                                     int64_t replaced_non_finite, int threads) {
+  SHRM_RETURN_IF_ERROR(ValidateIblJob(job));
+  if (job.verify != 0) {
+    return absl::InvalidArgumentError("a set computed elsewhere is not checked: verify must be 0");
+  }
+  IblRun run;
+  run.source = source;
+  run.layout = layout;
+  run.replaced_non_finite = replaced_non_finite;
+  SHRM_RETURN_IF_ERROR(FinishIblRun(job, std::move(set), nullptr, EnvironmentRotation(job.env),
+                                    threads, nullptr, run));
   return run;
 }
 

@@ -162,6 +162,19 @@ absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
                                       const SourceIdentity& source, double decode_ms, int threads,
                                       const PrefilterProgress& progress = nullptr);
 
+// The core options of the job's split-sum set (its chain, the core tolerance, sheen, the
+// irradiance size): what RunIblJobOnMap computes, and a live session for `shrm live --ibl`.
+absl::StatusOr<ibl::SplitSumSetOptions> IblSplitSumSetOptions(const IblJob& job);
+
+// A set computed elsewhere (a live session's frame, core/live/live_session.h) as the job's run,
+// what RunIblJobOnMap does after its chains: the SH window, the DFG table, negatives clamped and
+// storage rounding, the report. job.verify must be 0 (a live frame is not checked); the set must
+// be of job.env's map and rotation and IblSplitSumSetOptions(job). The files it encodes are those
+// of RunIblJobOnMap with verify 0, byte for byte (tests/live_session_test.cc).
+absl::StatusOr<IblRun> IblRunFromSet(const IblJob& job, ibl::SplitSumSet set,
+                                     const SourceIdentity& source, EnvLayout layout,
+                                     int64_t replaced_non_finite, int threads);
+
 // The job's options as the report records them ("options": every option of IblJobOptions()
 // besides the environment's files, layout and colour spaces, by its name there): what
 // `shrm batch` compares to skip an up-to-date set.

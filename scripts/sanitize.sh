@@ -18,7 +18,7 @@
 #       ThreadSanitizer (build-tsan, -O1 -g1): the service's tests (the daemon in process with its
 #       caches, admission, blob store, decoder sandbox, idle watchdog; the client and its retries),
 #       the job layer's tests and `shrm batch` (batch_test on the sanitized program, whose jobs
-#       run in parallel) and the live session (core/shrm/live_session.h: its worker thread).
+#       run in parallel) and the live session (core/live/live_session.h: its worker thread).
 #       Debian's gRPC, Protobuf and Abseil are not instrumented: their own
 #       memory accesses are invisible to TSan, and tests/tsan.supp names the few reports that
 #       come from synchronization TSan cannot see inside them (each with its reason).

@@ -479,6 +479,44 @@ expect_error live_missing_map 1 'missing\.exr' \
 expect_error live_env_without_turntable 1 'turntable' \
   "$SHRM" live --env "$MAP" --brdf phong:s=32 -o "$TMP/live"
 
+# --- shrm live --ibl: each frame's split-sum set is shrm ibl's folder ------------------------
+# A 2-frame turntable of the bundled map with --ibl beside --brdf: every file of frame_NNNN.ibl/
+# is the file `shrm ibl --verify 0 --rotate yaw,0,0` writes for that frame, byte for byte (and
+# the SHRM still shrm prefilter's); without --brdf the frames are the sets alone. Bad --ibl
+# options, or neither --brdf nor --ibl, are refused before any frame.
+CHECKS=$((CHECKS + 1))
+cd "$TMP/live" || exit 2
+if "$SHRM" live --env "$MAP" --turntable 2 --brdf "$LIVE_BRDF" --size 16 --ibl --ibl-size 32 \
+  --ibl-preset gltf -o iblturn >iblturn.stdout 2>iblturn.stderr &&
+  "$SHRM" live --sequence "$CITY" --ibl --ibl-size 16 -o iblonly >iblonly.stdout 2>&1; then
+  ok=1
+  for k in 0 1; do
+    "$SHRM" ibl --env "$MAP" --size 32 --preset gltf --verify 0 --rotate $((180 * k)),0,0 \
+      -o "iblref$k" >/dev/null 2>&1 || { ok=0; fail "live --ibl: shrm ibl ref $k failed"; }
+    [ "$(ls "iblref$k" | wc -l)" -ge 5 ] &&
+      [ "$(ls "iblref$k")" = "$(ls "iblturn/frame_000$k.ibl")" ] ||
+      { ok=0; fail "live --ibl: frame $k has other files than shrm ibl: $(ls "iblturn/frame_000$k.ibl" | tr '\n' ' ')"; }
+    for f in "iblref$k"/*; do
+      cmp -s "$f" "iblturn/frame_000$k.ibl/${f##*/}" || { ok=0; fail "live --ibl: frame $k ${f##*/} differs from shrm ibl's"; }
+    done
+  done
+  "$SHRM" prefilter --env "$MAP" --brdf "$LIVE_BRDF" --epsilon 0.03 --verify 0 --size 16 \
+    --rotate 180,0,0 -o iblturn1.shrm.exr >/dev/null 2>&1 &&
+    cmp -s iblturn/frame_0001.shrm.exr iblturn1.shrm.exr || { ok=0; fail "live --ibl: the SHRM of frame 1 differs from shrm prefilter's"; }
+  "$SHRM" ibl --env "$CITY" --size 16 --verify 0 -o iblonlyref >/dev/null 2>&1 &&
+    cmp -s iblonly/frame_0000.ibl/specular.ktx2 iblonlyref/specular.ktx2 || { ok=0; fail "live --ibl without --brdf: specular.ktx2 differs from shrm ibl's"; }
+  [ -e iblonly/frame_0000.shrm.exr ] && { ok=0; fail "live --ibl without --brdf wrote an SHRM"; }
+  [ "$ok" = 1 ] && echo "ok: live --ibl: each frame's set equals shrm ibl's folder: $(tail -n 1 iblturn.stdout)"
+else
+  fail "live --ibl: $(cat iblturn.stderr iblonly.stdout 2>/dev/null | head -c 400)"
+fi
+cd "$TMP" || exit 2
+expect_error live_ibl_size 1 'ibl-size.*power of two' \
+  "$SHRM" live --env "$MAP" --turntable 2 --ibl --ibl-size 24 -o "$TMP/live/iblbad"
+[ -e "$TMP/live/iblbad/frame_0000.ibl" ] && fail "live_ibl_size: a frame was written"
+expect_error live_nothing_asked 1 'give --brdf.*--ibl' \
+  "$SHRM" live --env "$MAP" --turntable 2 -o "$TMP/live/iblbad"
+
 # --- shrm ibl: bad inputs leave no folder and no file ----------------------------------------
 IBL=(ibl --size 16 --verify 2 -o ibl_out)
 expect_error ibl_size_not_power_of_two 1 'face size 24.*power of two' \

@@ -1,10 +1,14 @@
-// The live session (core/shrm/live_session.h, docs/live.md): each frame equals the offline
+// The live session (core/live/live_session.h, docs/live.md): each frame equals the offline
 // Prefilter() of the same lighting, rotation, BRDF and options, bit for bit where the path is
 // the same (a map, a rotation, a BRDF change and back) and within a named float tolerance where
 // it differs (coefficients given directly); latest-wins, by the order of events (a gate holds the
 // worker while updates arrive), not by timing; errors are frames, and the next update recovers.
 // On courtyard.exr box-downsampled to 256 x 128 (it resolves degree 127, above every F_rho here).
-#include "core/shrm/live_session.h"
+// A session with split-sum options also hands out the split-sum set of each lighting state: equal,
+// bit for bit, to the offline PrefilterSplitSumSet of ComputeSpecularLight (what `shrm ibl`
+// computes, tested against the brute-force pixel sum in tests/split_sum_test.cc), recomputed when
+// the lighting changes and reused when only the material does.
+#include "core/live/live_session.h"
 
 #include <gtest/gtest.h>
 
@@ -14,6 +18,7 @@
 
 #include "core/brdf/brdf.h"
 #include "core/envmap/lighting.h"
+#include "core/ibl/split_sum.h"
 #include "core/sh/sh.h"
 #include "core/shrm/shrm_explicit.h"
 #include "tests/stage_gate.h"
@@ -244,6 +249,119 @@ TEST(LiveSession, ErrorsAreFramesAndTheNextUpdateRecovers) {
   ExpectSameCube(good->result.cube, Offline(*ParsedBrdf("phong:s=32"), Mat3::Identity()));
   // An update that was never made is refused at once.
   EXPECT_EQ(live.WaitFor(1000, kFrameWait).status().code(), absl::StatusCode::kInvalidArgument);
+}
+
+// The split-sum chain of these tests: Filament's preset from a 64 x 64 base (3 levels down to
+// 16 x 16), the core tolerance of `shrm ibl`'s default (1e-3 / 30).
+ibl::SplitSumSetOptions SplitSumOptions() {
+  ibl::SplitSumSetOptions o;
+  o.chain = *ibl::MakeMipChain(ibl::RoughnessPreset::kFilament, 64, 0);
+  o.tolerance = 1e-3 / 30;
+  o.irradiance_size = 8;
+  return o;
+}
+
+ibl::SplitSumSet OfflineSplitSum(const Mat3& rotation) {
+  const int threads = SessionOptions().threads;
+  absl::StatusOr<ibl::SpecularLight> light =
+      ibl::ComputeSpecularLight(*Courtyard(), rotation, 0, threads);
+  EXPECT_TRUE(light.ok()) << light.status();
+  if (!light.ok()) return {};
+  absl::StatusOr<ibl::SplitSumSet> set =
+      ibl::PrefilterSplitSumSet(*Courtyard(), *light, SplitSumOptions(), threads);
+  EXPECT_TRUE(set.ok()) << set.status();
+  return set.ok() ? *std::move(set) : ibl::SplitSumSet{};
+}
+
+void ExpectSameChain(const ibl::SpecularChain& got, const ibl::SpecularChain& want) {
+  EXPECT_EQ(got.light_degree, want.light_degree);
+  ASSERT_EQ(got.levels.size(), want.levels.size());
+  for (size_t k = 0; k < got.levels.size(); ++k) {
+    EXPECT_EQ(got.levels[k].degree, want.levels[k].degree) << "level " << k;
+    EXPECT_EQ(got.levels[k].face_size, want.levels[k].face_size) << "level " << k;
+    EXPECT_TRUE(got.levels[k].cube.data == want.levels[k].cube.data)
+        << "level " << k << ": the frame's radiance differs from the offline chain's";
+  }
+}
+
+void ExpectSameSet(const ibl::SplitSumSet& got, const ibl::SplitSumSet& want) {
+  ExpectSameChain(got.specular, want.specular);
+  ExpectSameChain(got.irradiance, want.irradiance);
+  EXPECT_TRUE(got.sheen.levels.empty());
+  EXPECT_EQ(got.radiance_sh9, want.radiance_sh9);
+}
+
+bool HasStage(const LiveFrame& f, const std::string& stage) {
+  for (const StageTiming& t : f.result.timings)
+    if (t.stage == stage) return true;
+  return false;
+}
+
+TEST(LiveSession, SplitSumSetEqualsTheOfflineChainAndIsReusedWhenOnlyTheMaterialChanges) {
+  absl::StatusOr<std::unique_ptr<LiveSession>> s =
+      LiveSession::Create(SessionOptions(), nullptr, SplitSumOptions());
+  ASSERT_TRUE(s.ok()) << s.status();
+  LiveSession& live = **s;
+
+  // No BRDF: the frames hold the set alone.
+  auto f = Frame(live, live.SetMap(Courtyard()));
+  ASSERT_NE(f, nullptr);
+  EXPECT_FALSE(f->incomplete);
+  EXPECT_FALSE(f->has_shrm);
+  ASSERT_NE(f->split_sum, nullptr);
+  EXPECT_FALSE(f->split_sum_reused);
+  EXPECT_TRUE(HasStage(*f, "specular"));
+  ExpectSameSet(*f->split_sum, OfflineSplitSum(Mat3::Identity()));
+
+  // A rotation: the cached coefficients turned (degree capped at kMaxRotationLmax; this map's
+  // 127 is below it), the chain recomputed.
+  f = Frame(live, live.SetRotation(kRotationA));
+  ASSERT_NE(f, nullptr);
+  ASSERT_NE(f->split_sum, nullptr);
+  EXPECT_FALSE(f->split_sum_reused);
+  ExpectSameSet(*f->split_sum, OfflineSplitSum(kRotationA));
+
+  // A material: the SHRM computed, the set reused (the same object).
+  const auto microfacet = ParsedBrdf("microfacet:sigma=0.3");
+  const std::shared_ptr<const ibl::SplitSumSet> before = f->split_sum;
+  f = Frame(live, live.SetBrdf(microfacet));
+  ASSERT_NE(f, nullptr);
+  EXPECT_TRUE(f->has_shrm);
+  EXPECT_TRUE(f->split_sum_reused);
+  EXPECT_EQ(f->split_sum, before);
+  EXPECT_FALSE(HasStage(*f, "specular"));
+  ExpectSameCube(f->result.cube, Offline(*microfacet, kRotationA));
+
+  // Coefficients have no map for the base level: the frame's error names it; a map recovers.
+  auto coefficients = std::make_shared<const std::vector<double>>(
+      *LightingCoefficients(*Courtyard(), kCoefficientsLmax, Mat3::Identity(), 1));
+  absl::StatusOr<std::shared_ptr<const LiveFrame>> bad = live.WaitFor(
+      live.SetCoefficients(coefficients, kCoefficientsLmax, LightingEnergy(*Courtyard())),
+      kFrameWait);
+  ASSERT_TRUE(bad.ok()) << bad.status();
+  EXPECT_EQ((*bad)->status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE((*bad)->status.message().find("needs a map"), std::string::npos) << (*bad)->status;
+  EXPECT_FALSE((*bad)->has_shrm);
+  f = Frame(live, live.SetMap(Courtyard(), kRotationB));
+  ASSERT_NE(f, nullptr);
+  EXPECT_TRUE(f->has_shrm);
+  ASSERT_NE(f->split_sum, nullptr);
+  ExpectSameSet(*f->split_sum, OfflineSplitSum(kRotationB));
+  ExpectSameCube(f->result.cube, Offline(*microfacet, kRotationB));
+
+  // Bad split-sum options are refused when the session is created.
+  ibl::SplitSumSetOptions no_levels = SplitSumOptions();
+  no_levels.chain = {};
+  EXPECT_EQ(LiveSession::Create(SessionOptions(), nullptr, no_levels).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  ibl::SplitSumSetOptions bad_tolerance = SplitSumOptions();
+  bad_tolerance.tolerance = 0;
+  EXPECT_EQ(LiveSession::Create(SessionOptions(), nullptr, bad_tolerance).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  ibl::SplitSumSetOptions bad_irradiance = SplitSumOptions();
+  bad_irradiance.irradiance_size = 3;
+  EXPECT_EQ(LiveSession::Create(SessionOptions(), nullptr, bad_irradiance).status().code(),
+            absl::StatusCode::kInvalidArgument);
 }
 
 }  // namespace

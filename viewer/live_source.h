@@ -1,6 +1,6 @@
 // The viewer's live mode (`shrm-view --live`, docs/viewer.md "Live", issue 13 item 3): the
 // lighting changes with a clock and each state's SHRM is recomputed by one LiveSession
-// (core/shrm/live_session.h, docs/live.md), always for the latest state; the render loop shows
+// (core/live/live_session.h, docs/live.md), always for the latest state; the render loop shows
 // the newest frame and never waits for a computation (except with a deterministic clock, below).
 //
 // The clock is in seconds: the wall time since the start, or, with --live-step DT, exactly
@@ -32,7 +32,7 @@
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
 #include "core/base/geometry.h"
-#include "core/shrm/live_session.h"
+#include "core/live/live_session.h"
 #include "jobs/prefilter_job.h"
 #include "viewer/scene_source.h"
 

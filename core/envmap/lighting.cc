@@ -60,6 +60,19 @@ absl::Status RotateLighting(int lmax, const Mat3& world_rotation, std::span<doub
   if (world_rotation.IsIdentity()) return absl::OkStatus();
   const Mat3 rot_s = ShFrameRotationFromWorld(world_rotation);
   std::vector<double> in(n), out(n);
+  // A turn about the world's vertical (a yaw: a turntable, the viewer's --live rotate) is a turn
+  // about the SH frame's z axis, diagonal per m (SHRM paper App. B): O(lmax^2) instead of the
+  // zxzxz path's O(lmax^3) (and no operator to build). The matrix entries are exact here: M R M^T
+  // only permutes and negates R's, and a yaw's vertical row and column are exactly (0, 1, 0).
+  const auto& r = rot_s.m;
+  if (r[2][2] == 1 && r[0][2] == 0 && r[1][2] == 0 && r[2][0] == 0 && r[2][1] == 0) {
+    for (int c = 0; c < kChannels; ++c) {
+      for (size_t i = 0; i < n; ++i) in[i] = rgb_coeffs[i * kChannels + c];
+      RotateShZ(lmax, r[0][0], r[1][0], in, out);
+      for (size_t i = 0; i < n; ++i) rgb_coeffs[i * kChannels + c] = out[i];
+    }
+    return absl::OkStatus();
+  }
   for (int c = 0; c < kChannels; ++c) {
     for (size_t i = 0; i < n; ++i) in[i] = rgb_coeffs[i * kChannels + c];
     RotateSh(lmax, rot_s, in, out);

@@ -1,6 +1,7 @@
 #include "core/ibl/split_sum.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <optional>
 #include <random>
@@ -9,6 +10,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/cubemap.h"
 #include "core/base/parallel.h"
+#include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
 #include "core/sh/quadrature.h"
 #include "core/sh/rotation.h"
@@ -516,12 +518,7 @@ std::array<double, 3> ImportanceSampledGgx(const EnvMap& map, double alpha, cons
   return {sum[0] / w, sum[1] / w, sum[2] / w};
 }
 
-absl::StatusOr<SpecularLight> ComputeSpecularLight(const EnvMap& map, const Mat3& rotation,
-                                                   int max_degree, int threads) {
-  if (threads < 1) return absl::InvalidArgumentError(absl::StrCat("IBL: threads = ", threads));
-  if (max_degree < 0) {
-    return absl::InvalidArgumentError(absl::StrCat("IBL: negative degree cap ", max_degree));
-  }
+int SpecularLightDegree(const EnvMap& map, const Mat3& rotation, int max_degree) {
   // The degree the map resolves: its own lat-long grid, or the grid LightingCoefficients
   // resamples other layouts to.
   int limit = map.lat_long_image() != nullptr
@@ -529,16 +526,23 @@ absl::StatusOr<SpecularLight> ComputeSpecularLight(const EnvMap& map, const Mat3
                   : map.NativeLatLongWidth() / 2 - 1;
   if (!rotation.IsIdentity()) limit = std::min(limit, kMaxRotationLmax);
   if (max_degree > 0) limit = std::min(limit, max_degree);
-  limit = std::max(limit, 0);
+  return std::max(limit, 0);
+}
+
+absl::StatusOr<SpecularLight> SpecularLightFromCoefficients(int degree, const Mat3& rotation,
+                                                            std::vector<double> unrotated) {
+  if (degree < 0 || unrotated.size() != static_cast<size_t>(ShCount(degree)) * 3) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("IBL: ", unrotated.size(), " coefficients for degree ", degree));
+  }
   SpecularLight light;
-  light.degree = limit;
+  light.degree = degree;
   light.rotation = rotation;
-  // The pixels' own quadrature: the convolution is then the pixel sum with the degree-F kernel.
-  auto coeffs = LightingCoefficients(map, limit, rotation, threads, ShtQuadrature::kPixelSum);
-  if (!coeffs.ok()) return coeffs.status();
-  light.coeffs = std::move(coeffs).value();
-  light.energy.assign(limit + 1, 0.0);
-  for (int l = 0; l <= limit; ++l)
+  light.coeffs = std::move(unrotated);
+  // As LightingCoefficients does after its transform.
+  if (!rotation.IsIdentity()) SHRM_RETURN_IF_ERROR(RotateLighting(degree, rotation, light.coeffs));
+  light.energy.assign(degree + 1, 0.0);
+  for (int l = 0; l <= degree; ++l)
     for (int m = -l; m <= l; ++m) {
       double y = 0;
       for (int c = 0; c < 3; ++c)
@@ -546,6 +550,22 @@ absl::StatusOr<SpecularLight> ComputeSpecularLight(const EnvMap& map, const Mat3
       light.energy[l] += y * y;
     }
   return light;
+}
+
+absl::StatusOr<SpecularLight> ComputeSpecularLight(const EnvMap& map, const Mat3& rotation,
+                                                   int max_degree, int threads) {
+  if (threads < 1) return absl::InvalidArgumentError(absl::StrCat("IBL: threads = ", threads));
+  if (max_degree < 0) {
+    return absl::InvalidArgumentError(absl::StrCat("IBL: negative degree cap ", max_degree));
+  }
+  const int limit = SpecularLightDegree(map, rotation, max_degree);
+  // The pixels' own quadrature: the convolution is then the pixel sum with the degree-F kernel.
+  // (Rotated: LightingCoefficients turns the transform's coefficients with RotateLighting, as
+  // SpecularLightFromCoefficients does.)
+  auto coeffs =
+      LightingCoefficients(map, limit, Mat3::Identity(), threads, ShtQuadrature::kPixelSum);
+  if (!coeffs.ok()) return coeffs.status();
+  return SpecularLightFromCoefficients(limit, rotation, std::move(coeffs).value());
 }
 
 absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const SpecularOptions& options,
@@ -588,7 +608,9 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
     RadianceCube& cube = level.cube;
     cube.face_size = level.face_size;
     cube.channels = 3;
-    cube.data.assign(cube.size(), 0.0f);
+    // (Convolved levels take the synthesis's buffer below: zeroing one here would only add the
+    // first-touch page faults of another cube.)
+    if (level.alpha <= 0) cube.data.assign(cube.size(), 0.0f);
     // (A 1 x 1 face's centre coordinate is 0, whose mirror image is +0 rather than -0: the
     // generic path.)
     if (level.alpha <= 0 && level.face_size >= 2 && map.lat_long_image() != nullptr &&
@@ -698,6 +720,50 @@ LevelError MeasureLevelError(const EnvMap& map, SpecularLobe lobe, const Specula
   e.rms = std::sqrt(e.rms);
   e.count = count;
   return e;
+}
+
+absl::StatusOr<SplitSumSet> PrefilterSplitSumSet(const EnvMap& map, const SpecularLight& light,
+                                                 const SplitSumSetOptions& options, int threads,
+                                                 const PrefilterProgress& progress,
+                                                 std::vector<StageTiming>* timings) {
+  SplitSumSet set;
+  SpecularOptions opt;
+  opt.chain = options.chain;
+  opt.tolerance = options.tolerance;
+  opt.rotation = light.rotation;
+  opt.threads = threads;
+  auto t0 = std::chrono::steady_clock::now();
+  auto stage = [&](const char* name) -> absl::Status {
+    t0 = std::chrono::steady_clock::now();
+    return progress ? progress(name) : absl::OkStatus();
+  };
+  auto done = [&](const char* name) {
+    if (timings == nullptr) return;
+    timings->push_back(
+        {name,
+         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count()});
+  };
+  SHRM_RETURN_IF_ERROR(stage("specular"));
+  SHRM_ASSIGN_OR_RETURN(set.specular, PrefilterSpecular(map, opt, &light));
+  done("specular");
+  if (options.sheen) {
+    SHRM_RETURN_IF_ERROR(stage("sheen"));
+    opt.lobe = SpecularLobe::kCharlie;
+    SHRM_ASSIGN_OR_RETURN(set.sheen, PrefilterSpecular(map, opt, &light));
+    done("sheen");
+  }
+  SHRM_RETURN_IF_ERROR(stage("irradiance"));
+  SpecularOptions diffuse = opt;
+  diffuse.lobe = SpecularLobe::kLambert;
+  const double one[] = {1.0};
+  SHRM_ASSIGN_OR_RETURN(diffuse.chain,
+                        MakeMipChain(RoughnessPreset::kExplicit, options.irradiance_size, 1, one));
+  SHRM_ASSIGN_OR_RETURN(set.irradiance, PrefilterSpecular(map, diffuse, &light));
+  set.radiance_sh9.assign(ShCount(2) * 3, 0.0);  // zeros above the degree of a tiny map
+  std::copy_n(light.coeffs.begin(), std::min<size_t>(light.coeffs.size(), ShCount(2) * 3),
+              set.radiance_sh9.begin());
+  done("irradiance");
+  return set;
 }
 
 }  // namespace shrm::ibl

@@ -62,6 +62,7 @@
 #include "absl/status/statusor.h"
 #include "core/base/geometry.h"
 #include "core/envmap/envmap.h"
+#include "core/shrm/prefilter.h"
 #include "core/shrm/radiance_cube.h"
 
 namespace shrm::ibl {
@@ -207,12 +208,45 @@ struct SpecularLight {
 };
 absl::StatusOr<SpecularLight> ComputeSpecularLight(const EnvMap& map, const Mat3& rotation,
                                                    int max_degree, int threads);
+// The degree ComputeSpecularLight uses for `map` (rotated: at most kMaxRotationLmax).
+int SpecularLightDegree(const EnvMap& map, const Mat3& rotation, int max_degree);
+// The light of coefficients already computed: `unrotated` are the map's L_lm to `degree`
+// (LightingCoefficients with kPixelSum, unrotated), rotated here by `rotation` (RotateLighting);
+// with the energy per degree. Equal, bit for bit, to ComputeSpecularLight of the same map at that
+// degree (a live session keeps the unrotated coefficients and turns them per frame).
+absl::StatusOr<SpecularLight> SpecularLightFromCoefficients(int degree, const Mat3& rotation,
+                                                            std::vector<double> unrotated);
 
 // The prefiltered mip chain, from `light` when given (its rotation must be options.rotation; the
 // base level is resampled from `map`). Errors: InvalidArgument for a bad chain, tolerance,
 // degree or thread count, and LightingCoefficients' errors.
 absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const SpecularOptions& options,
                                                 const SpecularLight* light = nullptr);
+
+// The split-sum set of one lighting state, before storage: what `shrm ibl` computes from its
+// light (jobs/ibl_job.h) and a live session for each lighting state (core/live/live_session.h).
+struct SplitSumSetOptions {
+  MipChain chain;            // of the specular (and sheen) chain
+  double tolerance = 1e-4;   // SpecularOptions::tolerance
+  bool sheen = false;        // also the Charlie chain
+  int irradiance_size = 32;  // face size of the irradiance cube (kLambert, one level)
+};
+struct SplitSumSet {
+  SpecularChain specular;
+  SpecularChain sheen;  // no levels unless options.sheen
+  SpecularChain irradiance;
+  // Radiance L_lm, l <= 2, RGB (light.coeffs' first 27 values; zeros above a tiny map's degree),
+  // unwindowed.
+  std::vector<double> radiance_sh9;
+};
+// The set from `light` (the map's, with its rotation; the base levels are resampled from `map`).
+// `progress` (optional) is called at the start of each stage ("specular", ["sheen"],
+// "irradiance"; its error stops the call) and `timings` (optional) gets each stage's time.
+// Errors: PrefilterSpecular's.
+absl::StatusOr<SplitSumSet> PrefilterSplitSumSet(const EnvMap& map, const SpecularLight& light,
+                                                 const SplitSumSetOptions& options, int threads,
+                                                 const PrefilterProgress& progress = nullptr,
+                                                 std::vector<StageTiming>* timings = nullptr);
 
 }  // namespace shrm::ibl
 

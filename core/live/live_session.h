@@ -14,10 +14,17 @@
 //     of Prefilter() bit for bit;
 //   - analysis and synthesis run for every frame whose lighting or material changed;
 //   - with a view set (SetView), the frame also holds the reflection map of that view (eq. 5.35,
-//     ReflectionMapForView); a change of the view alone reuses the previous frame's cube.
-// Each frame's cube is what Prefilter() of the same map, rotation, BRDF and options gives.
-#ifndef SHRM_CORE_SHRM_LIVE_SESSION_H_
-#define SHRM_CORE_SHRM_LIVE_SESSION_H_
+//     ReflectionMapForView); a change of the view alone reuses the previous frame's cube;
+//   - a session created with split-sum options also hands out the split-sum IBL set of each
+//     lighting state (core/ibl/split_sum.h: the specular chain, the irradiance cube and the
+//     radiance SH9, before storage): recomputed when the lighting changes (a map, a rotation),
+//     reused when only the material or the view does; the map's coefficients to the degree the
+//     chain needs are cached unrotated, as for the SHRM, and turned per frame. Without a BRDF
+//     such a session's frames hold the set alone.
+// Each frame's cube is what Prefilter() of the same map, rotation, BRDF and options gives, and its
+// split-sum set what PrefilterSplitSumSet() of ComputeSpecularLight() gives (`shrm ibl`).
+#ifndef SHRM_CORE_LIVE_LIVE_SESSION_H_
+#define SHRM_CORE_LIVE_LIVE_SESSION_H_
 
 #include <array>
 #include <condition_variable>
@@ -38,6 +45,7 @@
 #include "core/base/geometry.h"
 #include "core/brdf/brdf.h"
 #include "core/envmap/envmap.h"
+#include "core/ibl/split_sum.h"
 #include "core/shrm/prefilter.h"
 #include "core/shrm/radiance_cube.h"
 
@@ -48,12 +56,17 @@ inline constexpr int kLiveBrdfCache = 8;
 
 // One computed state of a session.
 struct LiveFrame {
-  uint64_t update = 0;       // the last update the frame includes
-  absl::Status status;       // an update that cannot be computed (e.g. F_rho above the lighting's
-                             // degree) gives a frame with its error; the next valid update recovers
-  bool incomplete = false;   // no lighting or no BRDF yet (status FailedPrecondition)
-  PrefilterResult result;    // analysis, cube and the timings of the stages run for this frame
-  bool brdf_reused = false;  // rho_lpq from the session's cache
+  uint64_t update = 0;      // the last update the frame includes
+  absl::Status status;      // an update that cannot be computed (e.g. F_rho above the lighting's
+                            // degree) gives a frame with its error; the next valid update recovers
+  bool incomplete = false;  // no lighting or no BRDF yet (status FailedPrecondition)
+  bool has_shrm = false;    // result holds an SHRM (false: a split-sum-only frame, or an error)
+  PrefilterResult result;   // analysis, cube and the timings of the stages run for this frame
+                            // (the split-sum set's stages too)
+  // With split-sum options: the set of the frame's lighting (shared with the frames that reuse it).
+  std::shared_ptr<const ibl::SplitSumSet> split_sum;
+  bool split_sum_reused = false;    // the previous frame's set (the lighting did not change)
+  bool brdf_reused = false;         // rho_lpq from the session's cache
   bool lighting_reused = false;     // L_lm from the session's cache (rotated again if asked)
   bool shrm_reused = false;         // only the view changed: the previous frame's cube
   std::optional<Vec3> view;         // the view of view_map (normalized)
@@ -76,8 +89,11 @@ class LiveSession {
   // admit_cube is called on the worker thread).
   // `before_frame` (tests): called on the worker with the update about to be computed, before
   // it takes the pending state.
+  // `split_sum` (optional): each frame also holds the split-sum set of its lighting (the lighting
+  // must then be a map: the base level is the map itself; coefficients give the frame an error).
   static absl::StatusOr<std::unique_ptr<LiveSession>> Create(
-      const PrefilterOptions& options, std::function<void(uint64_t)> before_frame = nullptr);
+      const PrefilterOptions& options, std::function<void(uint64_t)> before_frame = nullptr,
+      std::optional<ibl::SplitSumSetOptions> split_sum = std::nullopt);
   ~LiveSession();  // stops the worker (a frame in progress finishes first)
   LiveSession(const LiveSession&) = delete;
   LiveSession& operator=(const LiveSession&) = delete;
@@ -121,21 +137,28 @@ class LiveSession {
     std::shared_ptr<const void> tag;
     // The same lighting and material (pointers and values; the view aside).
     bool SameShrm(const State& o) const;
+    // The same lighting (pointers and values).
+    bool SameLighting(const State& o) const;
   };
   struct CachedBrdf {
     std::string spec;
     std::shared_ptr<const BrdfStage> stage;
   };
 
-  LiveSession(const PrefilterOptions& options, std::function<void(uint64_t)> before_frame);
+  LiveSession(const PrefilterOptions& options, std::function<void(uint64_t)> before_frame,
+              std::optional<ibl::SplitSumSetOptions> split_sum);
   uint64_t Update(const std::function<void(State*)>& change, std::shared_ptr<const void> tag);
   void Run();
   // The frame of `state`, reusing the caches and `previous` (worker thread only).
   LiveFrame Compute(const State& state, const LiveFrame* previous, const State* previous_state);
   absl::StatusOr<std::shared_ptr<const BrdfStage>> BrdfStageFor(const Brdf& brdf, bool* reused);
+  // The split-sum set of `state`'s lighting into `f` (worker thread only).
+  absl::Status ComputeSplitSum(const State& state, const LiveFrame* previous,
+                               const State* previous_state, LiveFrame& f);
 
   const PrefilterOptions options_;
   const std::function<void(uint64_t)> before_frame_;
+  const std::optional<ibl::SplitSumSetOptions> split_sum_;
 
   mutable std::mutex mu_;
   mutable std::condition_variable changed_;  // an update, a frame, or stop
@@ -151,6 +174,10 @@ class LiveSession {
   std::shared_ptr<const EnvMap> lighting_map_;             // the map of the entries below
   std::map<int, std::vector<double>> lighting_unrotated_;  // by degree
   std::array<double, 3> lighting_energy_{};
+  // The split-sum set's coefficients of lighting_map_, unrotated, by degree (the map's own limit
+  // unrotated, kMaxRotationLmax rotated: ibl::SpecularLightDegree).
+  std::shared_ptr<const EnvMap> split_sum_map_;
+  std::map<int, std::shared_ptr<const std::vector<double>>> split_sum_unrotated_;
   State computed_state_;  // the state of latest_frame_
 
   std::thread worker_;
@@ -158,4 +185,4 @@ class LiveSession {
 
 }  // namespace shrm
 
-#endif  // SHRM_CORE_SHRM_LIVE_SESSION_H_
+#endif  // SHRM_CORE_LIVE_LIVE_SESSION_H_

@@ -1,4 +1,4 @@
-#include "core/shrm/live_session.h"
+#include "core/live/live_session.h"
 
 #include <chrono>
 #include <cmath>
@@ -13,7 +13,8 @@
 namespace shrm {
 
 absl::StatusOr<std::unique_ptr<LiveSession>> LiveSession::Create(
-    const PrefilterOptions& options, std::function<void(uint64_t)> before_frame) {
+    const PrefilterOptions& options, std::function<void(uint64_t)> before_frame,
+    std::optional<ibl::SplitSumSetOptions> split_sum) {
   if (options.tolerance > 0) {
     return absl::InvalidArgumentError(
         "a live session uses the paper's epsilon rule or explicit orders (the tolerance rule "
@@ -23,12 +24,28 @@ absl::StatusOr<std::unique_ptr<LiveSession>> LiveSession::Create(
     return absl::InvalidArgumentError("a live session does not check its frames (verify)");
   }
   SHRM_RETURN_IF_ERROR(ValidatePrefilterOptions(options));
-  return std::unique_ptr<LiveSession>(new LiveSession(options, std::move(before_frame)));
+  if (split_sum) {
+    const ibl::MipChain& chain = split_sum->chain;
+    if (chain.levels() < 1 || chain.roughness.size() != chain.face_size.size()) {
+      return absl::InvalidArgumentError("live split-sum set: the mip chain has no levels");
+    }
+    if (!(split_sum->tolerance > 0 && split_sum->tolerance < 1)) {
+      return absl::InvalidArgumentError(absl::StrCat("live split-sum set: tolerance ",
+                                                     split_sum->tolerance, " must be in (0, 1)"));
+    }
+    const double one[] = {1.0};
+    SHRM_RETURN_IF_ERROR(
+        ibl::MakeMipChain(ibl::RoughnessPreset::kExplicit, split_sum->irradiance_size, 1, one)
+            .status());
+  }
+  return std::unique_ptr<LiveSession>(
+      new LiveSession(options, std::move(before_frame), std::move(split_sum)));
 }
 
 LiveSession::LiveSession(const PrefilterOptions& options,
-                         std::function<void(uint64_t)> before_frame)
-    : options_(options), before_frame_(std::move(before_frame)) {
+                         std::function<void(uint64_t)> before_frame,
+                         std::optional<ibl::SplitSumSetOptions> split_sum)
+    : options_(options), before_frame_(std::move(before_frame)), split_sum_(std::move(split_sum)) {
   pending_.rotation = options.rotation;
   worker_ = std::thread([this] { Run(); });
 }
@@ -88,10 +105,14 @@ uint64_t LiveSession::SetView(std::optional<Vec3> view, std::shared_ptr<const vo
   return Update([&](State* s) { s->view = view; }, std::move(tag));
 }
 
-bool LiveSession::State::SameShrm(const State& o) const {
+bool LiveSession::State::SameLighting(const State& o) const {
   return map == o.map && coefficients == o.coefficients &&
          coefficients_lmax == o.coefficients_lmax && energy == o.energy &&
-         rotation.m == o.rotation.m && brdf == o.brdf;
+         rotation.m == o.rotation.m;
+}
+
+bool LiveSession::State::SameShrm(const State& o) const {
+  return SameLighting(o) && brdf == o.brdf;
 }
 
 uint64_t LiveSession::SetBrdf(std::shared_ptr<const Brdf> brdf, std::shared_ptr<const void> tag) {
@@ -199,18 +220,22 @@ LiveFrame LiveSession::Compute(const State& state, const LiveFrame* previous,
   };
   if (previous != nullptr && previous->status.ok() && state.SameShrm(*previous_state)) {
     f.shrm_reused = f.brdf_reused = f.lighting_reused = true;
+    f.has_shrm = previous->has_shrm;
     f.result.analysis = previous->result.analysis;
     f.result.cube = previous->result.cube;
-    f.status = view_map();
+    f.split_sum = previous->split_sum;
+    f.split_sum_reused = f.split_sum != nullptr;
+    f.status = f.has_shrm ? view_map() : absl::OkStatus();
     f.compute_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     return f;
   }
+  const bool lit = state.map || state.coefficients;
   auto run = [&]() -> absl::Status {
-    if (!state.brdf) return absl::FailedPreconditionError("no BRDF yet (SetBrdf)");
-    if (!state.map && !state.coefficients) {
-      return absl::FailedPreconditionError("no lighting yet (SetMap or SetCoefficients)");
-    }
+    if (!state.brdf && !split_sum_) return absl::FailedPreconditionError("no BRDF yet (SetBrdf)");
+    if (!lit) return absl::FailedPreconditionError("no lighting yet (SetMap or SetCoefficients)");
+    if (split_sum_) SHRM_RETURN_IF_ERROR(ComputeSplitSum(state, previous, previous_state, f));
+    if (!state.brdf) return absl::OkStatus();  // the split-sum set alone
     StageClock clock(&f.result.timings, no_progress);
     SHRM_RETURN_IF_ERROR(clock.Begin("brdf"));
     SHRM_ASSIGN_OR_RETURN(std::shared_ptr<const BrdfStage> brdf,
@@ -253,13 +278,55 @@ LiveFrame LiveSession::Compute(const State& state, const LiveFrame* previous,
     clock.End();
     SHRM_RETURN_IF_ERROR(FinishPrefilter(*brdf, lighting, options_, nullptr, &f.result,
                                          options_.max_cube_values, options_.admit_cube));
+    f.has_shrm = true;
     return view_map();
   };
   f.status = run();
-  f.incomplete = !state.brdf || (!state.map && !state.coefficients);
+  if (!f.status.ok()) f.has_shrm = false;
+  f.incomplete = (!state.brdf && !split_sum_) || !lit;
   f.compute_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return f;
+}
+
+absl::Status LiveSession::ComputeSplitSum(const State& state, const LiveFrame* previous,
+                                          const State* previous_state, LiveFrame& f) {
+  if (!state.map) {
+    return absl::InvalidArgumentError(
+        "the split-sum set needs a map (its base level is the map itself resampled); the "
+        "lighting was given as coefficients");
+  }
+  if (previous != nullptr && previous->split_sum != nullptr && previous_state != nullptr &&
+      state.SameLighting(*previous_state)) {
+    f.split_sum = previous->split_sum;
+    f.split_sum_reused = true;
+    return absl::OkStatus();
+  }
+  const PrefilterProgress no_progress;  // StageClock keeps a reference to it
+  StageClock clock(&f.result.timings, no_progress);
+  SHRM_RETURN_IF_ERROR(clock.Begin("split-sum lighting"));
+  if (split_sum_map_ != state.map) {  // one map (its pointer keeps it alive)
+    split_sum_unrotated_.clear();
+    split_sum_map_ = state.map;
+  }
+  const int degree = ibl::SpecularLightDegree(*state.map, state.rotation, 0);
+  auto it = split_sum_unrotated_.find(degree);
+  if (it == split_sum_unrotated_.end()) {
+    SHRM_ASSIGN_OR_RETURN(std::vector<double> unrotated,
+                          LightingCoefficients(*state.map, degree, Mat3::Identity(),
+                                               options_.threads, ShtQuadrature::kPixelSum));
+    it = split_sum_unrotated_
+             .emplace(degree, std::make_shared<const std::vector<double>>(std::move(unrotated)))
+             .first;
+  }
+  SHRM_ASSIGN_OR_RETURN(const ibl::SpecularLight light,
+                        ibl::SpecularLightFromCoefficients(degree, state.rotation, *it->second));
+  clock.End();
+  SHRM_ASSIGN_OR_RETURN(ibl::SplitSumSet set,
+                        ibl::PrefilterSplitSumSet(*state.map, light, *split_sum_, options_.threads,
+                                                  nullptr, &f.result.timings));
+  f.split_sum = std::make_shared<const ibl::SplitSumSet>(std::move(set));
+  return absl::OkStatus();
 }
 
 }  // namespace shrm
