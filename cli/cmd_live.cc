@@ -89,6 +89,9 @@ absl::StatusOr<std::vector<FrameJob>> FrameJobs(const LiveArgs& a) {
   if (a.brdf.empty() && !a.ibl) {
     return absl::InvalidArgumentError("give --brdf (the SHRM of each frame), --ibl, or both");
   }
+  if (a.brdf.empty() && !a.view.empty()) {
+    return absl::InvalidArgumentError("--view needs --brdf: the view map is the SHRM's (eq. 5.35)");
+  }
   jobs::PrefilterJob base;
   base.brdf = a.brdf;
   base.verify = 0;
@@ -143,6 +146,12 @@ std::string FramePath(const std::string& folder, int index, const char* suffix) 
 // The files of one split-sum set into `folder` (created; each file through a temporary, all
 // renamed once every one is written, as `shrm ibl` does).
 absl::Status WriteFolder(const std::string& folder, const std::vector<jobs::IblFile>& files) {
+  for (const jobs::IblFile& f : files) {  // (a server's names too)
+    if (f.name.empty() || f.name == "." || f.name == ".." ||
+        f.name.find('/') != std::string::npos) {
+      return absl::DataLossError(absl::StrCat("a split-sum file named '", f.name, "'"));
+    }
+  }
   std::error_code ec;
   std::filesystem::create_directories(folder, ec);
   if (ec) {
@@ -226,10 +235,6 @@ absl::Status RunLiveRemote(const LiveArgs& a, const std::vector<FrameJob>& frame
   if (!a.view.empty()) {
     SHRM_ASSIGN_OR_RETURN(view, ParseDirection(a.view, "--view"));
   }
-  if (a.ibl) {
-    return absl::InvalidArgumentError(
-        "--ibl runs embedded only: the Live call carries SHRMs and view maps (docs/live.md)");
-  }
   SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::ShrmClient> client, ConnectServer(a.server));
   std::map<std::string, std::string> sha_of;
   for (const FrameJob& f : frames) {
@@ -249,15 +254,24 @@ absl::Status RunLiveRemote(const LiveArgs& a, const std::vector<FrameJob>& frame
   }
   open.set_kind(job.kind == ShrmKind::kLocal ? v1::SHRM_KIND_LOCAL : v1::SHRM_KIND_GLOBAL);
   open.set_face_size(job.face_size);
+  if (a.ibl) {
+    // The frames' IBL job without its environment (the session's lighting) and check.
+    *open.mutable_ibl() = wire::EncodeIblRequest(frames.front().ibl, v1::Environment());
+    open.mutable_ibl()->clear_environment();
+    open.mutable_ibl()->clear_verify();
+  }
   SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::LiveCall> call, client->OpenLive(open));
   auto ended = [&](const char* what) {
     const absl::Status s = call->Finish();
     return s.ok() ? absl::DataLossError(absl::StrCat("the live call ended ", what)) : s;
   };
-  v1::LiveRequest brdf;
-  brdf.set_brdf(a.brdf);
-  if (!call->Send(brdf)) return ended("before the BRDF was sent");
-  uint64_t request = 1;
+  uint64_t request = 0;
+  if (!a.brdf.empty()) {
+    v1::LiveRequest brdf;
+    brdf.set_brdf(a.brdf);
+    if (!call->Send(brdf)) return ended("before the BRDF was sent");
+    ++request;
+  }
   if (view) {
     v1::LiveRequest r;
     r.mutable_view()->mutable_direction()->set_x(view->x);
@@ -289,10 +303,22 @@ absl::Status RunLiveRemote(const LiveArgs& a, const std::vector<FrameJob>& frame
       if (!frame) return ended(absl::StrCat("before the frame of ", f.path).c_str());
     } while (frame->update < request);
     const auto write_start = std::chrono::steady_clock::now();
-    const std::string shrm_path = FramePath(a.output, static_cast<int>(k), "shrm.exr");
-    SHRM_RETURN_IF_ERROR(WriteFileAtomically(shrm_path, frame->shrm_file));
+    std::string shrm_path;
+    if (!a.brdf.empty()) {
+      shrm_path = FramePath(a.output, static_cast<int>(k), "shrm.exr");
+      SHRM_RETURN_IF_ERROR(WriteFileAtomically(shrm_path, frame->shrm_file));
+    }
     FrameFigures fig;
-    if (view) {
+    if (a.ibl) {
+      if (frame->ibl_files.empty()) return ended("with a frame without its split-sum set");
+      std::vector<jobs::IblFile> files;
+      for (client::ReceivedFile& r : frame->ibl_files) {
+        files.push_back({r.name, std::move(r.bytes), "", ""});
+      }
+      fig.ibl_path = FramePath(a.output, static_cast<int>(k), "ibl");
+      SHRM_RETURN_IF_ERROR(WriteFolder(fig.ibl_path, files));
+    }
+    if (view && !a.brdf.empty()) {
       fig.view_path = FramePath(a.output, static_cast<int>(k), "view.exr");
       SHRM_RETURN_IF_ERROR(WriteFileAtomically(fig.view_path, frame->view_file));
     }

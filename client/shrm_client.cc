@@ -381,9 +381,13 @@ absl::StatusOr<std::optional<LiveFrameOutcome>> LiveCall::Next() {
   v1::LiveEvent ev;
   std::optional<LiveFrameOutcome> out;
   FileAssembler file("live frame"), view_file("live view map");
+  std::optional<FileAssembler> ibl_file;
   bool file_done = view_only_, view_done = true;
+  uint32_t ibl_expected = 0;
   while (stream_->Read(&ev)) {
     if (!out) {
+      file_done = file_done || ev.no_shrm();
+      ibl_expected = ev.ibl_files();
       out.emplace();
       out->update = ev.update();
       out->dropped = ev.dropped();
@@ -413,10 +417,26 @@ absl::StatusOr<std::optional<LiveFrameOutcome>> LiveCall::Next() {
         out->view_file = std::move(view_file.bytes());
         view_done = true;
       }
+    } else if (ev.has_ibl_file()) {
+      if (!file_done || !view_done || out->ibl_files.size() >= ibl_expected) {
+        return absl::DataLossError("a live frame has an unexpected split-sum file chunk");
+      }
+      if (!ibl_file) {
+        ibl_file.emplace(absl::StrCat("live split-sum file ", ev.ibl_file().name()));
+        out->ibl_files.push_back({ev.ibl_file().name(), "", ""});
+      } else if (ev.ibl_file().name() != out->ibl_files.back().name) {
+        return absl::DataLossError("a live split-sum file's chunks carry two names");
+      }
+      SHRM_RETURN_IF_ERROR(ibl_file->Add(ev.ibl_file().chunk()));
+      if (ev.ibl_file().chunk().last()) {
+        SHRM_ASSIGN_OR_RETURN(out->ibl_files.back().sha256, ibl_file->Finish());
+        out->ibl_files.back().bytes = std::move(ibl_file->bytes());
+        ibl_file.reset();
+      }
     } else {
       return absl::DataLossError("a live event without a file chunk");
     }
-    if (file_done && view_done) return out;
+    if (file_done && view_done && !ibl_file && out->ibl_files.size() == ibl_expected) return out;
   }
   if (out) return absl::DataLossError("the live call ended inside a frame");
   return std::optional<LiveFrameOutcome>();

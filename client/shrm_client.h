@@ -82,6 +82,8 @@ struct LiveFrameOutcome {
   // horizontal-cross float EXR (jobs::RadianceCrossImage), SHA-256 verified.
   std::optional<std::array<double, 3>> view;
   std::string view_file;
+  // With LiveOpen.ibl: the frame's split-sum set, the Ibl call's files (SHA-256 verified).
+  std::vector<ReceivedFile> ibl_files;
 };
 
 // A live call: Send updates (false once the call has ended: Finish says why), CloseSending after

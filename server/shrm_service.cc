@@ -758,7 +758,30 @@ struct LiveSnapshot {
   uint64_t request = 0;
   jobs::PrefilterJob job;
   jobs::PrefilterProvenance provenance;
+  int64_t replaced_non_finite = 0;  // of the map (what the split-sum set's report records)
 };
+
+// The split-sum set's job of a live call (LiveOpen.ibl): the Ibl call's options, no environment
+// (each frame's is the session's) and no check. InvalidArgument naming the field.
+absl::StatusOr<jobs::IblJob> LiveIblJobFromOpen(const v1::IblRequest& ibl) {
+  if (ibl.has_environment()) {
+    return absl::InvalidArgumentError(
+        "ibl.environment must be absent: the frames' lighting is the session's (environment and "
+        "rotation requests)");
+  }
+  if (ibl.has_verify() && ibl.verify() != 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("ibl.verify = ", ibl.verify(), ": live frames are not checked (absent or 0)"));
+  }
+  v1::IblRequest request = ibl;
+  request.mutable_environment()->add_sha256(std::string(64, '0'));  // replaced by each frame's
+  request.set_verify(0);
+  absl::StatusOr<wire::WireIbl> decoded = wire::DecodeIblRequest(request);
+  if (!decoded.ok()) {
+    return absl::Status(decoded.status().code(), absl::StrCat("ibl.", decoded.status().message()));
+  }
+  return decoded->job;
+}
 
 // The job a live call's frames are made as, from the open request (InvalidArgument naming the
 // field); the BRDF and the map are placeholders until their updates.
@@ -853,6 +876,19 @@ grpc::Status ShrmServiceImpl::Live(
                              absl::StrCat("live: request 0: ", job.status().message())));
   }
   const bool view_only = request.open().view_only();
+  std::optional<jobs::IblJob> ibl_job;
+  std::optional<ibl::SplitSumSetOptions> split_sum;
+  if (request.open().has_ibl()) {
+    absl::StatusOr<jobs::IblJob> j = LiveIblJobFromOpen(request.open().ibl());
+    absl::StatusOr<ibl::SplitSumSetOptions> o =
+        j.ok() ? jobs::IblSplitSumSetOptions(*j) : j.status();
+    if (!o.ok()) {
+      return fail(
+          absl::Status(o.status().code(), absl::StrCat("live: request 0: ", o.status().message())));
+    }
+    ibl_job = *std::move(j);
+    split_sum = *std::move(o);
+  }
   PrefilterOptions options = jobs::CorePrefilterOptions(*job, options_.job_threads);
   options.max_cube_values = kMaxCubeValues;
   // Memory: twice the largest cube (the frame computed and the one being sent) and twice the
@@ -870,8 +906,17 @@ grpc::Status ShrmServiceImpl::Live(
     return grow(2 * jobs::ShrmCubeBytes(face_size, p_b), &reserved_cube,
                 absl::StrCat("two SHRM cubes of face size ", face_size, " and P_B = ", p_b));
   };
-  absl::StatusOr<std::unique_ptr<LiveSession>> session =
-      LiveSession::Create(options, [this](uint64_t) { TestStageHooks("live frame"); });
+  // The split-sum set: twice its outputs (the frame's set and files, the one being sent).
+  uint64_t reserved_ibl = 0;
+  if (ibl_job) {
+    if (absl::Status s =
+            grow(2 * jobs::IblOutputBytes(*ibl_job), &reserved_ibl, "two split-sum sets");
+        !s.ok()) {
+      return fail(s);
+    }
+  }
+  absl::StatusOr<std::unique_ptr<LiveSession>> session = LiveSession::Create(
+      options, [this](uint64_t) { TestStageHooks("live frame"); }, split_sum);
   if (!session.ok()) return fail(session.status());
 
   std::mutex mu;                      // guards the flags and the writer's error
@@ -893,12 +938,16 @@ grpc::Status ShrmServiceImpl::Live(
         }
       }
       sent = frame->update;
-      if (frame->incomplete || frame->tag == nullptr) continue;       // no map or BRDF yet
-      if (view_only && frame->status.ok() && !frame->view) continue;  // nothing asked for yet
+      if (frame->incomplete || frame->tag == nullptr) continue;  // no map or BRDF yet
+      if (view_only && frame->status.ok() && !frame->view && !frame->split_sum) {
+        continue;  // nothing asked for yet
+      }
       const LiveSnapshot& snap = *std::static_pointer_cast<const LiveSnapshot>(frame->tag);
       absl::Status s = frame->status;
       std::string file, view_file;
-      if (s.ok() && !view_only) {
+      std::vector<jobs::IblFile> ibl_files;
+      const bool send_shrm = !view_only && frame->has_shrm;
+      if (s.ok() && send_shrm) {
         absl::StatusOr<std::string> bytes = EncodeShrmFile(
             "the live frame", frame->result.cube,
             jobs::PrefilterFileAttributes(snap.job, snap.provenance, frame->result), false);
@@ -911,6 +960,18 @@ grpc::Status ShrmServiceImpl::Live(
         if (bytes.ok()) view_file = *std::move(bytes);
         s = bytes.status();
       }
+      if (s.ok() && ibl_job && frame->split_sum) {
+        // The Ibl call's files for the frame's lighting (the environment its requests gave).
+        jobs::IblJob frame_job = *ibl_job;
+        frame_job.env = snap.job.env;
+        absl::StatusOr<jobs::IblRun> run = jobs::IblRunFromSet(
+            frame_job, *frame->split_sum, snap.provenance.source, snap.provenance.layout,
+            snap.replaced_non_finite, options_.job_threads);
+        absl::StatusOr<std::vector<jobs::IblFile>> files =
+            run.ok() ? jobs::EncodeIblOutputs(frame_job, *run) : run.status();
+        if (files.ok()) ibl_files = *std::move(files);
+        s = files.status();
+      }
       if (s.ok()) {
         const LiveStats stats = (*session)->Stats();
         // Every event of the frame carries its figures; the SHRM file's chunks, then the view's.
@@ -919,6 +980,8 @@ grpc::Status ShrmServiceImpl::Live(
           ev->set_dropped(stats.dropped);
           ev->set_f_b(frame->result.analysis.f_b);
           ev->set_p_b(frame->result.analysis.p_b);
+          ev->set_no_shrm(!frame->has_shrm);
+          ev->set_ibl_files(static_cast<uint32_t>(ibl_files.size()));
           for (const StageTiming& t : frame->result.timings) {
             v1::StageTiming* st = ev->add_timings();
             st->set_stage(t.stage);
@@ -931,17 +994,26 @@ grpc::Status ShrmServiceImpl::Live(
           }
         };
         s = WhileWatched(context, "reading live frames", [&](IdleWatchdog::Call* watch) {
-          if (!view_only) {
+          if (send_shrm) {
             SHRM_RETURN_IF_ERROR(StreamFile(file, stream, &log, watch, [&](v1::LiveEvent* ev) {
               event(ev);
               return ev->mutable_shrm_file();
             }));
           }
-          if (!frame->view) return absl::OkStatus();
-          return StreamFile(view_file, stream, &log, watch, [&](v1::LiveEvent* ev) {
-            event(ev);
-            return ev->mutable_view_file();
-          });
+          if (frame->view) {
+            SHRM_RETURN_IF_ERROR(StreamFile(view_file, stream, &log, watch, [&](v1::LiveEvent* ev) {
+              event(ev);
+              return ev->mutable_view_file();
+            }));
+          }
+          for (const jobs::IblFile& f : ibl_files) {
+            SHRM_RETURN_IF_ERROR(StreamFile(f.bytes, stream, &log, watch, [&](v1::LiveEvent* ev) {
+              event(ev);
+              ev->mutable_ibl_file()->set_name(f.name);
+              return ev->mutable_ibl_file()->mutable_chunk();
+            }));
+          }
+          return absl::OkStatus();
         });
       } else {
         s = absl::Status(s.code(), absl::StrCat("live: request ", snap.request, ": ", s.message()));
@@ -989,6 +1061,7 @@ grpc::Status ShrmServiceImpl::Live(
               current.job.env = env->pinned.spec;
               current.provenance.source = env->pinned.source;
               current.provenance.layout = env->map.layout();
+              current.replaced_non_finite = env->map.replaced_non_finite();
               update = (*session)->SetMap(std::make_shared<const EnvMap>(std::move(env->map)),
                                           jobs::EnvironmentRotation(current.job.env), tag());
               break;

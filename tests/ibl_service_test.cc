@@ -8,8 +8,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -322,6 +324,118 @@ TEST_F(IblServiceTest, BatchManifestRunsIblJobsRemotelyWithTheEmbeddedBytesAndRe
   s = nlohmann::json::parse(ReadFile(summary));
   EXPECT_EQ(s["ok"], 2) << s.dump(1);
   EXPECT_EQ(s["jobs"][1]["message"], "recomputed: other options");
+}
+
+// The Live call with LiveOpen.ibl (docs/live.md): each frame carries the Ibl call's files for the
+// frame's lighting, those of the embedded run with verify 0 byte for byte: the set alone before a
+// BRDF, recomputed for a rotation, and beside the SHRM once a BRDF comes. Bad ibl options end the
+// call at request 0 naming the field.
+TEST_F(IblServiceTest, LiveFramesCarryTheSplitSumSetOfEachLightingState) {
+  jobs::IblJob job = Job();
+  job.verify = 0;
+  auto embedded = [&](std::optional<std::array<double, 3>> rotate) {
+    job.env.rotate_ypr_deg = rotate;
+    absl::StatusOr<jobs::IblRun> run = jobs::RunIblJob(job, /*threads=*/1);
+    EXPECT_TRUE(run.ok()) << run.status();
+    if (!run.ok()) return std::vector<jobs::IblFile>{};
+    absl::StatusOr<std::vector<jobs::IblFile>> files = jobs::EncodeIblOutputs(job, *run);
+    EXPECT_TRUE(files.ok()) << files.status();
+    return files.ok() ? *files : std::vector<jobs::IblFile>{};
+  };
+  auto expect_set = [](const client::LiveFrameOutcome& f, const std::vector<jobs::IblFile>& want) {
+    ASSERT_EQ(f.ibl_files.size(), want.size());
+    EXPECT_GE(want.size(), 5u);
+    for (size_t i = 0; i < want.size(); ++i) {
+      EXPECT_EQ(f.ibl_files[i].name, want[i].name);
+      EXPECT_TRUE(f.ibl_files[i].bytes == want[i].bytes)
+          << want[i].name << " differs from the embedded run's (update " << f.update << ")";
+    }
+  };
+  v1::IblRequest ibl = wire::EncodeIblRequest(job, v1::Environment());
+  ibl.clear_environment();
+  ibl.clear_verify();
+  absl::StatusOr<std::string> sha = client_->UploadIfMissing(map_);
+  ASSERT_TRUE(sha.ok()) << sha.status();
+  v1::LiveOpen open;
+  open.set_face_size(kSmallFaceSize);
+  *open.mutable_ibl() = ibl;
+  absl::StatusOr<std::unique_ptr<client::LiveCall>> call = client_->OpenLive(open);
+  ASSERT_TRUE(call.ok()) << call.status();
+  client::LiveCall& live = **call;
+  auto next = [&](uint64_t update) -> std::optional<client::LiveFrameOutcome> {
+    for (;;) {
+      absl::StatusOr<std::optional<client::LiveFrameOutcome>> f = live.Next();
+      EXPECT_TRUE(f.ok()) << f.status();
+      if (!f.ok() || !f->has_value()) return std::nullopt;
+      if ((*f)->update >= update) return *f;
+    }
+  };
+  v1::LiveRequest env;
+  env.mutable_environment()->add_sha256(*sha);
+  env.mutable_environment()->add_source_names(map_);
+  ASSERT_TRUE(live.Send(env));
+  std::optional<client::LiveFrameOutcome> f = next(1);
+  ASSERT_TRUE(f.has_value());
+  EXPECT_TRUE(f->shrm_file.empty());
+  expect_set(*f, embedded(std::nullopt));
+  v1::LiveRequest turn;
+  turn.mutable_rotation()->set_yaw_deg(90);
+  ASSERT_TRUE(live.Send(turn));
+  f = next(2);
+  ASSERT_TRUE(f.has_value());
+  const std::vector<jobs::IblFile> turned = embedded(std::array<double, 3>{90, 0, 0});
+  expect_set(*f, turned);
+  v1::LiveRequest brdf;
+  brdf.set_brdf("phong:s=32");
+  ASSERT_TRUE(live.Send(brdf));
+  ASSERT_TRUE(live.CloseSending());
+  f = next(3);
+  ASSERT_TRUE(f.has_value());
+  EXPECT_FALSE(f->shrm_file.empty());
+  expect_set(*f, turned);
+  absl::StatusOr<std::optional<client::LiveFrameOutcome>> end = live.Next();
+  ASSERT_TRUE(end.ok()) << end.status();
+  EXPECT_FALSE(end->has_value());
+  EXPECT_TRUE(live.Finish().ok());
+
+  // Bad ibl options: the call ends at request 0, naming the field; the server serves on.
+  struct Bad {
+    std::function<void(v1::IblRequest*)> change;
+    std::string message_part;
+  };
+  const Bad bad[] = {
+      {[&](v1::IblRequest* r) { r->mutable_environment()->add_sha256(*sha); }, "ibl.environment"},
+      {[](v1::IblRequest* r) { r->set_verify(4); }, "ibl.verify"},
+      {[](v1::IblRequest* r) { r->set_face_size(24); }, "ibl.face_size"},
+  };
+  for (const Bad& b : bad) {
+    v1::LiveOpen o = open;
+    b.change(o.mutable_ibl());
+    absl::StatusOr<std::unique_ptr<client::LiveCall>> c = client_->OpenLive(o);
+    ASSERT_TRUE(c.ok()) << c.status();
+    (*c)->CloseSending();
+    while (true) {
+      absl::StatusOr<std::optional<client::LiveFrameOutcome>> x = (*c)->Next();
+      if (!x.ok() || !x->has_value()) break;
+    }
+    const absl::Status s = (*c)->Finish();
+    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << s;
+    EXPECT_NE(s.message().find("request 0"), std::string::npos) << s;
+    EXPECT_NE(s.message().find(b.message_part), std::string::npos) << s;
+  }
+  EXPECT_TRUE(client_->HasBlob(*sha).ok());
+}
+
+// `shrm live --ibl --server` writes the embedded `shrm live --ibl`'s folders, byte for byte.
+TEST_F(IblServiceTest, CliLiveRemoteWritesTheEmbeddedSplitSumSets) {
+  const std::string common =
+      absl::StrCat("live --env ", map_, " --turntable 2 --ibl --ibl-size 16 --ibl-preset gltf");
+  ASSERT_EQ(Shrm(common + " -o live_local"), 0) << common;
+  ASSERT_EQ(Shrm(absl::StrCat(common, " -o live_remote --server ", target_)), 0) << common;
+  for (int k = 0; k < 2; ++k) {
+    const std::string frame = absl::StrCat("/frame_000", k, ".ibl");
+    ExpectSameFolders(dir_ + "/live_local" + frame, dir_ + "/live_remote" + frame);
+  }
 }
 
 }  // namespace

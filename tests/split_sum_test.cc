@@ -12,6 +12,7 @@
 #include <random>
 
 #include "core/base/cubemap.h"
+#include "core/envmap/lighting.h"
 #include "gtest/gtest.h"
 #include "tests/test_maps.h"
 
@@ -325,30 +326,39 @@ TEST(SplitSumTest, EveryLevelMatchesThePixelSumOnTheBundledMaps) {
 
 TEST(SplitSumTest, BaseLevelIsTheMapAtEveryTexelCentre) {
   // The base level's table-driven lookups against the test's own bilinear lookup at every texel
-  // of every face (the angles agree to the rounding of the direction's normalization).
+  // of every face (the angles agree to the rounding of the direction's normalization), without
+  // rotation, turned by yaws (the same tables, the azimuth offset) and by a general rotation
+  // (the per-texel path); the rotated lighting is looked up at R^-1 d.
   constexpr double kBaseTol = 1e-5;
   auto map = EnvMap::Load({.paths = {std::string(SHRM_SOURCE_DIR) + "/data/envmaps/city.exr"}});
   ASSERT_TRUE(map.ok()) << map.status();
+  const Mat3 rotations[] = {Mat3::Identity(), RotationFromYawPitchRoll(37, 0, 0),
+                            RotationFromYawPitchRoll(-150, 0, 0),
+                            RotationFromYawPitchRoll(20, 30, -10)};
   // (Not S = 1: its texels look exactly at the poles, where the azimuth, and so the lat-long
   // row's pixel, depends on the sign of a zero.)
-  for (int s : {2, 4, 64}) {
-    SpecularOptions opt;
-    const double zero[] = {0.0};
-    opt.chain = *MakeMipChain(RoughnessPreset::kExplicit, s, 1, zero);
-    auto chain = PrefilterSpecular(*map, opt);
-    ASSERT_TRUE(chain.ok()) << chain.status();
-    const RadianceCube& cube = chain->levels[0].cube;
-    for (int face = 0; face < kCubeFaceCount; ++face)
-      for (int y = 0; y < s; ++y)
-        for (int x = 0; x < s; ++x) {
-          const std::array<double, 3> want =
-              LatLongBilinear(*map->lat_long_image(), CubeTexelDirection(face, x, y, s));
-          for (int c = 0; c < 3; ++c) {
-            ASSERT_NEAR(cube.data[cube.Index(face, x, y, c)], want[c],
-                        kBaseTol * std::max(1.0, want[c]))
-                << "S " << s << " face " << face << " texel " << x << "," << y;
+  for (const Mat3& rotation : rotations) {
+    for (int s : {2, 4, 64}) {
+      SpecularOptions opt;
+      const double zero[] = {0.0};
+      opt.chain = *MakeMipChain(RoughnessPreset::kExplicit, s, 1, zero);
+      opt.rotation = rotation;
+      auto chain = PrefilterSpecular(*map, opt);
+      ASSERT_TRUE(chain.ok()) << chain.status();
+      const RadianceCube& cube = chain->levels[0].cube;
+      for (int face = 0; face < kCubeFaceCount; ++face)
+        for (int y = 0; y < s; ++y)
+          for (int x = 0; x < s; ++x) {
+            const std::array<double, 3> want = LatLongBilinear(
+                *map->lat_long_image(), rotation.Transposed() * CubeTexelDirection(face, x, y, s));
+            for (int c = 0; c < 3; ++c) {
+              ASSERT_NEAR(cube.data[cube.Index(face, x, y, c)], want[c],
+                          kBaseTol * std::max(1.0, want[c]))
+                  << "S " << s << " face " << face << " texel " << x << "," << y << " rotation "
+                  << rotation.m[0][0] << "," << rotation.m[0][2];
+            }
           }
-        }
+    }
   }
 }
 

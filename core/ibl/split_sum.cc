@@ -90,12 +90,16 @@ int GridRings(const std::vector<double>& g, const std::vector<double>& energy, i
   return 0;  // the synthesis's own rule
 }
 
-// The base level of a lat-long map without rotation: Radiance() at every texel centre, with
-// the polar angle and azimuth from tables instead of two atan2 and a hypot per texel. The four
-// side faces share one polar-angle table (their unnormalized directions all have
-// hypot(x, z) = hypot(1, sc) and y = -tc) and one azimuth per column; the caps have a table
-// each. The angles equal Radiance()'s up to the rounding of the direction's normalization.
-void ResampleLatLongBase(const EnvMap& map, int s, int threads, RadianceCube& cube) {
+// The base level of a lat-long map without rotation, or turned about the vertical by a yaw:
+// Radiance() at every texel centre, with the polar angle and azimuth from tables instead of two
+// atan2 and a hypot per texel. The four side faces share one polar-angle table (their
+// unnormalized directions all have hypot(x, z) = hypot(1, sc) and y = -tc) and one azimuth per
+// column; the caps have a table each. The angles equal Radiance()'s up to the rounding of the
+// direction's normalization. A yaw (the lighting turned actively about +Y, a turntable) leaves
+// the polar angle alone and adds `phi_offset` to the map's azimuth atan2(x, -z) of the texel's
+// direction (the lookup R^-1 d; 0 without rotation).
+void ResampleLatLongBase(const EnvMap& map, int s, int threads, double phi_offset,
+                         RadianceCube& cube) {
   const auto coord = [s](int i) { return 2 * (i + 0.5) / s - 1; };
   const size_t n = static_cast<size_t>(s) * s;
   std::vector<double> side_theta(n), up_theta(n), up_phi(n), down_theta(n), down_phi(n);
@@ -146,11 +150,12 @@ void ResampleLatLongBase(const EnvMap& map, int s, int threads, RadianceCube& cu
         const size_t i = static_cast<size_t>(y) * s + x;
         std::array<float, 3> v;
         if (face == kPosY) {
-          v = map.LatLongRadianceAt(up_theta[i], up_phi[i]);
+          v = map.LatLongRadianceAt(up_theta[i], up_phi[i] + phi_offset);
         } else if (face == kNegY) {
-          v = map.LatLongRadianceAt(down_theta[i], down_phi[i]);
+          v = map.LatLongRadianceAt(down_theta[i], down_phi[i] + phi_offset);
         } else {
-          v = map.LatLongRadianceAt(side_theta[i], side_phi[static_cast<size_t>(side) * s + x]);
+          v = map.LatLongRadianceAt(side_theta[i],
+                                    side_phi[static_cast<size_t>(side) * s + x] + phi_offset);
         }
         for (int c = 0; c < 3; ++c) cube.data[cube.Index(face, x, y, c)] = v[c];
       }
@@ -600,6 +605,8 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
     out.light_degree = light->degree;
   }
   const Mat3 inverse = options.rotation.Transposed();
+  SynthesisScratch local;
+  SynthesisScratch* scratch = options.scratch != nullptr ? options.scratch : &local;
   for (int k = 0; k < chain.levels(); ++k) {
     SpecularLevel level;
     level.face_size = chain.face_size[k];
@@ -613,9 +620,13 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
     if (level.alpha <= 0) cube.data.assign(cube.size(), 0.0f);
     // (A 1 x 1 face's centre coordinate is 0, whose mirror image is +0 rather than -0: the
     // generic path.)
-    if (level.alpha <= 0 && level.face_size >= 2 && map.lat_long_image() != nullptr &&
-        options.rotation.IsIdentity()) {
-      ResampleLatLongBase(map, level.face_size, options.threads, cube);
+    // A yaw: the vertical row and column of the rotation are exactly (0, 1, 0).
+    const auto& r = options.rotation.m;
+    const bool yaw = r[1][1] == 1 && r[0][1] == 0 && r[2][1] == 0 && r[1][0] == 0 && r[1][2] == 0;
+    if (level.alpha <= 0 && level.face_size >= 2 && map.lat_long_image() != nullptr && yaw) {
+      // R = RotationY(psi) moves azimuth atan2(x, -z) by -psi; the lookup R^-1 d adds psi.
+      const double psi = options.rotation.IsIdentity() ? 0.0 : std::atan2(r[0][2], r[0][0]);
+      ResampleLatLongBase(map, level.face_size, options.threads, psi, cube);
       out.levels.push_back(std::move(level));
       continue;
     }
@@ -663,6 +674,7 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
     ShrmGridOptions grid;
     grid.threads = options.threads;
     grid.alpha_samples = GridRings(g, light->energy, f, total, options.tolerance);
+    grid.scratch = scratch;
     auto built = synth->BuildCube(ShrmKind::kGlobal, level.face_size, grid);
     if (!built.ok()) return built.status();
     cube.data = std::move(built->data);
@@ -725,9 +737,12 @@ LevelError MeasureLevelError(const EnvMap& map, SpecularLobe lobe, const Specula
 absl::StatusOr<SplitSumSet> PrefilterSplitSumSet(const EnvMap& map, const SpecularLight& light,
                                                  const SplitSumSetOptions& options, int threads,
                                                  const PrefilterProgress& progress,
-                                                 std::vector<StageTiming>* timings) {
+                                                 std::vector<StageTiming>* timings,
+                                                 SynthesisScratch* scratch) {
   SplitSumSet set;
+  SynthesisScratch local;
   SpecularOptions opt;
+  opt.scratch = scratch != nullptr ? scratch : &local;
   opt.chain = options.chain;
   opt.tolerance = options.tolerance;
   opt.rotation = light.rotation;

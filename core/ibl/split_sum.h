@@ -64,6 +64,7 @@
 #include "core/envmap/envmap.h"
 #include "core/shrm/prefilter.h"
 #include "core/shrm/radiance_cube.h"
+#include "core/shrm/shrm_synthesis.h"
 
 namespace shrm::ibl {
 
@@ -163,6 +164,9 @@ struct SpecularOptions {
   // The lighting rotated actively by this world rotation (core/envmap/lighting.h).
   Mat3 rotation = Mat3::Identity();
   int threads = 1;
+  // The synthesis's storage, kept by the caller across calls (a live session's frames); nullptr
+  // = one for the call, shared by its levels.
+  SynthesisScratch* scratch = nullptr;
 };
 
 struct SpecularLevel {
@@ -246,7 +250,8 @@ struct SplitSumSet {
 absl::StatusOr<SplitSumSet> PrefilterSplitSumSet(const EnvMap& map, const SpecularLight& light,
                                                  const SplitSumSetOptions& options, int threads,
                                                  const PrefilterProgress& progress = nullptr,
-                                                 std::vector<StageTiming>* timings = nullptr);
+                                                 std::vector<StageTiming>* timings = nullptr,
+                                                 SynthesisScratch* scratch = nullptr);
 
 }  // namespace shrm::ibl
 

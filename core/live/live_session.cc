@@ -324,7 +324,7 @@ absl::Status LiveSession::ComputeSplitSum(const State& state, const LiveFrame* p
   clock.End();
   SHRM_ASSIGN_OR_RETURN(ibl::SplitSumSet set,
                         ibl::PrefilterSplitSumSet(*state.map, light, *split_sum_, options_.threads,
-                                                  nullptr, &f.result.timings));
+                                                  nullptr, &f.result.timings, &split_sum_scratch_));
   f.split_sum = std::make_shared<const ibl::SplitSumSet>(std::move(set));
   return absl::OkStatus();
 }

@@ -178,7 +178,8 @@ class LiveSession {
   // unrotated, kMaxRotationLmax rotated: ibl::SpecularLightDegree).
   std::shared_ptr<const EnvMap> split_sum_map_;
   std::map<int, std::shared_ptr<const std::vector<double>>> split_sum_unrotated_;
-  State computed_state_;  // the state of latest_frame_
+  SynthesisScratch split_sum_scratch_;  // the chain's grids, reused frame after frame
+  State computed_state_;                // the state of latest_frame_
 
   std::thread worker_;
 };

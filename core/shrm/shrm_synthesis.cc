@@ -472,7 +472,9 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCube(ShrmKind kind, int face_size
     // top band (docs/shrm.md), independent of S_B.
     na = FftFriendlyRings(std::max(32, 4 * (lmax_ + pmax_ + 1)));
   }
-  if (pmax_ == 0 && options.p0_sht_path) return BuildCubeP0(kind, face_size, na, options.threads);
+  if (pmax_ == 0 && options.p0_sht_path) {
+    return BuildCubeP0(kind, face_size, na, options.threads, options.scratch);
+  }
   ShrmCube cube;
   cube.kind = kind;
   cube.index = reparam_;
@@ -510,7 +512,8 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCube(ShrmKind kind, int face_size
 }
 
 absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeP0(ShrmKind kind, int face_size, int na,
-                                                      int threads) const {
+                                                      int threads,
+                                                      SynthesisScratch* scratch) const {
   // P = 0: B_00(alpha, beta) = sum_lm L_lm rho_l00 d^l_m0(alpha) e^{i m beta}
   //                          = sum_lm sqrt(4 pi / (2l + 1)) rho_l00 L_lm Y_lm(alpha, beta)
   // (d^l_m0(b) = sqrt(4 pi/(2l+1)) Y_lm(b, 0), docs/conventions.md), a plain SH synthesis of degree
@@ -547,9 +550,13 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeP0(ShrmKind kind, int face_si
       GetShtPlan(ShtGrid{nb, na, ShtGridKind::kEquiangular}, f, ch, ShtQuadrature::kPixelSum);
   if (!plan.ok()) return plan.status();
   const size_t row = static_cast<size_t>(nb) * ch;
-  std::vector<float> values(row * (na + 4));
-  if (absl::Status st =
-          (*plan)->Inverse(real, std::span<float>(values.data() + 2 * row, na * row), threads);
+  // Every row is written below (the transform's na rows, then the four padding rows).
+  SynthesisScratch local;
+  SynthesisScratch& work = scratch != nullptr ? *scratch : local;
+  std::vector<float>& values = work.grid;
+  values.resize(row * (na + 4));
+  if (absl::Status st = (*plan)->Inverse(real, std::span<float>(values.data() + 2 * row, na * row),
+                                         threads, &work.sht);
       !st.ok())
     return st;
   // Padding rows: alpha = -d is alpha = d at beta + pi (half a period of columns), alpha = pi + d

@@ -34,12 +34,22 @@
 #include "core/sh/wigner_columns.h"
 #include "core/shrm/shrm_eval.h"  // ShrmAnglesFromWorld, ShrmLocalFrame, ShrmEvalAt, ...
 #include "core/shrm/shrm_map.h"
+#include "core/transform/sht.h"
 
 namespace shrm {
 
 // The smallest grid size >= na that is a multiple of 8 and whose FFT length 2 na has no prime
 // factor above 7 (e.g. 232 -> 240: an FFT of 2 x 232 = 16 x 29 costs ~1.7x that of 480).
 int FftFriendlyRings(int na);
+
+// Storage of the P = 0 path kept by a caller across BuildCube calls (grown as needed, never
+// shrunk): the padded grid and the inverse transform's work array, reused instead of allocated
+// (and first-touched: ~17 us a page on this machine) per call. A split-sum chain shares one across
+// its levels, a live session across its frames (core/ibl/split_sum.h).
+struct SynthesisScratch {
+  std::vector<float> grid;
+  ShtScratch sht;
+};
 
 struct ShrmGridOptions {
   // Equiangular grid rows in alpha over [0, pi] (pixel centres alpha_j = pi (j + 1/2) / N);
@@ -57,6 +67,8 @@ struct ShrmGridOptions {
   // resampled before the next is made (identical values; the grid depends on F + P, not on
   // S_B, e.g. 0.8 GB at (42, 21) even for a 16 x 16 cube). 0 = always whole.
   size_t max_grid_bytes = size_t{64} << 20;
+  // P = 0 SHT path: the caller's storage (SynthesisScratch); nullptr = allocated per call.
+  SynthesisScratch* scratch = nullptr;
 };
 
 // The SHRM of one lighting and one BRDF: L_lm (complex, converted from the real input) and
@@ -131,7 +143,8 @@ class ShrmSynthesizer {
   void SynthesizeSlabs(ShrmKind kind, int na, int owned, int threads, float* out,
                        const std::function<void(int first, int count)>& emit) const;
   // The P = 0 path of BuildCube (ShrmGridOptions::p0_sht_path).
-  absl::StatusOr<ShrmCube> BuildCubeP0(ShrmKind kind, int face_size, int na, int threads) const;
+  absl::StatusOr<ShrmCube> BuildCubeP0(ShrmKind kind, int face_size, int na, int threads,
+                                       SynthesisScratch* scratch) const;
   // Per-thread buffers of SynthesizeRows.
   struct RowScratch {
     std::vector<double> cols, dp, bre, bim, sre, sim;

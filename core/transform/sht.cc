@@ -441,8 +441,8 @@ absl::Status ShtPlan::ForwardImpl(std::span<const T> map, std::span<double> coef
 }
 
 template <typename T>
-absl::Status ShtPlan::InverseImpl(std::span<const double> coeffs, std::span<T> map,
-                                  int num_threads) const {
+absl::Status ShtPlan::InverseImpl(std::span<const double> coeffs, std::span<T> map, int num_threads,
+                                  ShtScratch* scratch) const {
   if (num_threads < 1) {
     return absl::InvalidArgumentError(
         absl::StrCat("SHT: num_threads must be >= 1 (got ", num_threads, ")"));
@@ -461,7 +461,9 @@ absl::Status ShtPlan::InverseImpl(std::span<const double> coeffs, std::span<T> m
   const int np = rings_.num_pairs, pp = PadPairs(np), nv = pp / kLanes;
   const int nc = w / 2 + 1;
   const size_t m_stride = static_cast<size_t>(2) * ch * 2 * pp;
-  std::vector<double> eo(m_stride * (lmax + 1), 0.0);
+  ShtScratch local;
+  std::vector<double>& eo = (scratch != nullptr ? scratch : &local)->theta;
+  eo.assign(m_stride * (lmax + 1), 0.0);
 
   // Theta stage: h_m(x_p) = sum_l lambda_l^m(x_p) q_lm split by parity of l - m, with
   // q_l0 = r_l0 and q_lm = sqrt2 (r_lm - i r_{l,-m}), so that f = Re sum_m h_m e^{i m phi}.
@@ -576,13 +578,13 @@ absl::Status ShtPlan::Forward(std::span<const double> map, std::span<double> coe
                               int num_threads) const {
   return ForwardImpl<double>(map, coeffs, num_threads);
 }
-absl::Status ShtPlan::Inverse(std::span<const double> coeffs, std::span<float> map,
-                              int num_threads) const {
-  return InverseImpl<float>(coeffs, map, num_threads);
+absl::Status ShtPlan::Inverse(std::span<const double> coeffs, std::span<float> map, int num_threads,
+                              ShtScratch* scratch) const {
+  return InverseImpl<float>(coeffs, map, num_threads, scratch);
 }
 absl::Status ShtPlan::Inverse(std::span<const double> coeffs, std::span<double> map,
-                              int num_threads) const {
-  return InverseImpl<double>(coeffs, map, num_threads);
+                              int num_threads, ShtScratch* scratch) const {
+  return InverseImpl<double>(coeffs, map, num_threads, scratch);
 }
 
 absl::StatusOr<std::shared_ptr<const ShtPlan>> GetShtPlan(const ShtGrid& grid, int lmax,

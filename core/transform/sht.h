@@ -101,6 +101,13 @@ int ShtMaxDegree(const ShtGrid& grid);
 // the fftw_execute* functions are thread-safe.
 std::mutex& FftwPlannerMutex();
 
+// Work storage of ShtPlan::Inverse kept by a caller across calls (grown as needed, never shrunk):
+// a caller that synthesizes again and again (a live session's frames, a chain's levels) reuses
+// it instead of allocating, and first-touching, the theta stage's array on every call.
+struct ShtScratch {
+  std::vector<double> theta;
+};
+
 // Precomputed state of the transforms on one grid at one degree for one channel count: FFTW
 // plans (a batch of 2 * channels real rings, one north/south ring pair), quadrature weights,
 // sectoral Legendre starts and recurrence coefficients, and, for equiangular grids with H < 2F + 1,
@@ -145,10 +152,11 @@ class ShtPlan {
   // Synthesis: map(i, j, c) = sum_lm coeff[ShIndex(l, m) * channels + c] Y_lm(d_ij), the inverse
   // of Forward() for band-limited data. Errors: InvalidArgument for size mismatches or
   // num_threads < 1.
-  absl::Status Inverse(std::span<const double> coeffs, std::span<float> map,
-                       int num_threads = 1) const;
-  absl::Status Inverse(std::span<const double> coeffs, std::span<double> map,
-                       int num_threads = 1) const;
+  // `scratch` (optional): the work array kept by the caller across calls (ShtScratch).
+  absl::Status Inverse(std::span<const double> coeffs, std::span<float> map, int num_threads = 1,
+                       ShtScratch* scratch = nullptr) const;
+  absl::Status Inverse(std::span<const double> coeffs, std::span<double> map, int num_threads = 1,
+                       ShtScratch* scratch = nullptr) const;
 
   // Implementation types (public so that sht.cc's helpers can name them). A RingSet holds the
   // north/south ring pairs of a symmetric quadrature; arrays are padded with zeros to a multiple
@@ -175,7 +183,8 @@ class ShtPlan {
   template <typename T>
   absl::Status ForwardImpl(std::span<const T> map, std::span<double> coeffs, int num_threads) const;
   template <typename T>
-  absl::Status InverseImpl(std::span<const double> coeffs, std::span<T> map, int num_threads) const;
+  absl::Status InverseImpl(std::span<const double> coeffs, std::span<T> map, int num_threads,
+                           ShtScratch* scratch) const;
   // Theta stage of the analysis: eq. (1) for every m on ring pairs `rings` from the E/O buffer
   // (E_p = G_m(north) + G_m(south) for even l - m, O_p = the difference for odd l - m).
   void LegendreAnalysis(const RingSet& rings, std::span<const double> eo, std::span<double> coeffs,
