@@ -24,6 +24,7 @@
 #include "proto/job_codec.h"
 #endif
 #include "core/base/status_macros.h"
+#include "core/export/shrm_ktx2.h"
 #include "core/io/atomic_file.h"
 #include "core/io/image.h"
 #include "core/live/live_session.h"
@@ -56,6 +57,7 @@ struct LiveArgs {
   std::string kind = jobs::ShrmKindName(ShrmKind::kGlobal);
   int size = 0;
   std::string view;
+  bool ktx2 = false;  // each frame's SHRM in the KTX2 container instead of the EXR
   // --ibl: each frame's split-sum set too (the `shrm ibl` job of these options, verify 0).
   bool ibl = false;
   std::string ibl_preset = ibl::RoughnessPresetName(ibl::RoughnessPreset::kFilament);
@@ -88,6 +90,9 @@ absl::StatusOr<std::vector<FrameJob>> FrameJobs(const LiveArgs& a) {
   }
   if (a.brdf.empty() && !a.ibl) {
     return absl::InvalidArgumentError("give --brdf (the SHRM of each frame), --ibl, or both");
+  }
+  if (a.brdf.empty() && a.ktx2) {
+    return absl::InvalidArgumentError("--ktx2 needs --brdf: it is the SHRM's container");
   }
   if (a.brdf.empty() && !a.view.empty()) {
     return absl::InvalidArgumentError("--view needs --brdf: the view map is the SHRM's (eq. 5.35)");
@@ -254,6 +259,7 @@ absl::Status RunLiveRemote(const LiveArgs& a, const std::vector<FrameJob>& frame
   }
   open.set_kind(job.kind == ShrmKind::kLocal ? v1::SHRM_KIND_LOCAL : v1::SHRM_KIND_GLOBAL);
   open.set_face_size(job.face_size);
+  open.set_shrm_ktx2(a.ktx2);
   if (a.ibl) {
     // The frames' IBL job without its environment (the session's lighting) and check.
     *open.mutable_ibl() = wire::EncodeIblRequest(frames.front().ibl, v1::Environment());
@@ -305,7 +311,7 @@ absl::Status RunLiveRemote(const LiveArgs& a, const std::vector<FrameJob>& frame
     const auto write_start = std::chrono::steady_clock::now();
     std::string shrm_path;
     if (!a.brdf.empty()) {
-      shrm_path = FramePath(a.output, static_cast<int>(k), "shrm.exr");
+      shrm_path = FramePath(a.output, static_cast<int>(k), a.ktx2 ? "shrm.ktx2" : "shrm.exr");
       SHRM_RETURN_IF_ERROR(WriteFileAtomically(shrm_path, frame->shrm_file));
     }
     FrameFigures fig;
@@ -424,8 +430,15 @@ absl::Status RunLive(const LiveArgs& a) {
     if (frame->has_shrm) {
       const auto attributes =
           jobs::PrefilterFileAttributes(f.job, current.provenance, frame->result);
-      shrm_path = FramePath(a.output, static_cast<int>(k), "shrm.exr");
-      SHRM_RETURN_IF_ERROR(WriteShrmFile(shrm_path, frame->result.cube, attributes));
+      if (a.ktx2) {
+        shrm_path = FramePath(a.output, static_cast<int>(k), "shrm.ktx2");
+        SHRM_ASSIGN_OR_RETURN(const std::string bytes,
+                              EncodeShrmKtx2(shrm_path, frame->result.cube, attributes));
+        SHRM_RETURN_IF_ERROR(WriteFileAtomically(shrm_path, bytes));
+      } else {
+        shrm_path = FramePath(a.output, static_cast<int>(k), "shrm.exr");
+        SHRM_RETURN_IF_ERROR(WriteShrmFile(shrm_path, frame->result.cube, attributes));
+      }
       if (view) {
         view_path = FramePath(a.output, static_cast<int>(k), "view.exr");
         SHRM_RETURN_IF_ERROR(WriteRadianceCross(view_path, frame->view_map));
@@ -490,6 +503,9 @@ void DefineLive(CLI::App* sub, absl::Status* status) {
   sub->add_option("--view", args->view,
                   "also write each frame's reflection map for this view (eq. 5.35), x,y,z")
       ->check(jobs::kDirection);
+  sub->add_flag("--ktx2", args->ktx2,
+                "each frame's SHRM as frame_NNNN.shrm.ktx2 (the KTX2 container shrm prefilter "
+                "--ktx2 writes: coefficient planes for the shader library) instead of the EXR");
   sub->add_flag("--ibl", args->ibl,
                 "also each frame's split-sum IBL set: the folder frame_NNNN.ibl that "
                 "`shrm ibl --verify 0` writes for the frame");

@@ -17,6 +17,7 @@
 #include "core/base/status_macros.h"
 #include "core/brdf/brdf_projection.h"
 #include "core/envmap/envmap.h"
+#include "core/export/shrm_ktx2.h"
 #include "core/io/image.h"
 #include "core/io/sha256.h"
 #include "core/live/live_session.h"
@@ -876,6 +877,7 @@ grpc::Status ShrmServiceImpl::Live(
                              absl::StrCat("live: request 0: ", job.status().message())));
   }
   const bool view_only = request.open().view_only();
+  const bool shrm_ktx2 = request.open().shrm_ktx2();
   std::optional<jobs::IblJob> ibl_job;
   std::optional<ibl::SplitSumSetOptions> split_sum;
   if (request.open().has_ibl()) {
@@ -948,9 +950,11 @@ grpc::Status ShrmServiceImpl::Live(
       std::vector<jobs::IblFile> ibl_files;
       const bool send_shrm = !view_only && frame->has_shrm;
       if (s.ok() && send_shrm) {
-        absl::StatusOr<std::string> bytes = EncodeShrmFile(
-            "the live frame", frame->result.cube,
-            jobs::PrefilterFileAttributes(snap.job, snap.provenance, frame->result), false);
+        const auto attributes =
+            jobs::PrefilterFileAttributes(snap.job, snap.provenance, frame->result);
+        absl::StatusOr<std::string> bytes =
+            shrm_ktx2 ? EncodeShrmKtx2("the live frame", frame->result.cube, attributes)
+                      : EncodeShrmFile("the live frame", frame->result.cube, attributes, false);
         if (bytes.ok()) file = *std::move(bytes);
         s = bytes.status();
       }

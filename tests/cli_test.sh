@@ -503,6 +503,13 @@ if "$SHRM" live --env "$MAP" --turntable 2 --brdf "$LIVE_BRDF" --size 16 --ibl -
   "$SHRM" prefilter --env "$MAP" --brdf "$LIVE_BRDF" --epsilon 0.03 --verify 0 --size 16 \
     --rotate 180,0,0 -o iblturn1.shrm.exr >/dev/null 2>&1 &&
     cmp -s iblturn/frame_0001.shrm.exr iblturn1.shrm.exr || { ok=0; fail "live --ibl: the SHRM of frame 1 differs from shrm prefilter's"; }
+  # --ktx2: the SHRM in the KTX2 container, the bytes of shrm prefilter --ktx2.
+  "$SHRM" live --env "$MAP" --turntable 2 --brdf "$LIVE_BRDF" --size 16 --ktx2 -o ktxturn \
+    >/dev/null 2>&1 &&
+    "$SHRM" prefilter --env "$MAP" --brdf "$LIVE_BRDF" --epsilon 0.03 --verify 0 --size 16 \
+      --rotate 180,0,0 -o ktxref.shrm.exr --ktx2 ktxref.ktx2 >/dev/null 2>&1 &&
+    cmp -s ktxturn/frame_0001.shrm.ktx2 ktxref.ktx2 &&
+    [ ! -e ktxturn/frame_0001.shrm.exr ] || { ok=0; fail "live --ktx2: frame 1 is not shrm prefilter --ktx2's file"; }
   "$SHRM" ibl --env "$CITY" --size 16 --verify 0 -o iblonlyref >/dev/null 2>&1 &&
     cmp -s iblonly/frame_0000.ibl/specular.ktx2 iblonlyref/specular.ktx2 || { ok=0; fail "live --ibl without --brdf: specular.ktx2 differs from shrm ibl's"; }
   [ -e iblonly/frame_0000.shrm.exr ] && { ok=0; fail "live --ibl without --brdf wrote an SHRM"; }

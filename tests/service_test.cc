@@ -1043,6 +1043,29 @@ TEST_F(ServiceTest, CliLiveRemoteWritesTheEmbeddedFiles) {
   }
 }
 
+// `shrm live --ktx2 --server` (LiveOpen.shrm_ktx2: the coefficient planes in the KTX2 container)
+// writes the embedded run's frame_NNNN.shrm.ktx2, byte for byte.
+TEST_F(ServiceTest, CliLiveRemoteWritesTheEmbeddedKtx2Files) {
+  auto c = StartServer();
+  const std::string common =
+      absl::StrCat(SHRM_CLI_PATH, " live --env ", MapPath("courtyard.exr"),
+                   " --turntable 2 --brdf microfacet:sigma=0.3 --size 16 --ktx2 > /dev/null 2>&1");
+  const std::string local = testing::UniqueTempPath("live_ktx2_local");
+  const std::string remote = testing::UniqueTempPath("live_ktx2_remote");
+  ASSERT_EQ(std::system(absl::StrCat(common, " -o ", local).c_str()), 0) << common;
+  ASSERT_EQ(
+      std::system(absl::StrCat(common, " -o ", remote, " --server 127.0.0.1:", port_).c_str()), 0)
+      << common;
+  for (int k = 0; k < 2; ++k) {
+    const std::string name = absl::StrCat("/frame_000", k, ".shrm.ktx2");
+    const std::string want = ReadFile(local + name);
+    EXPECT_EQ(want.substr(0, 12), std::string("\xABKTX 20\xBB\r\n\x1A\n", 12)) << name;
+    EXPECT_TRUE(want == ReadFile(remote + name)) << name << ": the remote file differs";
+  }
+  std::filesystem::remove_all(local);
+  std::filesystem::remove_all(remote);
+}
+
 // Bad requests end the call with their error, naming the request; the daemon serves on.
 TEST_F(ServiceTest, LiveBadRequestsEndTheCallNamingTheRequest) {
   auto c = StartServer();
