@@ -364,5 +364,38 @@ TEST(LiveSession, SplitSumSetEqualsTheOfflineChainAndIsReusedWhenOnlyTheMaterial
             absl::StatusCode::kInvalidArgument);
 }
 
+// SetSplitSum: a session made with split-sum options computes the set only while it is on (a
+// viewer showing the SHRM turns it off); turned on with nothing else changed, the next frame keeps
+// the SHRM and computes the set, equal to the offline chain.
+TEST(LiveSession, SplitSumIsComputedOnlyWhileAsked) {
+  absl::StatusOr<std::unique_ptr<LiveSession>> s =
+      LiveSession::Create(SessionOptions(), nullptr, SplitSumOptions());
+  ASSERT_TRUE(s.ok()) << s.status();
+  LiveSession& live = **s;
+  const auto microfacet = ParsedBrdf("microfacet:sigma=0.3");
+  live.SetSplitSum(false);
+  // Off and no BRDF: nothing to compute.
+  absl::StatusOr<std::shared_ptr<const LiveFrame>> none =
+      live.WaitFor(live.SetMap(Courtyard(), kRotationA), kFrameWait);
+  ASSERT_TRUE(none.ok()) << none.status();
+  EXPECT_TRUE((*none)->incomplete);
+  EXPECT_EQ((*none)->status.code(), absl::StatusCode::kFailedPrecondition) << (*none)->status;
+  auto f = Frame(live, live.SetBrdf(microfacet));
+  ASSERT_NE(f, nullptr);
+  EXPECT_TRUE(f->has_shrm);
+  EXPECT_EQ(f->split_sum, nullptr);
+  EXPECT_FALSE(HasStage(*f, "specular"));
+  f = Frame(live, live.SetSplitSum(true));
+  ASSERT_NE(f, nullptr);
+  EXPECT_TRUE(f->shrm_reused);
+  ExpectSameCube(f->result.cube, Offline(*microfacet, kRotationA));
+  ASSERT_NE(f->split_sum, nullptr);
+  ExpectSameSet(*f->split_sum, OfflineSplitSum(kRotationA));
+  f = Frame(live, live.SetSplitSum(false));
+  ASSERT_NE(f, nullptr);
+  EXPECT_TRUE(f->shrm_reused);
+  EXPECT_EQ(f->split_sum, nullptr);
+}
+
 }  // namespace
 }  // namespace shrm

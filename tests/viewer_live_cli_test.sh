@@ -128,6 +128,28 @@ else
   fail "sequence of files: $(tail -c 400 seq_files.out)"
 fi
 
+# --- mode 6: the split-sum of the live lighting (the session's chain) --------------------------
+# Frame 3 of the sequence (2.exr) in mode 6 against the fixed map's mode 6 (its chain computed by
+# the viewer): the same chain bit for bit (tests/viewer_live_test.cc), so the same pixels.
+GGX=ggx:alpha=0.3
+CHECKS=$((CHECKS + 1))
+if run ss "$VIEW" --live sequence --sequence seq --brdf "$GGX" --face-size 32 --size 96,72 \
+  --mode 6 --live-fps 2 --live-step 0.5 --frames 3 --screenshot live_ss.exr &&
+  run ref_ss "$VIEW" --env seq/2.exr --brdf "$GGX" --face-size 32 --size 96,72 --mode 6 \
+    --screenshot ref_ss.exr; then
+  grep -q 'live sequence: frame 3/3 2.exr' ss.out || fail "mode 6 sequence: not frame 3/3 2.exr"
+  same "mode 6 (split-sum) of sequence frame 2.exr vs the fixed map's" live_ss.exr ref_ss.exr "$EXACT"
+else
+  fail "mode 6 live: $(tail -c 400 ss.out ref_ss.out 2>/dev/null)"
+fi
+CHECKS=$((CHECKS + 1))
+if ! run ss_phong "$VIEW" --live sequence --sequence seq "${COMMON[@]}" --mode 6 \
+  --screenshot never.exr && grep -q 'shades GGX' ss_phong.out && [ ! -e never.exr ]; then
+  echo "ok: --live --mode 6 with a non-GGX BRDF refused: $(tail -n 1 ss_phong.out)"
+else
+  fail "--live --mode 6 with $BRDF: $(tail -c 300 ss_phong.out)"
+fi
+
 # --- sky: 06:00 + 3 steps of 1 s at 2 h/s = 12:00, as `shrm sky` renders it --------------------
 SKY=(--date 2024-06-21 --lat 37.87 --lon -122.27 --turbidity 3)
 CHECKS=$((CHECKS + 1))

@@ -18,6 +18,7 @@
 #include "jobs/environment.h"
 #include "tests/test_maps.h"
 #include "viewer/live_source.h"
+#include "viewer/split_sum_shading.h"
 
 namespace shrm::viewer {
 namespace {
@@ -185,11 +186,17 @@ TEST(ViewerLiveTest, MapProducerKeepsErrorsAsResults) {
 
 // Rotate: the frame of yaw 90 is Prefilter() of the map with --rotate 90,0,0, bit for bit; a
 // material change and back; the overlay names every stage the session ran.
-TEST_F(ViewerLiveFiles, RotateFramesEqualOfflinePrefilter) {
+// --live rotate of map 0 at 30 deg/s.
+LiveSpec RotateSpec(const std::string& map) {
   LiveSpec spec;
   spec.kind = LiveKind::kRotate;
-  spec.env = Path(0);
+  spec.env = map;
   spec.speed = 30;
+  return spec;
+}
+
+TEST_F(ViewerLiveFiles, RotateFramesEqualOfflinePrefilter) {
+  const LiveSpec spec = RotateSpec(Path(0));
   auto lighting = LiveLighting::Create(spec, 2);
   ASSERT_TRUE(lighting.ok()) << lighting.status();
   auto driver = LiveDriver::Create(Job("microfacet:sigma=0.2"), 2);
@@ -238,6 +245,55 @@ TEST_F(ViewerLiveFiles, RotateFramesEqualOfflinePrefilter) {
   }
   // A bad spec is refused before anything is sent.
   EXPECT_FALSE((*driver)->Push(*at, "microfacet:sigma=-1").ok());
+}
+
+// Mode 6 live: with the split-sum needed, each shown frame carries the session's split-sum set of
+// its lighting, whose chain is SplitSumShading::Create's for the map turned the same way (what
+// mode 6 shows for a fixed map) bit for bit; without the need, frames carry none.
+TEST_F(ViewerLiveFiles, SplitSumFramesEqualTheChainOfTheTurnedMap) {
+  auto lighting = LiveLighting::Create(RotateSpec(Path(0)), 2);
+  ASSERT_TRUE(lighting.ok()) << lighting.status();
+  const std::string ggx = "ggx:alpha=0.3";
+  auto driver = LiveDriver::Create(Job(ggx), 2);
+  ASSERT_TRUE(driver.ok()) << driver.status();
+  const EnvMap map = OfflineMap(Path(0));
+  auto brdf = ParseBrdfSpec(ggx);
+  ASSERT_TRUE(brdf.ok());
+
+  auto at = (*lighting)->At(3, false);  // yaw 90
+  ASSERT_TRUE(at.ok());
+  auto update = (*driver)->Push(*at, ggx);
+  ASSERT_TRUE(update.ok());
+  auto shown = (*driver)->WaitFor(*update, kWait);
+  ASSERT_TRUE(shown.ok()) << shown.status();
+  ASSERT_TRUE((*shown)->status.ok()) << (*shown)->status;
+  EXPECT_EQ((*shown)->split_sum, nullptr) << "computed while mode 6 is not shown";
+
+  (*driver)->SetNeedSplitSum(true);
+  update = (*driver)->Push(*at, ggx);  // nothing else changed: the split-sum update
+  ASSERT_TRUE(update.ok());
+  shown = (*driver)->WaitFor(*update, kWait);
+  ASSERT_TRUE(shown.ok()) << shown.status();
+  ASSERT_TRUE((*shown)->status.ok()) << (*shown)->status;
+  ASSERT_NE((*shown)->split_sum, nullptr);
+  ASSERT_NE((*shown)->brdf, nullptr);
+  absl::StatusOr<SplitSumShading> want = SplitSumShading::Create(map, **brdf, 2, at->rotation);
+  ASSERT_TRUE(want.ok()) << want.status();
+  const ibl::SpecularChain& got = (*shown)->split_sum->specular;
+  ASSERT_EQ(got.levels.size(), want->chain().levels.size());
+  for (size_t k = 0; k < got.levels.size(); ++k) {
+    EXPECT_EQ(got.levels[k].degree, want->chain().levels[k].degree) << "level " << k;
+    EXPECT_TRUE(got.levels[k].cube.data == want->chain().levels[k].cube.data)
+        << "level " << k << ": the live chain differs from the turned map's";
+  }
+  // The shading mode 6 draws with, from the live chain: the same lod and f0.
+  absl::StatusOr<SplitSumShading> live =
+      SplitSumShading::FromChain((*shown)->split_sum->specular, *(*shown)->brdf);
+  ASSERT_TRUE(live.ok()) << live.status();
+  EXPECT_EQ(live->lod(), want->lod());
+  EXPECT_EQ(live->f0(), want->f0());
+  const Vec3 n = Vec3{0.3, 0.8, -0.5}.Normalized(), v = Vec3{0.1, 0.2, 1}.Normalized();
+  EXPECT_EQ(live->Eval(n, v), want->Eval(n, v));
 }
 
 // Sequence: frame floor(t fps) of the folder, each shown frame Prefilter() of that file.

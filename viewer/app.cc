@@ -413,6 +413,7 @@ class Viewer {
     if (step && !live_paused_) ++live_steps_;
     SHRM_ASSIGN_OR_RETURN(const LiveLightingState lighting, live_lighting_->At(t, step));
     live_->SetNeedLocal(settings_.mode == 2);
+    live_->SetNeedSplitSum(settings_.mode == 6);
     SHRM_ASSIGN_OR_RETURN(const uint64_t update, live_->Push(lighting, brdf_spec_));
     std::shared_ptr<const LiveShown> shown;
     if (step || wait) {
@@ -423,15 +424,20 @@ class Viewer {
     const double seconds = std::chrono::duration<double>(now - live_start_).count();
     live_rate_.Add(seconds, live_->Stats().frames);
     render_rate_.Add(seconds, rendered_);
-    // Mode 2 takes a frame once its local SHRM is converted (LiveDriver::SetNeedLocal).
+    // Mode 2 takes a frame once its local SHRM is converted (LiveDriver::SetNeedLocal), mode 6
+    // once it has its split-sum set (LiveDriver::SetNeedSplitSum).
     const bool usable =
-        shown != nullptr && (settings_.mode != 2 || shown->has_local || !shown->status.ok());
+        shown != nullptr &&
+        (!shown->status.ok() || ((settings_.mode != 2 || shown->has_local) &&
+                                 (settings_.mode != 6 || shown->split_sum != nullptr)));
     if (usable && shown != live_shown_) {
       live_shown_ = shown;
       if (!shown->status.ok()) return shown->status;  // the last SHRM stays on screen
       live_error_ = absl::OkStatus();
       scene_.shrm = shown->shrm;
       scene_.env = shown->map->env;
+      scene_.brdf = shown->brdf;
+      scene_.split_sum = shown->split_sum;
       settings_.background_rotation = shown->rotation;
       if (renderer_ != nullptr) UploadScene();
       ++live_totals_.frames;
@@ -588,15 +594,19 @@ class Viewer {
       const int m = key - GLFW_KEY_0;
       const ModeInfo* info = FindMode(m);
       if (live_ != nullptr && info != nullptr) {
-        if (m != 1 && m != 2) {
-          Log(absl::StrCat("mode ", m, ": the live mode shows the SHRM in modes 1 and 2"));
+        if (m != 1 && m != 2 && m != 6) {
+          Log(absl::StrCat("mode ", m,
+                           ": the live mode shows the SHRM in modes 1 and 2, the split-sum in 6"));
           return;
         }
         // The live scene goes to the active mode only; mode 2 waits for a frame converted to
-        // the local SHRM (the next frame, or the newest converted again).
+        // the local SHRM (the next frame, or the newest converted again), mode 6 for a frame
+        // with the split-sum set (computed from then on).
         settings_.mode = m;
         live_->SetNeedLocal(m == 2);
-        if (scene_.shrm != nullptr && (m == 1 || !scene_.shrm->local.data.empty())) {
+        live_->SetNeedSplitSum(m == 6);
+        if (scene_.shrm != nullptr && (m == 1 || (m == 2 && !scene_.shrm->local.data.empty()) ||
+                                       (m == 6 && scene_.split_sum != nullptr))) {
           ReportError(renderer_->SyncMode(m));
         }
         Log(absl::StrCat("mode ", m, ": ", info->description));

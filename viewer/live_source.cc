@@ -13,6 +13,7 @@
 #include "core/brdf/brdf.h"
 #include "core/envmap/sky.h"
 #include "jobs/environment.h"
+#include "viewer/split_sum_shading.h"
 
 namespace shrm::viewer {
 namespace {
@@ -351,7 +352,9 @@ absl::StatusOr<std::unique_ptr<LiveDriver>> LiveDriver::Create(const jobs::Prefi
   SHRM_RETURN_IF_ERROR(jobs::ValidatePrefilterJob(job));
   PrefilterOptions options = jobs::CorePrefilterOptions(job, std::max(1, threads));
   options.max_cube_values = jobs::EmbeddedCubeValueLimit();
-  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<LiveSession> session, LiveSession::Create(options));
+  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<LiveSession> session,
+                        LiveSession::Create(options, nullptr, ViewerSplitSumOptions()));
+  session->SetSplitSum(false);  // until mode 6 is shown
   return std::unique_ptr<LiveDriver>(new LiveDriver(job, threads, std::move(session)));
 }
 
@@ -423,8 +426,18 @@ void LiveDriver::SetNeedLocal(bool need) {
   need_local_ = need;
 }
 
+void LiveDriver::SetNeedSplitSum(bool need) {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (need == need_split_sum_) return;
+    need_split_sum_ = need;
+  }
+  last_update_ = session_->SetSplitSum(need, sent_);
+}
+
 bool LiveDriver::Complete(const LiveShown& shown) const {
-  return !need_local_ || !shown.status.ok() || shown.has_local;
+  return !shown.status.ok() ||
+         ((!need_local_ || shown.has_local) && (!need_split_sum_ || shown.split_sum != nullptr));
 }
 
 LiveShown LiveDriver::Convert(const LiveFrame& frame, bool local) const {
@@ -441,7 +454,9 @@ LiveShown LiveDriver::Convert(const LiveFrame& frame, bool local) const {
     s.rotation = sent->lighting.rotation;
     s.lighting = sent->lighting.text;
     s.brdf_spec = sent->brdf_spec;
+    s.brdf = sent->brdf;
   }
+  s.split_sum = frame.split_sum;
   if (!s.status.ok() || sent == nullptr || sent->brdf == nullptr || s.map == nullptr) {
     if (s.status.ok()) s.status = absl::FailedPreconditionError("live: no lighting or BRDF yet");
     return s;
@@ -477,7 +492,9 @@ void LiveDriver::Present() {
       std::lock_guard<std::mutex> lock(mu_);
       if (stop_) return;
       local = need_local_;
-      again = last != nullptr && shown_ != nullptr && !Complete(*shown_);
+      // Converted again only for the local SHRM (a missing split-sum set needs a new frame).
+      again = last != nullptr && shown_ != nullptr && shown_->status.ok() && need_local_ &&
+              !shown_->has_local;
     }
     // Polls so that the stop flag and SetNeedLocal are seen (the session cannot wake this thread).
     std::shared_ptr<const LiveFrame> frame =

@@ -186,6 +186,10 @@ struct LiveShown {
   double compute_ms = 0;             // the session's whole frame
   double convert_ms = 0;   // ShrmData and, for mode 2, global -> local (viewer/cube_convert.h)
   bool has_local = false;  // shrm->local converted (LiveDriver::SetNeedLocal)
+  // Mode 6 (LiveDriver::SetNeedSplitSum): the session's split-sum set of this lighting
+  // (kSplitSumFaceSize chain, viewer/split_sum_shading.h), and the BRDF it is shaded with.
+  std::shared_ptr<const ibl::SplitSumSet> split_sum;
+  std::shared_ptr<const Brdf> brdf;
   bool brdf_reused = false, lighting_reused = false;
 };
 
@@ -218,13 +222,19 @@ class LiveDriver {
   // as much as a frame (docs/viewer.md "Live"), so it is done only while it is shown. Setting it
   // converts the newest frame again; WaitFor then waits for a frame that has it.
   void SetNeedLocal(bool need);
+  // Whether frames need the split-sum set (mode 6): the session computes it only while it is
+  // shown (a GGX chain of kSplitSumFaceSize per lighting change). Render thread only (it sends an
+  // update when the need changes, which the next Push returns); WaitFor then waits for a frame
+  // that has it.
+  void SetNeedSplitSum(bool need);
 
  private:
   struct Sent;  // what was sent: the tag of each update
   LiveDriver(jobs::PrefilterJob job, int threads, std::unique_ptr<LiveSession> session);
   LiveShown Convert(const LiveFrame& frame, bool local) const;
   void Present();
-  bool Complete(const LiveShown& shown) const;  // has the local SHRM if needed (mu_ held)
+  // Has the local SHRM and the split-sum set if needed (mu_ held).
+  bool Complete(const LiveShown& shown) const;
 
   const jobs::PrefilterJob job_;
   const int threads_;
@@ -236,6 +246,7 @@ class LiveDriver {
   mutable std::condition_variable shown_changed_;
   std::shared_ptr<const LiveShown> shown_;
   bool need_local_ = false;
+  bool need_split_sum_ = false;  // written on the render thread under mu_
   bool stop_ = false;
   std::thread presenter_;
 };

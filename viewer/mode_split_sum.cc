@@ -45,16 +45,24 @@ class SplitSumMode final : public RenderMode {
   [[nodiscard]] absl::Status Upload(const SceneData& scene) override {
     ready_ = false;
     if (scene.env == nullptr || scene.brdf == nullptr) return absl::OkStatus();
-    if (scene.env.get() == env_ && scene.brdf.get() == brdf_ && shading_) {
+    // The live session's set when there is one (its lighting turned as the frame's), else the
+    // chain of the map.
+    const void* source = scene.split_sum != nullptr
+                             ? static_cast<const void*>(scene.split_sum.get())
+                             : scene.env.get();
+    if (source == env_ && scene.brdf.get() == brdf_ && shading_) {
       ready_ = true;
       return absl::OkStatus();
     }
     // Not GGX: nothing to draw, and no error (every other BRDF would report one at each scene).
     if (dynamic_cast<const GgxBrdf*>(scene.brdf.get()) == nullptr) return absl::OkStatus();
-    absl::StatusOr<SplitSumShading> s = SplitSumShading::Create(scene.env->map, *scene.brdf, 2);
+    absl::StatusOr<SplitSumShading> s =
+        scene.split_sum != nullptr
+            ? SplitSumShading::FromChain(scene.split_sum->specular, *scene.brdf)
+            : SplitSumShading::Create(scene.env->map, *scene.brdf, 2);
     if (!s.ok()) return s.status();
     shading_ = *std::move(s);
-    env_ = scene.env.get();
+    env_ = source;
     brdf_ = scene.brdf.get();
     const ibl::SpecularChain& chain = shading_->chain();
     if (!chain_) chain_ = GlTexture::Generate();
@@ -124,7 +132,7 @@ class SplitSumMode final : public RenderMode {
   GlProgram program_;
   GlTexture chain_, dfg_;
   std::optional<SplitSumShading> shading_;
-  const void* env_ = nullptr;  // what shading_ was made from
+  const void* env_ = nullptr;  // what shading_ was made from (the map's data, or the live set)
   const void* brdf_ = nullptr;
   bool ready_ = false;
 };

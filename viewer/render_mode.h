@@ -51,6 +51,7 @@
 
 #include "absl/status/status.h"
 #include "core/brdf/brdf.h"
+#include "core/ibl/split_sum.h"
 #include "viewer/camera.h"
 #include "viewer/gpu_mesh.h"
 #include "viewer/scene_source.h"
@@ -63,6 +64,9 @@ struct SceneData {
   std::shared_ptr<const EnvironmentData> env;  // map, lat-long copy, SH lighting, reference
   std::shared_ptr<const Brdf> brdf;            // the BRDF of shrm (or of --brdf)
   std::string brdf_spec;
+  // --live: the session's split-sum set of the shown lighting (mode 6 shades with its chain
+  // instead of computing one from env; viewer/live_source.h).
+  std::shared_ptr<const ibl::SplitSumSet> split_sum;
 };
 
 // Per-frame inputs (Draw()).

@@ -11,30 +11,54 @@
 
 namespace shrm::viewer {
 
+namespace {
+
+// The chain's truncation tolerance (relative RMS over the sphere, core/ibl/split_sum.h).
+constexpr double kChainTolerance = 1e-3;
+
+const GgxBrdf* AsGgx(const Brdf& brdf) { return dynamic_cast<const GgxBrdf*>(&brdf); }
+
+absl::Status NotGgx(const Brdf& brdf) {
+  return absl::InvalidArgumentError(
+      absl::StrCat("the split-sum (mode 6) shades GGX only, the BRDF is ", brdf.spec(),
+                   ": run with --brdf ggx:alpha=A[,f0=F]"));
+}
+
+}  // namespace
+
+ibl::SplitSumSetOptions ViewerSplitSumOptions() {
+  ibl::SplitSumSetOptions o;
+  o.chain = *ibl::MakeMipChain(ibl::RoughnessPreset::kFilament, kSplitSumFaceSize, 0);
+  o.tolerance = kChainTolerance;
+  o.irradiance_size = 1;
+  return o;
+}
+
 absl::StatusOr<SplitSumShading> SplitSumShading::Create(const EnvMap& map, const Brdf& brdf,
-                                                        int threads) {
-  const auto* ggx = dynamic_cast<const GgxBrdf*>(&brdf);
-  if (ggx == nullptr) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("the split-sum (mode 6) shades GGX only, the BRDF is ", brdf.spec(),
-                     ": run with --brdf ggx:alpha=A[,f0=F]"));
-  }
+                                                        int threads, const Mat3& rotation) {
+  if (AsGgx(brdf) == nullptr) return NotGgx(brdf);
+  ibl::SpecularOptions opt;
+  opt.chain = ViewerSplitSumOptions().chain;
+  opt.tolerance = kChainTolerance;
+  opt.threads = threads;
+  opt.rotation = rotation;
+  absl::StatusOr<ibl::SpecularChain> c = ibl::PrefilterSpecular(map, opt);
+  if (!c.ok()) return c.status();
+  return FromChain(*std::move(c), brdf);
+}
+
+absl::StatusOr<SplitSumShading> SplitSumShading::FromChain(ibl::SpecularChain chain,
+                                                           const Brdf& brdf) {
+  const GgxBrdf* ggx = AsGgx(brdf);
+  if (ggx == nullptr) return NotGgx(brdf);
+  if (chain.levels.empty()) return absl::InvalidArgumentError("split-sum: an empty chain");
   SplitSumShading s;
   s.roughness_ = std::sqrt(ggx->alpha());
   s.f0_ = ggx->f0();
-  ibl::SpecularOptions opt;
-  absl::StatusOr<ibl::MipChain> chain =
-      ibl::MakeMipChain(ibl::RoughnessPreset::kFilament, kSplitSumFaceSize, 0);
-  if (!chain.ok()) return chain.status();
-  opt.chain = *std::move(chain);
-  opt.tolerance = 1e-3;
-  opt.threads = threads;
-  absl::StatusOr<ibl::SpecularChain> c = ibl::PrefilterSpecular(map, opt);
-  if (!c.ok()) return c.status();
-  s.chain_ = *std::move(c);
+  s.chain_ = std::move(chain);
   // Filament's level for the roughness (light_indirect.fs: lod = (levels - 1) r (2 - r), the
   // inverse of the preset's r = 1 - sqrt(1 - t)).
-  const int last = opt.chain.levels() - 1;
+  const int last = static_cast<int>(s.chain_.levels.size()) - 1;
   s.lod_ = std::clamp(last * s.roughness_ * (2 - s.roughness_), 0.0, static_cast<double>(last));
   const double to_c00 = 2.0 * std::sqrt(kPi);  // B = c00 Y00, Y00 = 1 / (2 sqrt(pi))
   for (const ibl::SpecularLevel& level : s.chain_.levels) {

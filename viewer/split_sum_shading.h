@@ -26,11 +26,21 @@ namespace shrm::viewer {
 inline constexpr int kSplitSumFaceSize = 128;  // the chain's base face (Filament preset)
 inline constexpr int kDfgEntries = 64;
 
+// The chain's options as a live session computes it (core/live/live_session.h): the Filament
+// preset at kSplitSumFaceSize, the truncation tolerance of Create, the smallest irradiance cube
+// (mode 6 does not use it).
+ibl::SplitSumSetOptions ViewerSplitSumOptions();
+
 class SplitSumShading {
  public:
-  // InvalidArgument naming the BRDF when it is not GGX; the chain's errors.
-  [[nodiscard]] static absl::StatusOr<SplitSumShading> Create(const EnvMap& map, const Brdf& brdf,
-                                                              int threads = 1);
+  // The chain of `map` turned by `rotation` (the lighting's world rotation). InvalidArgument
+  // naming the BRDF when it is not GGX; the chain's errors.
+  [[nodiscard]] static absl::StatusOr<SplitSumShading> Create(
+      const EnvMap& map, const Brdf& brdf, int threads = 1,
+      const Mat3& rotation = Mat3::Identity());
+  // From a chain computed elsewhere (a live frame's set, ViewerSplitSumOptions()).
+  [[nodiscard]] static absl::StatusOr<SplitSumShading> FromChain(ibl::SpecularChain chain,
+                                                                 const Brdf& brdf);
 
   const ibl::SpecularChain& chain() const { return chain_; }
   double lod() const { return lod_; }  // fractional level of the BRDF's roughness

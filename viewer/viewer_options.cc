@@ -85,8 +85,12 @@ std::string CheckLive(const CLI::App& app, const ViewerOptions& o, const std::st
            "is)";
   }
   if (o.brdf.empty()) return "--live needs --brdf SPEC";
-  if (o.mode != 1 && o.mode != 2) {
-    return absl::StrCat("--live shows the SHRM in mode 1 or 2, got --mode ", o.mode);
+  if (o.mode != 1 && o.mode != 2 && o.mode != 6) {
+    return absl::StrCat(
+        "--live shows the SHRM in mode 1 or 2 and the split-sum in mode 6, got --mode ", o.mode);
+  }
+  if (o.mode == 6 && !absl::StartsWith(o.brdf, "ggx")) {
+    return "--live --mode 6: the split-sum shades GGX: --brdf ggx:alpha=A[,f0=F]";
   }
   if (o.diff) return "--diff needs the ground truth of a fixed map: not with --live";
   const bool sky_options = app.count("--date") + app.count("--time") + app.count("--lat") +

@@ -101,6 +101,10 @@ uint64_t LiveSession::SetRotation(const Mat3& rotation, std::shared_ptr<const vo
   return Update([&](State* s) { s->rotation = rotation; }, std::move(tag));
 }
 
+uint64_t LiveSession::SetSplitSum(bool on, std::shared_ptr<const void> tag) {
+  return Update([&](State* s) { s->split_sum = on; }, std::move(tag));
+}
+
 uint64_t LiveSession::SetView(std::optional<Vec3> view, std::shared_ptr<const void> tag) {
   return Update([&](State* s) { s->view = view; }, std::move(tag));
 }
@@ -218,23 +222,27 @@ LiveFrame LiveSession::Compute(const State& state, const LiveFrame* previous,
     clock.End();
     return absl::OkStatus();
   };
-  if (previous != nullptr && previous->status.ok() && state.SameShrm(*previous_state)) {
+  // Only the view or the split-sum flag changed: the previous frame's cube (a frame with neither
+  // an SHRM nor a set asked for takes the path below, whose error says why).
+  if (previous != nullptr && previous->status.ok() && state.SameShrm(*previous_state) &&
+      (previous->has_shrm || (split_sum_ && state.split_sum))) {
     f.shrm_reused = f.brdf_reused = f.lighting_reused = true;
     f.has_shrm = previous->has_shrm;
     f.result.analysis = previous->result.analysis;
     f.result.cube = previous->result.cube;
-    f.split_sum = previous->split_sum;
-    f.split_sum_reused = f.split_sum != nullptr;
-    f.status = f.has_shrm ? view_map() : absl::OkStatus();
+    f.status = split_sum_ && state.split_sum ? ComputeSplitSum(state, previous, previous_state, f)
+                                             : absl::OkStatus();
+    if (f.status.ok() && f.has_shrm) f.status = view_map();
     f.compute_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     return f;
   }
   const bool lit = state.map || state.coefficients;
+  const bool split_sum = split_sum_ && state.split_sum;
   auto run = [&]() -> absl::Status {
-    if (!state.brdf && !split_sum_) return absl::FailedPreconditionError("no BRDF yet (SetBrdf)");
+    if (!state.brdf && !split_sum) return absl::FailedPreconditionError("no BRDF yet (SetBrdf)");
     if (!lit) return absl::FailedPreconditionError("no lighting yet (SetMap or SetCoefficients)");
-    if (split_sum_) SHRM_RETURN_IF_ERROR(ComputeSplitSum(state, previous, previous_state, f));
+    if (split_sum) SHRM_RETURN_IF_ERROR(ComputeSplitSum(state, previous, previous_state, f));
     if (!state.brdf) return absl::OkStatus();  // the split-sum set alone
     StageClock clock(&f.result.timings, no_progress);
     SHRM_RETURN_IF_ERROR(clock.Begin("brdf"));
@@ -283,7 +291,7 @@ LiveFrame LiveSession::Compute(const State& state, const LiveFrame* previous,
   };
   f.status = run();
   if (!f.status.ok()) f.has_shrm = false;
-  f.incomplete = (!state.brdf && !split_sum_) || !lit;
+  f.incomplete = (!state.brdf && !split_sum) || !lit;
   f.compute_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return f;

@@ -111,6 +111,10 @@ class LiveSession {
                            std::array<double, 3> energy, std::shared_ptr<const void> tag = nullptr);
   uint64_t SetRotation(const Mat3& rotation, std::shared_ptr<const void> tag = nullptr);
   uint64_t SetBrdf(std::shared_ptr<const Brdf> brdf, std::shared_ptr<const void> tag = nullptr);
+  // With split-sum options: whether the frames compute the set (on from the start; a viewer
+  // showing the SHRM turns it off until the split-sum is shown). Turned on, the next frame
+  // computes it (or reuses the previous frame's when the lighting is the same).
+  uint64_t SetSplitSum(bool on, std::shared_ptr<const void> tag = nullptr);
   // The world view V of the frames' reflection map (eq. 5.35; normalized by the session, a zero
   // or non-finite one is the frame's error), or none (no map).
   uint64_t SetView(std::optional<Vec3> view, std::shared_ptr<const void> tag = nullptr);
@@ -134,6 +138,7 @@ class LiveSession {
     Mat3 rotation = Mat3::Identity();
     std::shared_ptr<const Brdf> brdf;
     std::optional<Vec3> view;
+    bool split_sum = true;  // SetSplitSum
     std::shared_ptr<const void> tag;
     // The same lighting and material (pointers and values; the view aside).
     bool SameShrm(const State& o) const;
