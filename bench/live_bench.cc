@@ -11,6 +11,8 @@
 // BM_LiveMaterialCached  the material switched between two specs the session has seen (rho_lpq
 //                        and L_lm cached: analysis, synthesis)
 // BM_LiveMaterialNew     a new material parameter each update (rho_lpq computed)
+// BM_LiveMaterialNewOf/<model>  the same for each analytic model: its first parameter nudged
+//                        each update (the "any analytic BRDF")
 // BM_LiveSequence        an HDR sequence: a 1024 x 512 EXR decoded and prefiltered per frame
 // BM_LiveView            the view of the frames' reflection map (eq. 5.35) changed: the cube
 //                        reused, the 64 x 64 x 6 map of the view computed
@@ -34,6 +36,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_replace.h"
 #include "core/brdf/brdf.h"
 #include "core/envmap/envmap.h"
 #include "core/ibl/split_sum.h"
@@ -154,6 +157,46 @@ void BM_LiveMaterialNew(benchmark::State& state) {
   Counters(state, *s);
 }
 BENCHMARK(BM_LiveMaterialNew)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// `format` holds one "%g": the model's first parameter, nudged from `base` each update.
+std::shared_ptr<const Brdf> ParsedWith(const std::string& format, double v) {
+  return Parsed(absl::StrReplaceAll(format, {{"%g", absl::StrCat(v)}}));
+}
+
+void BM_LiveMaterialNewOf(benchmark::State& state, const char* format, double base) {
+  auto s = Session();
+  s->SetMap(SmallMap("courtyard.exr"));
+  Await(state, *s, s->SetBrdf(ParsedWith(format, base)));
+  int k = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    const auto brdf = ParsedWith(format, base * (1 + 1e-4 * (++k % 500)));
+    state.ResumeTiming();
+    Await(state, *s, s->SetBrdf(brdf));
+  }
+  Counters(state, *s);
+}
+BENCHMARK_CAPTURE(BM_LiveMaterialNewOf, microfacet_0_1, "microfacet:sigma=%g", 0.1)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_LiveMaterialNewOf, microfacet_0_3, "microfacet:sigma=%g", 0.3)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_LiveMaterialNewOf, phong_32, "phong:s=%g", 32.0)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_LiveMaterialNewOf, phong_128, "phong:s=%g", 128.0)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_LiveMaterialNewOf, ggx_0_3_f0_1, "ggx:alpha=%g,f0=1", 0.3)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_LiveMaterialNewOf, ward_0_2, "ward:alpha=%g,rho_s=0.1,rho_d=0", 0.2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_LiveMaterialNewOf, lafortune_20, "lafortune:cx=-1,cy=-1,cz=1,n=%g,rho=1", 20.0)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_LiveSequence(benchmark::State& state) {
   auto s = Session();

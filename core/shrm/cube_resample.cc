@@ -144,6 +144,29 @@ inline void Interpolate(const float* values, int nb, int runtime_stride, const T
     for (int i = 0; i < kVec - 1; ++i) _mm512_storeu_ps(dst + 16 * i, acc[i]);
     _mm512_mask_storeu_ps(dst + 16 * (kVec - 1), tail, acc[kVec - 1]);
     return;
+  } else {
+    // Any stride (P >= 4: (P + 1)^2 x 3 floats): blocks of 16 lanes, the 16 taps in the order of
+    // the fixed strides' kernel (a-major). The scalar loop below cannot keep its accumulators in
+    // registers (they might alias the grid) and took ~10 ms for a 64 x 64 x 6 cube at P = 5.
+    const float* src[16];
+    float w[16];
+    for (int a = 0; a < 4; ++a) {
+      const float* grid_row = values + static_cast<size_t>(t.row + a) * nb * runtime_stride;
+      for (int b = 0; b < 4; ++b) {
+        src[a * 4 + b] = grid_row + static_cast<size_t>(cols[b]) * runtime_stride;
+        w[a * 4 + b] = wa[a] * wb[b];
+      }
+    }
+    for (int i0 = 0; i0 < runtime_stride; i0 += 16) {
+      const int n = std::min(16, runtime_stride - i0);
+      const __mmask16 m = static_cast<__mmask16>(n == 16 ? 0xFFFFu : (1u << n) - 1);
+      __m512 acc = _mm512_setzero_ps();
+      for (int k = 0; k < 16; ++k) {
+        acc = _mm512_fmadd_ps(_mm512_set1_ps(w[k]), _mm512_maskz_loadu_ps(m, src[k] + i0), acc);
+      }
+      _mm512_mask_storeu_ps(dst + i0, m, acc);
+    }
+    return;
   }
 #endif
   const int stride = N > 0 ? N : runtime_stride;
