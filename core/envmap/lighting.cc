@@ -38,6 +38,14 @@ Mat3 RotationFromYawPitchRoll(double yaw_deg, double pitch_deg, double roll_deg)
   return RotationY(yaw_deg * kDeg) * RotationX(pitch_deg * kDeg) * RotationZ(roll_deg * kDeg);
 }
 
+std::optional<Yaw> YawOf(const Mat3& world_rotation) {
+  const auto& r = world_rotation.m;
+  if (r[1][1] != 1 || r[0][1] != 0 || r[2][1] != 0 || r[1][0] != 0 || r[1][2] != 0) {
+    return std::nullopt;
+  }
+  return Yaw{r[0][0], r[0][2]};
+}
+
 Mat3 WorldToShFrameMatrix() { return Mat3{{{{1, 0, 0}, {0, 0, -1}, {0, 1, 0}}}}; }
 
 Mat3 ShFrameRotationFromWorld(const Mat3& world_rotation) {
@@ -61,14 +69,12 @@ absl::Status RotateLighting(int lmax, const Mat3& world_rotation, std::span<doub
   const Mat3 rot_s = ShFrameRotationFromWorld(world_rotation);
   std::vector<double> in(n), out(n);
   // A turn about the world's vertical (a yaw: a turntable, the viewer's --live rotate) is a turn
-  // about the SH frame's z axis, diagonal per m (SHRM paper App. B): O(lmax^2) instead of the
-  // zxzxz path's O(lmax^3) (and no operator to build). The matrix entries are exact here: M R M^T
-  // only permutes and negates R's, and a yaw's vertical row and column are exactly (0, 1, 0).
-  const auto& r = rot_s.m;
-  if (r[2][2] == 1 && r[0][2] == 0 && r[1][2] == 0 && r[2][0] == 0 && r[2][1] == 0) {
+  // by the same angle about the SH frame's z axis (z_s = Y), diagonal per m (SHRM paper App. B):
+  // O(lmax^2) instead of the zxzxz path's O(lmax^3) (and no operator to build).
+  if (const std::optional<Yaw> yaw = YawOf(world_rotation)) {
     for (int c = 0; c < kChannels; ++c) {
       for (size_t i = 0; i < n; ++i) in[i] = rgb_coeffs[i * kChannels + c];
-      RotateShZ(lmax, r[0][0], r[1][0], in, out);
+      RotateShZ(lmax, yaw->cos, yaw->sin, in, out);
       for (size_t i = 0; i < n; ++i) rgb_coeffs[i * kChannels + c] = out[i];
     }
     return absl::OkStatus();

@@ -23,6 +23,7 @@
 #define SHRM_CORE_ENVMAP_LIGHTING_H_
 
 #include <array>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -40,6 +41,16 @@ namespace shrm {
 // direction to -Z: the lat-long image content shifts left by W/4 (towards smaller u); pitch = 90
 // moves +Y (the zenith) to +Z.
 Mat3 RotationFromYawPitchRoll(double yaw_deg, double pitch_deg, double roll_deg);
+
+// A world rotation that turns about +Y alone (a yaw: RotationFromYawPitchRoll(y, 0, 0), a
+// turntable), as (cos a, sin a) of R = RotationY(a), i.e. (R_00, R_02); nullopt otherwise. The
+// test is exact: the vertical row and column must be exactly (0, 1, 0), as RotationY's products
+// with exact identities give them. Such a turn is diagonal per m in SH space (RotateLighting) and
+// a shift of the lat-long azimuth (core/ibl's base level).
+struct Yaw {
+  double cos = 1, sin = 0;
+};
+std::optional<Yaw> YawOf(const Mat3& world_rotation);
 
 // The world -> SH-frame change of basis M (rows x_s = X, y_s = -Z, z_s = Y) and the conversion of
 // a world rotation to the SH frame, M R M^T (the rotation RotateSh expects).

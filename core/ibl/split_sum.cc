@@ -620,12 +620,10 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
     if (level.alpha <= 0) cube.data.assign(cube.size(), 0.0f);
     // (A 1 x 1 face's centre coordinate is 0, whose mirror image is +0 rather than -0: the
     // generic path.)
-    // A yaw: the vertical row and column of the rotation are exactly (0, 1, 0).
-    const auto& r = options.rotation.m;
-    const bool yaw = r[1][1] == 1 && r[0][1] == 0 && r[2][1] == 0 && r[1][0] == 0 && r[1][2] == 0;
+    const std::optional<Yaw> yaw = YawOf(options.rotation);
     if (level.alpha <= 0 && level.face_size >= 2 && map.lat_long_image() != nullptr && yaw) {
       // R = RotationY(psi) moves azimuth atan2(x, -z) by -psi; the lookup R^-1 d adds psi.
-      const double psi = options.rotation.IsIdentity() ? 0.0 : std::atan2(r[0][2], r[0][0]);
+      const double psi = options.rotation.IsIdentity() ? 0.0 : std::atan2(yaw->sin, yaw->cos);
       ResampleLatLongBase(map, level.face_size, options.threads, psi, cube);
       out.levels.push_back(std::move(level));
       continue;
