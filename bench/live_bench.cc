@@ -25,6 +25,9 @@
 // BM_LiveSplitSumSequence  the same set of a new 1024 x 512 map each update (decode included:
 //                          the transform to degree 511 and the chain)
 // BM_LiveSplitSumMaterial  SHRM and split-sum set together, the material changed (the set reused)
+// BM_SynthesisGlobal/F/P   the synthesis stage alone: the 64 x 64 x 6 global SHRM of (F, P)
+//                          from fixed coefficients (the orders of the material benchmarks: ggx
+//                          (14, 5), microfacet sigma 0.1 (22, 2), Ward (21, 2))
 // Targets (issue 13): lighting and material changes <= 5 ms, the sequence >= 30 frames/s.
 #include <benchmark/benchmark.h>
 
@@ -42,6 +45,7 @@
 #include "core/ibl/split_sum.h"
 #include "core/io/image.h"
 #include "core/live/live_session.h"
+#include "core/shrm/shrm_synthesis.h"
 
 namespace shrm {
 namespace {
@@ -283,6 +287,29 @@ void BM_LiveSplitSumMaterial(benchmark::State& state) {
   Counters(state, *s);
 }
 BENCHMARK(BM_LiveSplitSumMaterial)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_SynthesisGlobal(benchmark::State& state) {
+  const int f = static_cast<int>(state.range(0)), p = static_cast<int>(state.range(1));
+  std::vector<double> light(static_cast<size_t>(ShCount(f)) * 3);
+  for (size_t i = 0; i < light.size(); ++i) light[i] = std::cos(0.37 * static_cast<double>(i));
+  BrdfCoefficients rho;
+  rho.lmax = f;
+  rho.pmax = p;
+  rho.channels = 1;
+  rho.values.resize(static_cast<size_t>(f + 1) * (p + 1) * (p + 1));
+  for (size_t i = 0; i < rho.values.size(); ++i) rho.values[i] = 1.0 / (1.0 + 0.1 * i);
+  const ShrmSynthesizer synth =
+      OrDie(ShrmSynthesizer::Create(f, 3, light, rho), "creating the synthesizer");
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(OrDie(synth.BuildCube(ShrmKind::kGlobal, kFaceSize), "synthesis"));
+  }
+}
+BENCHMARK(BM_SynthesisGlobal)
+    ->Args({14, 5})
+    ->Args({22, 2})
+    ->Args({21, 2})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 }  // namespace shrm

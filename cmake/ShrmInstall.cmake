@@ -103,10 +103,16 @@ install(FILES ${PROJECT_BINARY_DIR}/install/shrmConfig.cmake
 # /lib/systemd/system (Debian 12's systemdsystemunitdir), as GNUInstallDirs does for /etc.
 # shrm_install_configured(TEMPLATE file RENAME name DIR {libdir/pkgconfig|sysconfdir/...|unitdir|
 #                         sysusersdir} COMPONENT c): installs TEMPLATE with @SHRM_I_*@ replaced.
+# glibc's vector math library, which shrm_brdf links where it exists (core/brdf/CMakeLists.txt).
+set(SHRM_I_MVEC_FLAG "")
+if(SHRM_MVEC_LIBRARY)
+  set(SHRM_I_MVEC_FLAG "-lmvec")
+endif()
 function(shrm_install_configured)
   cmake_parse_arguments(ARG "" "TEMPLATE;RENAME;DIR;COMPONENT" "" ${ARGN})
   install(CODE "
     set(SHRM_I_VERSION \"${PROJECT_VERSION}\")
+    set(SHRM_I_MVEC \"${SHRM_I_MVEC_FLAG}\")
     set(SHRM_I_LIBDIR_REL \"${CMAKE_INSTALL_LIBDIR}\")
     set(SHRM_I_INCLUDEDIR_REL \"${SHRM_INSTALL_INCLUDEDIR}\")
     set(SHRM_I_BINDIR_REL \"${CMAKE_INSTALL_BINDIR}\")

@@ -315,6 +315,26 @@ TEST(ShrmSynthesisTest, TexelCentresEqualDirectEvaluation) {
   }
 }
 
+// Every resampling kernel: the fixed strides of P = 1, 2 (packed), 4, 5 (nodes padded to 64-byte
+// lines) and the runtime stride of P = 6, each against the direct evaluation, whole and in slabs.
+TEST(ShrmSynthesisTest, TexelCentresEqualDirectEvaluationForEveryKernel) {
+  std::mt19937 rng(21);
+  for (const int pmax : {1, 2, 4, 5, 6}) {
+    const ShrmSynthesizer synth = MakeSynth(TestBrdf(12, pmax));
+    for (ShrmKind kind : {ShrmKind::kGlobal, ShrmKind::kLocal}) {
+      for (const size_t bytes : {size_t{0}, size_t{1}}) {
+        ShrmGridOptions options;
+        options.max_grid_bytes = bytes;
+        auto cube = synth.BuildCube(kind, 12, options);
+        ASSERT_TRUE(cube.ok()) << cube.status();
+        EXPECT_LT(TexelCentreError(synth, *cube, rng), kTexelCentreTol)
+            << "P " << pmax << (kind == ShrmKind::kGlobal ? " global" : " local") << ", "
+            << (bytes == 0 ? "whole grid" : "slabs");
+      }
+    }
+  }
+}
+
 // A grid too large for ShrmGridOptions::max_grid_bytes is made in slabs of rows, each resampled
 // before the next: the texel centres still equal the direct evaluation (RadianceAt, eq. 5.23 with
 // the library's Wigner tables), and the slabs' cube is the whole grid's value for value (the

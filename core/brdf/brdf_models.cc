@@ -4,9 +4,39 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "core/brdf/vector_math.h"
 
 namespace shrm {
 namespace {
+
+// The arc evaluations below take the azimuths in chunks of this many (stack buffers).
+constexpr int kArcChunk = 64;
+
+// ReparamTransfer's geometry along an arc (kReflection): N, V and the light's polar part fixed,
+// w_k = (sin t_i cos phi_k, sin t_i sin phi_k, cos t_i). Calls chunk(first, count) for the
+// azimuths in chunks of at most kArcChunk.
+struct ArcFrame {
+  Vec3 n, v;
+  double si = 0, ci = 0;
+  ArcFrame(double theta_i, double theta_o) {
+    const ReparamGeometry g = MakeReparamGeometry(ReparamKind::kReflection, theta_i, theta_o, 0.0);
+    n = g.n;
+    v = g.v;
+    si = std::sin(theta_i);
+    ci = g.w.z;
+  }
+  Vec3 W(const Brdf::ArcAzimuths& phi, size_t k) const {
+    return {si * phi.cos_phi[k], si * phi.sin_phi[k], ci};
+  }
+};
+
+template <typename Chunk>
+void ForArcChunks(const Brdf::ArcAzimuths& phi, Chunk&& chunk) {
+  const int total = static_cast<int>(phi.phi.size());
+  for (int first = 0; first < total; first += kArcChunk) {
+    chunk(first, std::min(kArcChunk, total - first));
+  }
+}
 
 // Angle between two unit vectors, accurate near 0: 2 asin(|a - b| / 2).
 double AngleBetween(const Vec3& a, const Vec3& b) {
@@ -110,6 +140,32 @@ double MicrofacetBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int
   return std::exp(-theta_h * theta_h) / (4.0 * kPi * sigma_ * sigma_);
 }
 
+void MicrofacetBrdf::ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
+                                        double* out) const {
+  // Transfer's arithmetic, lane by lane; the asin and exp of each chunk in vectors.
+  const ArcFrame f(theta_i, theta_o);
+  const double nv = f.n.Dot(f.v);
+  const double norm = 1.0 / (4.0 * kPi * sigma_ * sigma_);
+  ForArcChunks(phi, [&](int first, int count) {
+    double t[kArcChunk], keep[kArcChunk];
+    for (int k = 0; k < count; ++k) {
+      const Vec3 w = f.W(phi, first + k);
+      const Vec3 h_sum = f.v + w;
+      const double len = h_sum.Norm();
+      const Vec3 d = f.n - h_sum * (len > 0 ? 1.0 / len : 0.0);
+      t[k] = std::min(1.0, d.Norm() * 0.5);  // AngleBetween: 2 asin(|n - h| / 2)
+      keep[k] = f.n.Dot(w) > 0 && nv > 0 && len > 0 ? norm : 0.0;
+    }
+    internal::VectorAsin(t, t, count);
+    for (int k = 0; k < count; ++k) {
+      const double theta_h = 2.0 * t[k] / sigma_;
+      t[k] = -theta_h * theta_h;
+    }
+    internal::VectorExp(t, t, count);
+    for (int k = 0; k < count; ++k) out[first + k] = keep[k] * t[k];
+  });
+}
+
 double MicrofacetBrdf::ReparamTransfer(double theta_i, double theta_o, double phi, int) const {
   // N = (sin(t_o/2), 0, cos(t_o/2)), V = (sin t_o, 0, cos t_o), w from (t_i, phi).
   const double ci = std::cos(theta_i), si = std::sin(theta_i);
@@ -163,6 +219,28 @@ double LafortuneBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int)
   return f * nw;
 }
 
+void LafortuneBrdf::ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
+                                       double* out) const {
+  const ArcFrame f(theta_i, theta_o);
+  const double nv = f.n.Dot(f.v);
+  ForArcChunks(phi, [&](int first, int count) {
+    double nw[kArcChunk], tangential[kArcChunk], sum[kArcChunk], d[kArcChunk];
+    for (int k = 0; k < count; ++k) {
+      const Vec3 w = f.W(phi, first + k);
+      nw[k] = f.n.Dot(w);
+      tangential[k] = w.Dot(f.v) - nw[k] * nv;
+      sum[k] = rho_d_ / kPi;
+    }
+    for (const LafortuneLobe& lobe : lobes_) {
+      for (int k = 0; k < count; ++k)
+        d[k] = std::max(0.0, lobe.cxy * tangential[k] + lobe.cz * nw[k] * nv);
+      internal::VectorPow(d, lobe.n, d, count);
+      for (int k = 0; k < count; ++k) sum[k] += lobe.rho * d[k];  // d <= 0 gave 0^n = 0
+    }
+    for (int k = 0; k < count; ++k) out[first + k] = nw[k] > 0 && nv > 0 ? sum[k] * nw[k] : 0.0;
+  });
+}
+
 // ----- Ward -----
 
 std::string WardBrdf::spec() const {
@@ -199,6 +277,38 @@ double WardBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int) cons
   return f * nw;
 }
 
+void WardBrdf::ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
+                                  double* out) const {
+  if (!isotropic()) {
+    TransferArc(theta_i, theta_o, phi, out);
+    return;
+  }
+  const ArcFrame f(theta_i, theta_o);
+  const double nv = f.n.Dot(f.v);
+  const double a2 = alpha_x_ * alpha_x_;
+  ForArcChunks(phi, [&](int first, int count) {
+    double nw[kArcChunk], e[kArcChunk];
+    for (int k = 0; k < count; ++k) {
+      const Vec3 w = f.W(phi, first + k);
+      nw[k] = f.n.Dot(w);
+      const Vec3 h_sum = f.v + w;
+      const double nh = f.n.Dot(h_sum);
+      const double nh2 = nh * nh / h_sum.Dot(h_sum);
+      e[k] = nh2 > 0 ? -((1.0 - nh2) / nh2 / a2) : -HUGE_VAL;
+    }
+    internal::VectorExp(e, e, count);
+    for (int k = 0; k < count; ++k) {
+      if (nw[k] <= 0 || nv <= 0) {
+        out[first + k] = 0.0;
+        continue;
+      }
+      const double fr =
+          rho_d_ / kPi + rho_s_ * e[k] / (4.0 * kPi * alpha_x_ * alpha_y_ * std::sqrt(nw[k] * nv));
+      out[first + k] = fr * nw[k];
+    }
+  });
+}
+
 // ----- GGX -----
 
 std::string GgxBrdf::spec() const {
@@ -219,7 +329,8 @@ double GgxBrdf::Evaluate(const Vec3& n, const Vec3& v, const Vec3& w) const {
     return 0.5 * (std::sqrt(1.0 + a2 * (1.0 - c * c) / (c * c)) - 1.0);
   };
   const double g = 1.0 / (1.0 + lambda(nv) + lambda(nw));
-  const double f = f0_ + (1.0 - f0_) * std::pow(1.0 - vh, 5);
+  const double x = 1.0 - vh, x2 = x * x;
+  const double f = f0_ + (1.0 - f0_) * (x2 * x2 * x);
   return f * d * g / (4.0 * nw * nv);
 }
 
@@ -227,6 +338,34 @@ double GgxBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int) const
   const double nw = n.Dot(w);
   if (nw <= 0) return 0.0;
   return Evaluate(n, v, w) * nw;
+}
+
+void GgxBrdf::ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
+                                 double* out) const {
+  // Evaluate's arithmetic with the horizon tests as selects, so the loop runs in vectors.
+  const ArcFrame f(theta_i, theta_o);
+  const double nv = f.n.Dot(f.v);
+  const double a2 = alpha_ * alpha_;
+  const auto lambda = [a2](double c) {
+    return 0.5 * (std::sqrt(1.0 + a2 * (1.0 - c * c) / (c * c)) - 1.0);
+  };
+  const double lambda_v = nv > 0 ? lambda(nv) : 0.0;
+  const size_t total = phi.phi.size();
+  for (size_t k = 0; k < total; ++k) {
+    const Vec3 w = f.W(phi, k);
+    const double nw = f.n.Dot(w);
+    const bool lit = nw > 0 && nv > 0;
+    const double nw_safe = lit ? nw : 1.0;
+    const Vec3 h = (f.v + w).Normalized();
+    const double nh = f.n.Dot(h), vh = std::max(0.0, f.v.Dot(h));
+    const double den = nh * nh * (a2 - 1.0) + 1.0;
+    const double d = a2 / (kPi * den * den);
+    const double g = 1.0 / (1.0 + lambda_v + lambda(nw_safe));
+    const double x = 1.0 - vh, x2 = x * x;
+    const double fresnel = f0_ + (1.0 - f0_) * (x2 * x2 * x);
+    const double value = fresnel * d * g / (4.0 * nw_safe * nv) * nw_safe;
+    out[k] = lit ? value : 0.0;
+  }
 }
 
 // ----- Kajiya-Kay -----

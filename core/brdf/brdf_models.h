@@ -61,10 +61,9 @@ class MicrofacetBrdf final : public Brdf {
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
+  // Transfer along the arc with the azimuths side by side (vector math, core/brdf/vector_math.h).
   void ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
-                          double* out) const override {
-    TransferArc(theta_i, theta_o, phi, out);
-  }
+                          double* out) const override;
   double ReparamTransfer(double theta_i, double theta_o, double phi, int c) const override;
 
  private:
@@ -88,10 +87,9 @@ class LafortuneBrdf final : public Brdf {
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
+  // Transfer along the arc with the azimuths side by side (vector math, core/brdf/vector_math.h).
   void ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
-                          double* out) const override {
-    TransferArc(theta_i, theta_o, phi, out);
-  }
+                          double* out) const override;
 
  private:
   std::vector<LafortuneLobe> lobes_;
@@ -118,10 +116,9 @@ class WardBrdf final : public Brdf {
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
+  // Transfer along the arc with the azimuths side by side (vector math, core/brdf/vector_math.h).
   void ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
-                          double* out) const override {
-    TransferArc(theta_i, theta_o, phi, out);
-  }
+                          double* out) const override;
 
  private:
   double alpha_x_, alpha_y_, rho_s_, rho_d_;
@@ -138,10 +135,9 @@ class GgxBrdf final : public Brdf {
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
+  // Transfer along the arc with the azimuths side by side (vector math, core/brdf/vector_math.h).
   void ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
-                          double* out) const override {
-    TransferArc(theta_i, theta_o, phi, out);
-  }
+                          double* out) const override;
   // f_r itself (no cosine), for MERL generation and tests.
   double Evaluate(const Vec3& n, const Vec3& v, const Vec3& w) const;
   double alpha() const { return alpha_; }

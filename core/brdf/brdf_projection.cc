@@ -9,6 +9,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/brdf/brdf_models.h"
+#include "core/brdf/vector_math.h"
 #include "core/sh/quadrature.h"
 #include "core/sh/sh.h"
 
@@ -133,17 +134,37 @@ class AzimuthRule {
     arc_cos_.resize(n_phi_);
     arc_sin_.resize(n_phi_);
     arc_values_.resize(static_cast<size_t>(n_phi_) * channels_);
-    for (int m = 0; m < n_phi_; ++m) {
-      arc_phi_[m] = arc * 0.5 * (1.0 + gl_.cos_theta[m]);
-      ::sincos(arc_phi_[m], &arc_sin_[m], &arc_cos_[m]);  // one range reduction for both
-    }
+    for (int m = 0; m < n_phi_; ++m) arc_phi_[m] = arc * 0.5 * (1.0 + gl_.cos_theta[m]);
+    internal::VectorSinCos(arc_phi_.data(), arc_sin_.data(), arc_cos_.data(), n_phi_);
     brdf_.ReparamTransferArc(theta_i, theta_o, {arc_phi_, arc_cos_, arc_sin_}, arc_values_.data());
-    for (int m = 0; m < n_phi_; ++m) {
+    // Weighted values per channel (wv[c * n + m]) and cos(q phi_m) by the Chebyshev recurrence
+    // (cosq[q * n + m]), both with the azimuths side by side, then one dot product over the
+    // azimuths per (q, c): accumulating node by node into cq chained every update through memory.
+    const int n = n_phi_;
+    arc_weighted_.resize(static_cast<size_t>(n) * channels_);
+    arc_cosq_.resize(static_cast<size_t>(n) * (qmax_ + 1));
+    for (int m = 0; m < n; ++m) {
       const double w = arc * 0.5 * gl_.weight[m];
       const double* v = &arc_values_[static_cast<size_t>(m) * channels_];
-      AddCosines(arc_cos_[m], w / kPi, v, cq);
-      for (int c = 0; c < channels_; ++c) sq[c] += w * v[c] * v[c];
+      for (int c = 0; c < channels_; ++c) {
+        arc_weighted_[c * n + m] = w * v[c];
+        sq[c] += w * v[c] * v[c];
+      }
     }
+    double* cosq = arc_cosq_.data();
+    for (int m = 0; m < n; ++m) cosq[m] = 1.0;
+    if (qmax_ >= 1) std::copy(arc_cos_.begin(), arc_cos_.begin() + n, cosq + n);
+    for (int q = 2; q <= qmax_; ++q)
+      for (int m = 0; m < n; ++m)
+        cosq[q * n + m] = 2.0 * arc_cos_[m] * cosq[(q - 1) * n + m] - cosq[(q - 2) * n + m];
+    for (int q = 0; q <= qmax_; ++q)
+      for (int c = 0; c < channels_; ++c) {
+        const double* wv = &arc_weighted_[c * n];
+        const double* cs = cosq + q * n;
+        double sum = 0;
+        for (int m = 0; m < n; ++m) sum += cs[m] * wv[m];
+        cq[q * channels_ + c] = sum / kPi;
+      }
   }
 
   // out[c] = integral_0^pi rho-hat^2 dphi.
@@ -194,7 +215,7 @@ class AzimuthRule {
   const RingQuadrature& gl_;
   std::vector<double> uniform_phi_, uniform_w_;
   std::vector<double> values_, cosq_;
-  std::vector<double> arc_phi_, arc_cos_, arc_sin_, arc_values_;
+  std::vector<double> arc_phi_, arc_cos_, arc_sin_, arc_values_, arc_weighted_, arc_cosq_;
 };
 
 int Or(int value, int fallback) { return value > 0 ? value : fallback; }
@@ -216,6 +237,40 @@ class LegendreColumns {
     }
   }
   size_t size() const { return static_cast<size_t>(mmax_ + 1) * nl_; }
+  int mmax() const { return mmax_; }
+  // kLanes nodes at once: out[(m * (lmax + 1) + l) * kLanes + lane], l >= m. The recurrence in l
+  // is a chain of dependent multiplies; side by side, the lanes' chains run in one vector.
+  static constexpr int kLanes = 8;
+  void EvalLanes(const double* x, const double* s, double* out) const {
+    alignas(64) double pmm[kLanes], p1[kLanes], p2[kLanes];
+    for (int k = 0; k < kLanes; ++k) pmm[k] = std::sqrt(1.0 / (4.0 * kPi));
+    for (int m = 0; m <= mmax_; ++m) {
+      double* col = out + static_cast<size_t>(m) * nl_ * kLanes;
+      if (m > 0) {
+        const double f = -std::sqrt((2.0 * m + 1.0) / (2.0 * m));
+        for (int k = 0; k < kLanes; ++k) pmm[k] *= f * s[k];
+      }
+      for (int k = 0; k < kLanes; ++k) col[m * kLanes + k] = pmm[k];
+      if (m + 1 >= nl_) continue;
+      const double c1 = std::sqrt(2.0 * m + 3.0);
+      for (int k = 0; k < kLanes; ++k) {
+        p2[k] = pmm[k];
+        p1[k] = c1 * x[k] * pmm[k];
+        col[(m + 1) * kLanes + k] = p1[k];
+      }
+      const double* a = &a_[m * nl_];
+      const double* b = &b_[m * nl_];
+      for (int l = m + 2; l < nl_; ++l) {
+        double* dst = col + static_cast<size_t>(l) * kLanes;
+        for (int k = 0; k < kLanes; ++k) {
+          const double p = a[l] * (x[k] * p1[k] - b[l] * p2[k]);
+          dst[k] = p;
+          p2[k] = p1[k];
+          p1[k] = p;
+        }
+      }
+    }
+  }
   void Eval(double x, double s, double* out) const {
     double pmm = std::sqrt(1.0 / (4.0 * kPi));  // lambda_0^0
     for (int m = 0; m <= mmax_; ++m) {
@@ -325,29 +380,55 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
   const RingQuadrature& g_full = CachedGaussLegendre(n_full);
   const int nl = lmax + 1, np = pmax + 1, nq = qmax + 1;
   const LegendreColumns legendre_i(lmax, qmax), legendre_o(pmax, qmax);
-  std::vector<double> lam_i(legendre_i.size()), lam_o(legendre_o.size());
+  std::vector<double> lam_o(legendre_o.size());
   AzimuthRule azimuth(brdf, n_phi, qmax);
   std::vector<double> cq(nq * channels), sq(channels);
   std::vector<double> acc(static_cast<size_t>(channels) * nq * nl);  // [(c * nq + q) * nl + l]
   std::vector<double> energy(channels, 0.0), energy_k(channels);
   const double scale = 4.0 * kPi * kPi;
-  // One theta_i' node: its Legendre values, azimuthal integrals and weighted sums.
+  // theta_i' nodes go in batches of kLanes: their azimuthal integrals times the weight
+  // (lane_a[(c * nq + q) * kLanes + lane]), their Legendre values side by side, and the weighted
+  // sums per lane (lane_acc[((c * nq + q) * nl + l) * kLanes + lane]), added over the lanes once
+  // per theta_o' node.
+  constexpr int kLanes = LegendreColumns::kLanes;
+  const int qi = legendre_i.mmax();  // rho_lpq needs l >= q (lam_i: m <= lmax)
+  std::vector<double> lam_lanes(legendre_i.size() * kLanes);
+  std::vector<double> lane_a(static_cast<size_t>(channels) * nq * kLanes, 0.0);
+  std::vector<double> lane_acc(acc.size() * kLanes, 0.0);
+  alignas(64) double lane_x[kLanes], lane_s[kLanes];
+  int lanes = 0;
+  auto flush = [&] {
+    if (lanes == 0) return;
+    for (int k = lanes; k < kLanes; ++k) {  // idle lanes: a point on the sphere, weight 0
+      lane_x[k] = 1.0;
+      lane_s[k] = 0.0;
+      for (int i = 0; i < channels * nq; ++i) lane_a[i * kLanes + k] = 0.0;
+    }
+    legendre_i.EvalLanes(lane_x, lane_s, lam_lanes.data());
+    for (int q = 0; q <= qi; ++q) {
+      const double* lam = &lam_lanes[static_cast<size_t>(q) * nl * kLanes];
+      for (int c = 0; c < channels; ++c) {
+        const double* av = &lane_a[(c * nq + q) * kLanes];
+        double* dst = &lane_acc[static_cast<size_t>(c * nq + q) * nl * kLanes];
+        for (int l = q; l <= lmax; ++l)
+          for (int k = 0; k < kLanes; ++k) dst[l * kLanes + k] += av[k] * lam[l * kLanes + k];
+      }
+    }
+    lanes = 0;
+  };
+  // One theta_i' node: its azimuthal integrals into the batch.
   auto node = [&](double theta_i, double cos_i, double sin_i, double theta_o, double w) {
     azimuth.CosinesAndSquares(theta_i, cos_i, sin_i, theta_o, cq.data(), sq.data());
     for (int c = 0; c < channels; ++c) energy_k[c] += w * sq[c];
-    legendre_i.Eval(cos_i, sin_i, lam_i.data());
-    for (int q = 0; q <= std::min(qmax, lmax); ++q) {  // rho_lpq needs l >= q (lam_i: m <= lmax)
-      const double* lam = &lam_i[static_cast<size_t>(q) * nl];
-      for (int c = 0; c < channels; ++c) {
-        const double a = w * cq[q * channels + c];
-        if (a == 0) continue;
-        double* dst = &acc[(c * nq + q) * nl];
-        for (int l = q; l <= lmax; ++l) dst[l] += a * lam[l];
-      }
-    }
+    lane_x[lanes] = cos_i;
+    lane_s[lanes] = sin_i;
+    for (int q = 0; q <= qmax; ++q)
+      for (int c = 0; c < channels; ++c)
+        lane_a[(c * nq + q) * kLanes + lanes] = w * cq[q * channels + c];
+    if (++lanes == kLanes) flush();
   };
   for (int k = 0; k < n_o; ++k) {
-    std::fill(acc.begin(), acc.end(), 0.0);
+    std::fill(lane_acc.begin(), lane_acc.end(), 0.0);
     std::fill(energy_k.begin(), energy_k.end(), 0.0);
     // theta_o' = pi (3u^2 - 2u^3): at the grazing end (theta_o' -> pi, N.V = cos(theta_o'/2) -> 0)
     // models with 1/(N.V) factors (GGX, Ward) have square-root and 1/x behaviour that this
@@ -377,6 +458,12 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
         const double sin_i = std::sin(t);
         node(t, std::cos(t), sin_i, theta_o, 0.5 * g.weight[j] * dt * sin_i);
       }
+    }
+    flush();
+    for (size_t i = 0; i < acc.size(); ++i) {
+      double sum = 0;
+      for (int lane = 0; lane < kLanes; ++lane) sum += lane_acc[i * kLanes + lane];
+      acc[i] = sum;
     }
     for (int c = 0; c < channels; ++c) energy[c] += w_o * energy_k[c];
     legendre_o.Eval(cos_o, sin_o, lam_o.data());

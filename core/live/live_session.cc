@@ -174,7 +174,16 @@ void LiveSession::Run() {
     const std::shared_ptr<const LiveFrame> previous = latest_frame_;
     stats_.dropped += update - computed_update_ - 1;
     lock.unlock();
-    auto frame = std::make_shared<LiveFrame>(Compute(state, previous.get(), &computed_state_));
+    // The frame's cube storage goes back to the pool when the last holder lets it go.
+    std::shared_ptr<LiveFrame> frame(
+        new LiveFrame(Compute(state, previous.get(), &computed_state_)),
+        [pool = std::weak_ptr<CubePool>(cube_pool_)](LiveFrame* f) {
+          if (auto p = pool.lock(); p != nullptr && !f->result.cube.data.empty()) {
+            std::lock_guard<std::mutex> pool_lock(p->mu);
+            if (p->free.size() < kPooledCubes) p->free.push_back(std::move(f->result.cube.data));
+          }
+          delete f;
+        });
     frame->update = update;
     frame->tag = state.tag;
     computed_state_ = state;
@@ -284,8 +293,16 @@ LiveFrame LiveSession::Compute(const State& state, const LiveFrame* previous,
       SHRM_RETURN_IF_ERROR(RotateLighting(lmax, state.rotation, lighting.light));
     }
     clock.End();
+    {
+      std::lock_guard<std::mutex> pool_lock(cube_pool_->mu);
+      if (!cube_pool_->free.empty()) {
+        shrm_scratch_.cube = std::move(cube_pool_->free.back());
+        cube_pool_->free.pop_back();
+      }
+    }
     SHRM_RETURN_IF_ERROR(FinishPrefilter(*brdf, lighting, options_, nullptr, &f.result,
-                                         options_.max_cube_values, options_.admit_cube));
+                                         options_.max_cube_values, options_.admit_cube,
+                                         &shrm_scratch_));
     f.has_shrm = true;
     return view_map();
   };

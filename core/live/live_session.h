@@ -53,6 +53,9 @@ namespace shrm {
 
 // BRDF stages (rho_lpq at the session's rule) kept per session, by canonical spec.
 inline constexpr int kLiveBrdfCache = 8;
+// Released frames' cube buffers kept for reuse (a frame is computed while the previous one is
+// still held: two cover a consumer that lets each frame go once it has the next).
+inline constexpr size_t kPooledCubes = 2;
 
 // One computed state of a session.
 struct LiveFrame {
@@ -184,7 +187,16 @@ class LiveSession {
   std::shared_ptr<const EnvMap> split_sum_map_;
   std::map<int, std::shared_ptr<const std::vector<double>>> split_sum_unrotated_;
   SynthesisScratch split_sum_scratch_;  // the chain's grids, reused frame after frame
-  State computed_state_;                // the state of latest_frame_
+  SynthesisScratch shrm_scratch_;       // the SHRM's synthesis grid, the same
+  // Cube storage of released frames, handed to the next synthesis (SynthesisScratch::cube): no
+  // zero-fill and no first-touch page faults of a fresh buffer (10 MB at P = 5) per frame. Shared
+  // with the frames' deleters, which run on any thread, also after the session is gone.
+  struct CubePool {
+    std::mutex mu;
+    std::vector<std::vector<float>> free;
+  };
+  std::shared_ptr<CubePool> cube_pool_ = std::make_shared<CubePool>();
+  State computed_state_;  // the state of latest_frame_
 
   std::thread worker_;
 };

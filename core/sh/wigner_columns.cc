@@ -91,7 +91,8 @@ void WignerColumnTables::Compute(double alpha, std::span<double> out) const {
   }
 }
 
-void WignerColumnTables::ComputeBlock(const double* alpha, int n, double* out) const {
+void WignerColumnTables::ComputeBlock(const double* alpha, int n, double* out,
+                                      bool nonnegative_q) const {
   // The recurrence of Compute() run on kWignerBlock angles at once (lane r = alpha[r]; lanes
   // r >= n repeat alpha[n - 1]): the coefficients do not depend on alpha, so the recurrence
   // vectorizes across the lanes.
@@ -104,7 +105,7 @@ void WignerColumnTables::ComputeBlock(const double* alpha, int n, double* out) c
     sn[r] = std::sin(a / 2);
     x[r] = std::cos(a);
   }
-  for (int q = -qmax; q <= qmax; ++q) {
+  for (int q = nonnegative_q ? 0 : -qmax; q <= qmax; ++q) {
     for (int m = -lmax; m <= lmax; ++m) {
       double* col = out + WignerColumnIndex(lmax, qmax, 0, m, q) * B;
       const int l0 = std::max(std::abs(m), std::abs(q));

@@ -39,9 +39,10 @@ class WignerColumnTables {
   void Compute(double alpha, std::span<double> out) const;
   // The columns of kWignerBlock angles at once (n <= kWignerBlock of them; the other lanes repeat
   // alpha[n - 1]), interleaved: out[WignerColumnIndex(...) * kWignerBlock + r] for angle r;
-  // out holds WignerColumnCount(lmax, qmax) * kWignerBlock doubles.
+  // out holds WignerColumnCount(lmax, qmax) * kWignerBlock doubles. nonnegative_q: only the
+  // columns q >= 0 are written (a caller that derives q < 0 by symmetry).
   static constexpr int kWignerBlock = 8;
-  void ComputeBlock(const double* alpha, int n, double* out) const;
+  void ComputeBlock(const double* alpha, int n, double* out, bool nonnegative_q = false) const;
 
  private:
   int lmax_, qmax_;

@@ -83,9 +83,9 @@ inline void LagrangeWeightsF(float t, float w[4]) {
 // Float products and accumulation of the 16 taps (the weights sum to 1 and are bounded by ~1.2
 // in magnitude, so the rounding error is ~1e-7 of the largest neighbouring value, far below the
 // cubic interpolation error); AVX-512 kernels for the fixed strides of P = 0..3 with 3 channels.
-template <int N>
-inline void Interpolate(const float* values, int nb, int runtime_stride, const TexelTaps& t,
-                        float* dst) {
+template <int N, int G>
+inline void Interpolate(const float* values, int nb, int runtime_stride, int grid_stride,
+                        const TexelTaps& t, float* dst) {
   float wa[4], wb[4];
   LagrangeWeightsF(t.ta, wa);
   LagrangeWeightsF(t.tb, wb);
@@ -131,10 +131,10 @@ inline void Interpolate(const float* values, int nb, int runtime_stride, const T
     __m512 acc[kVec];
     for (int i = 0; i < kVec; ++i) acc[i] = _mm512_setzero_ps();
     for (int a = 0; a < 4; ++a) {
-      const float* grid_row = values + static_cast<size_t>(t.row + a) * nb * N;
+      const float* grid_row = values + static_cast<size_t>(t.row + a) * nb * G;
       for (int b = 0; b < 4; ++b) {
         const __m512 w = _mm512_set1_ps(wa[a] * wb[b]);
-        const float* src = grid_row + static_cast<size_t>(cols[b]) * N;
+        const float* src = grid_row + static_cast<size_t>(cols[b]) * G;
         for (int i = 0; i < kVec - 1; ++i)
           acc[i] = _mm512_fmadd_ps(w, _mm512_loadu_ps(src + 16 * i), acc[i]);
         acc[kVec - 1] =
@@ -148,12 +148,14 @@ inline void Interpolate(const float* values, int nb, int runtime_stride, const T
     // Any stride (P >= 4: (P + 1)^2 x 3 floats): blocks of 16 lanes, the 16 taps in the order of
     // the fixed strides' kernel (a-major). The scalar loop below cannot keep its accumulators in
     // registers (they might alias the grid) and took ~10 ms for a 64 x 64 x 6 cube at P = 5.
+    // With grid_stride a multiple of 16 on a 64-byte aligned grid every load is one cache line
+    // (108 floats per node at P = 5 put most loads across two).
     const float* src[16];
     float w[16];
     for (int a = 0; a < 4; ++a) {
-      const float* grid_row = values + static_cast<size_t>(t.row + a) * nb * runtime_stride;
+      const float* grid_row = values + static_cast<size_t>(t.row + a) * nb * grid_stride;
       for (int b = 0; b < 4; ++b) {
-        src[a * 4 + b] = grid_row + static_cast<size_t>(cols[b]) * runtime_stride;
+        src[a * 4 + b] = grid_row + static_cast<size_t>(cols[b]) * grid_stride;
         w[a * 4 + b] = wa[a] * wb[b];
       }
     }
@@ -178,37 +180,32 @@ inline void Interpolate(const float* values, int nb, int runtime_stride, const T
     acc = big.data();
   }
   for (int i = 0; i < stride; ++i) acc[i] = 0.0f;
+  const int gs = G > 0 ? G : grid_stride;
   for (int a = 0; a < 4; ++a) {
-    const float* grid_row = values + static_cast<size_t>(t.row + a) * nb * stride;
+    const float* grid_row = values + static_cast<size_t>(t.row + a) * nb * gs;
     for (int b = 0; b < 4; ++b) {
       const float w = wa[a] * wb[b];
-      const float* src = grid_row + static_cast<size_t>(cols[b]) * stride;
+      const float* src = grid_row + static_cast<size_t>(cols[b]) * gs;
       for (int i = 0; i < stride; ++i) acc[i] += w * src[i];
     }
   }
   for (int i = 0; i < stride; ++i) dst[i] = acc[i];
 }
 
-// Calls fn(std::integral_constant<int, N>) with N = stride for the strides of P = 0..3 with 3
-// channels (fixed trip counts), else N = 0.
+// Calls fn(std::integral_constant<int, N>, std::integral_constant<int, G>) with N = stride and
+// G = grid_stride for the strides of P = 0..5 with 3 channels as BuildCube lays them out (packed
+// up to P = 3, padded to whole 64-byte lines above: fixed trip counts), else N = G = 0.
 template <typename Fn>
-void DispatchStride(int stride, Fn&& fn) {
-  switch (stride) {
-    case 3:
-      fn(std::integral_constant<int, 3>{});
-      break;
-    case 12:
-      fn(std::integral_constant<int, 12>{});
-      break;
-    case 27:
-      fn(std::integral_constant<int, 27>{});
-      break;
-    case 48:
-      fn(std::integral_constant<int, 48>{});
-      break;
-    default:
-      fn(std::integral_constant<int, 0>{});
-  }
+void DispatchStride(int stride, int grid_stride, Fn&& fn) {
+  using std::integral_constant;
+  const auto is = [&](int n, int g) { return stride == n && grid_stride == g; };
+  if (is(3, 3)) return fn(integral_constant<int, 3>{}, integral_constant<int, 3>{});
+  if (is(12, 12)) return fn(integral_constant<int, 12>{}, integral_constant<int, 12>{});
+  if (is(27, 27)) return fn(integral_constant<int, 27>{}, integral_constant<int, 27>{});
+  if (is(48, 48)) return fn(integral_constant<int, 48>{}, integral_constant<int, 48>{});
+  if (is(75, 80)) return fn(integral_constant<int, 75>{}, integral_constant<int, 80>{});
+  if (is(108, 112)) return fn(integral_constant<int, 108>{}, integral_constant<int, 112>{});
+  fn(integral_constant<int, 0>{}, integral_constant<int, 0>{});
 }
 
 }  // namespace
@@ -216,26 +213,28 @@ void DispatchStride(int stride, Fn&& fn) {
 void ResampleToCube(const float* values, int na, int stride, GridColumns columns, int threads,
                     ShrmCube& cube) {
   // The whole grid is one slab owning every stencil start.
-  ResampleToCubeFromRows(values, 0, na + 4, na, stride, columns, threads, cube);
+  ResampleToCubeFromRows(values, 0, na + 4, na, stride, stride, columns, threads, cube);
 }
 
 void ResampleToCubeFromRows(const float* rows, int first_row, int row_count, int na, int stride,
-                            GridColumns columns, int threads, ShrmCube& cube) {
+                            int grid_stride, GridColumns columns, int threads, ShrmCube& cube) {
   const int face_size = cube.face_size, nb = 2 * na;
   const std::shared_ptr<const std::vector<TexelTaps>> taps = GetTexelTaps(face_size, na, columns);
   const int rows_total = kCubeFaceCount * face_size;
   const int last_start = first_row + row_count - 3;  // owned stencil starts: [first_row, last)
-  DispatchStride(stride, [&]<int N>(std::integral_constant<int, N>) {
-    ParallelChunks(rows_total, threads, [&](int begin, int end) {
-      for (size_t texel = static_cast<size_t>(begin) * face_size;
-           texel < static_cast<size_t>(end) * face_size; ++texel) {
-        TexelTaps t = (*taps)[texel];
-        if (t.row < first_row || t.row >= last_start) continue;
-        t.row -= first_row;
-        Interpolate<N>(rows, nb, stride, t, cube.data.data() + texel * stride);
-      }
-    });
-  });
+  DispatchStride(stride, grid_stride,
+                 [&]<int N, int G>(std::integral_constant<int, N>, std::integral_constant<int, G>) {
+                   ParallelChunks(rows_total, threads, [&](int begin, int end) {
+                     for (size_t texel = static_cast<size_t>(begin) * face_size;
+                          texel < static_cast<size_t>(end) * face_size; ++texel) {
+                       TexelTaps t = (*taps)[texel];
+                       if (t.row < first_row || t.row >= last_start) continue;
+                       t.row -= first_row;
+                       Interpolate<N, G>(rows, nb, stride, grid_stride, t,
+                                         cube.data.data() + texel * stride);
+                     }
+                   });
+                 });
 }
 
 void ReserveLargeBuffer(std::vector<float>& v, size_t n) {

@@ -32,12 +32,14 @@ void ResampleToCube(const float* values, int na, int stride, GridColumns columns
                     ShrmCube& cube);
 
 // The same from a slab of the padded grid: rows first_row .. first_row + row_count - 1 at `rows`
-// (row_count x nb x stride floats). Only the texels whose 4-row stencil starts in
+// (row_count x nb x grid_stride floats, of which the first `stride` of each node are its values;
+// grid_stride >= stride, e.g. rounded up to 16 floats so that every node starts a 64-byte line
+// when `rows` does). Only the texels whose 4-row stencil starts in
 // [first_row, first_row + row_count - 3) are written, so slabs whose owned starts tile
 // [0, na + 1) and overlap by 3 rows write every texel exactly once (ShrmSynthesizer::BuildCube
 // when the whole grid would be large).
 void ResampleToCubeFromRows(const float* rows, int first_row, int row_count, int na, int stride,
-                            GridColumns columns, int threads, ShrmCube& cube);
+                            int grid_stride, GridColumns columns, int threads, ShrmCube& cube);
 
 // Reserves `n` floats in `v` and, for large buffers on Linux, asks for transparent huge pages on
 // the 2 MB-aligned part of the new (untouched) storage before it is first written. THP is usually

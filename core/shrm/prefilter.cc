@@ -95,7 +95,8 @@ absl::StatusOr<LightingStage> ComputeLightingStage(const EnvMap& env, int lmax,
 absl::Status FinishPrefilter(const BrdfStage& brdf, const LightingStage& lighting,
                              const PrefilterOptions& options, const PrefilterProgress& progress,
                              PrefilterResult* r, double max_cube_values,
-                             const std::function<absl::Status(int, int)>& admit_cube) {
+                             const std::function<absl::Status(int, int)>& admit_cube,
+                             SynthesisScratch* scratch) {
   StageClock clock(&r->timings, progress);
   r->brdf = brdf.coefficients;
   r->light_lmax = brdf.f_rho;
@@ -132,6 +133,7 @@ absl::Status FinishPrefilter(const BrdfStage& brdf, const LightingStage& lightin
                                                 r->analysis.f_b, r->analysis.p_b));
   ShrmGridOptions gopt;
   gopt.threads = options.threads;
+  gopt.scratch = scratch;
   SHRM_ASSIGN_OR_RETURN(r->cube, synth.BuildCube(options.kind, face_size, gopt));
   clock.End();
   return absl::OkStatus();

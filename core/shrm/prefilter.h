@@ -22,6 +22,7 @@
 #include "core/envmap/envmap.h"
 #include "core/shrm/shrm_analysis.h"
 #include "core/shrm/shrm_map.h"
+#include "core/shrm/shrm_synthesis.h"
 #include "core/shrm/tolerance.h"
 
 namespace shrm {
@@ -139,11 +140,13 @@ absl::StatusOr<LightingStage> ComputeLightingStage(const EnvMap& env, int lmax,
 
 // Stages 3-4 into *r (r->brdf, r->light, r->analysis, r->cube; "analysis" and "synthesis"
 // appended to r->timings). max_cube_values > 0 bounds 6 S_B^2 (P_B + 1)^2 3 (InvalidArgument
-// naming S_B and P_B above it).
+// naming S_B and P_B above it). `scratch` (optional): the synthesis grid's storage, kept by a
+// caller that synthesizes again and again (a live session).
 absl::Status FinishPrefilter(const BrdfStage& brdf, const LightingStage& lighting,
                              const PrefilterOptions& options, const PrefilterProgress& progress,
                              PrefilterResult* r, double max_cube_values = 0,
-                             const std::function<absl::Status(int, int)>& admit_cube = nullptr);
+                             const std::function<absl::Status(int, int)>& admit_cube = nullptr,
+                             SynthesisScratch* scratch = nullptr);
 
 }  // namespace shrm
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <functional>
 #include <mutex>
 
@@ -226,7 +227,8 @@ void ShrmSynthesizer::BandContributionsAt(const Vec3& index_dir, const Vec3& vie
 }
 
 void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int rows, int nb,
-                                     void* fft_plan, const WignerColumnTables& tables,
+                                     int grid_stride, void* fft_plan,
+                                     const WignerColumnTables& tables,
                                      const WignerColumnTables& ptables, RowScratch& scratch,
                                      float* rows_out) const {
   constexpr int B = kWignerBlock;
@@ -238,15 +240,14 @@ void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int ro
   // side by side (lane r = row r), so each product L_lm rho_lpq is formed once and applied to
   // every row with one vector FMA.
   //   bm[((m + F) * n + ShIndex(p, q)) * ch + c][r] = sum_l L_lm rho_lpq d^l_mq(alpha_r)
-  // (|q| <= p; only q >= 0 for the local kind).
-  tables.ComputeBlock(alphas, rows, scratch.cols.data());
-  const int qlo = kind == ShrmKind::kLocal ? 0 : -qmax;
+  // (q >= 0 here; the global kind's q < 0 below, by symmetry).
+  tables.ComputeBlock(alphas, rows, scratch.cols.data(), /*nonnegative_q=*/true);
   const size_t nm = 2 * f + 1;  // layout bre[((ShIndex(p, q) * ch + c) * B + r) * nm + m + F]
   double* bre = scratch.bre.data();
   double* bim = scratch.bim.data();
   for (int m = -f; m <= f; ++m) {
     const std::complex<double>* lm = light_.data() + static_cast<size_t>(m + f) * (f + 1) * ch;
-    for (int q = qlo; q <= qmax; ++q) {
+    for (int q = 0; q <= qmax; ++q) {
       const double* d = scratch.cols.data() + WignerColumnIndex(f, qmax, 0, m, q) * B;
       const int l0 = std::max(std::abs(m), std::abs(q));
       for (int p = std::abs(q); p <= pm; ++p) {
@@ -284,6 +285,24 @@ void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int ro
           }
         }
       }
+    }
+  }
+  if (kind == ShrmKind::kGlobal) {
+    // q < 0 from q > 0: with L_{l,-m} = (-1)^m conj(L_lm) (real lighting), rho_{l,p,-q} = rho_lpq
+    // and d^l_{-m,-q} = (-1)^{m-q} d^l_mq, B_{m,p,q} = (-1)^q conj(B_{-m,p,-q}) (half of the
+    // l-sums; tests/shrm_synthesis_test.cc checks the grid against the direct eq. 5.23 / 5.14).
+    for (int q = 1; q <= qmax; ++q) {
+      const double sign = q % 2 == 0 ? 1.0 : -1.0;
+      for (int p = q; p <= pm; ++p)
+        for (int c = 0; c < ch; ++c)
+          for (int r = 0; r < B; ++r) {
+            const size_t pos = ((static_cast<size_t>(ShIndex(p, q)) * ch + c) * B + r) * nm;
+            const size_t neg = ((static_cast<size_t>(ShIndex(p, -q)) * ch + c) * B + r) * nm;
+            for (size_t i = 0; i < nm; ++i) {
+              bre[neg + i] = sign * bre[pos + nm - 1 - i];
+              bim[neg + i] = -sign * bim[pos + nm - 1 - i];
+            }
+          }
     }
   }
   // Step 2 per row: the series over m (shifted by s for the global kind, eq. 5.14), one batched
@@ -333,7 +352,12 @@ void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int ro
     }
     fftw_execute_dft(static_cast<fftw_plan>(fft_plan), reinterpret_cast<fftw_complex*>(work),
                      reinterpret_cast<fftw_complex*>(scratch.out));
-    float* row_out = rows_out + static_cast<size_t>(r) * nb * stride;
+    float* row_out = rows_out + static_cast<size_t>(r) * nb * grid_stride;
+    if (grid_stride > stride) {
+      for (int k = 0; k < nb; ++k)
+        std::fill_n(row_out + static_cast<size_t>(k) * grid_stride + stride, grid_stride - stride,
+                    0.0f);
+    }
     for (int p = 0; p <= pm; ++p)
       for (int q = 0; q <= p; ++q) {
         const int t = p * (p + 1) / 2 + q;
@@ -342,13 +366,15 @@ void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int ro
           if (q == 0) {
             float* o = row_out + ShIndex(p, 0) * ch + c;
             for (int k = 0; k < nb; ++k)
-              o[static_cast<size_t>(k) * stride] = static_cast<float>(series[k].real());
+              o[static_cast<size_t>(k) * grid_stride] = static_cast<float>(series[k].real());
           } else {
             float* op = row_out + ShIndex(p, q) * ch + c;
             float* on = row_out + ShIndex(p, -q) * ch + c;
             for (int k = 0; k < nb; ++k) {
-              op[static_cast<size_t>(k) * stride] = static_cast<float>(kSqrt2 * series[k].real());
-              on[static_cast<size_t>(k) * stride] = static_cast<float>(-kSqrt2 * series[k].imag());
+              op[static_cast<size_t>(k) * grid_stride] =
+                  static_cast<float>(kSqrt2 * series[k].real());
+              on[static_cast<size_t>(k) * grid_stride] =
+                  static_cast<float>(-kSqrt2 * series[k].imag());
             }
           }
         }
@@ -377,13 +403,14 @@ absl::StatusOr<ShrmSynthesizer::Grid> ShrmSynthesizer::BuildGrid(ShrmKind kind, 
   g.stride = ShCount(pmax_) * channels_;
   const int rows = na + 4;
   g.values.assign(static_cast<size_t>(rows) * g.nb * g.stride, 0.0f);
-  SynthesizeSlabs(kind, na, rows, threads, g.values.data(), [](int, int) {});
+  SynthesizeSlabs(kind, na, rows, threads, g.stride, g.values.data(), [](int, int) {});
   return g;
 }
 
-void ShrmSynthesizer::SynthesizeSlabs(ShrmKind kind, int na, int owned, int threads, float* out,
+void ShrmSynthesizer::SynthesizeSlabs(ShrmKind kind, int na, int owned, int threads,
+                                      int grid_stride, float* out,
                                       const std::function<void(int, int)>& emit) const {
-  const int nb = 2 * na, stride = ShCount(pmax_) * channels_, rows = na + 4;
+  const int nb = 2 * na, rows = na + 4;
   const int nseries = (pmax_ + 1) * (pmax_ + 2) / 2 * channels_;
   const size_t work_size = static_cast<size_t>(nseries) * nb;
   fftw_plan plan;
@@ -425,8 +452,8 @@ void ShrmSynthesizer::SynthesizeSlabs(ShrmKind kind, int na, int owned, int thre
         const int r0 = row_begin + blk * B, nrows = std::min(B, row_end - r0);
         double alphas[B];
         for (int r = 0; r < nrows; ++r) alphas[r] = kPi * (r0 + r - 2 + 0.5) / na;
-        SynthesizeRows(kind, alphas, nrows, nb, plan, tables, ptables, scratch,
-                       out + static_cast<size_t>(r0 - row_begin) * nb * stride);
+        SynthesizeRows(kind, alphas, nrows, nb, grid_stride, plan, tables, ptables, scratch,
+                       out + static_cast<size_t>(r0 - row_begin) * nb * grid_stride);
       }
     });
     emit(row_begin, row_end - row_begin);
@@ -443,6 +470,23 @@ void ShrmSynthesizer::SynthesizeSlabs(ShrmKind kind, int na, int owned, int thre
     fftw_free(probe_out);
   }
 }
+
+namespace {
+
+// The output storage of a cube: the scratch's released buffer when it is large enough (resize to
+// the same size writes nothing; the resampling then writes every value), else a fresh one.
+void AllocateCubeData(ShrmCube& cube, SynthesisScratch* scratch) {
+  if (scratch != nullptr && scratch->cube.capacity() >= cube.size()) {
+    cube.data = std::move(scratch->cube);
+    scratch->cube = {};
+    cube.data.resize(cube.size());
+    return;
+  }
+  internal::ReserveLargeBuffer(cube.data, cube.size());
+  cube.data.resize(cube.size());
+}
+
+}  // namespace
 
 int FftFriendlyRings(int na) {
   auto smooth = [](int v) {
@@ -475,37 +519,37 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCube(ShrmKind kind, int face_size
   if (pmax_ == 0 && options.p0_sht_path) {
     return BuildCubeP0(kind, face_size, na, options.threads, options.scratch);
   }
+  if (absl::Status s = CheckGridRows(kind, na); !s.ok()) return s;
   ShrmCube cube;
   cube.kind = kind;
   cube.index = reparam_;
   cube.face_size = face_size;
   cube.pmax = pmax_;
   cube.channels = channels_;
+  // Above the resampling's fixed-stride kernels (P <= 3 with 3 channels: up to 48 floats) the
+  // grid's nodes are padded to whole 64-byte lines (16 floats) on a 64-byte aligned buffer, so
+  // that its loads never straddle two lines (P = 5: 5.0 -> 4.4 ms for a 64 x 64 x 6 cube).
   const int nb = 2 * na, stride = ShCount(pmax_) * channels_, rows = na + 4;
-  const size_t row_bytes = static_cast<size_t>(nb) * stride * sizeof(float);
-  if (options.max_grid_bytes == 0 || rows * row_bytes <= options.max_grid_bytes) {
-    Grid g;
-    {
-      auto grid = BuildGrid(kind, na, options.threads);
-      if (!grid.ok()) return grid.status();
-      g = std::move(grid).value();
-    }
-    internal::ReserveLargeBuffer(cube.data, cube.size());
-    cube.data.resize(cube.size());
-    internal::ResampleToCube(g.values.data(), na, g.stride, internal::GridColumns::kShrm,
-                             options.threads, cube);
-    return cube;
-  }
-  // Slabs: each owns the stencil starts [first, first + owned) and holds 3 more rows.
-  if (absl::Status s = CheckGridRows(kind, na); !s.ok()) return s;
-  const int owned = std::max(
-      kWignerBlock,
-      static_cast<int>(options.max_grid_bytes / row_bytes) / kWignerBlock * kWignerBlock - 3);
-  internal::ReserveLargeBuffer(cube.data, cube.size());
-  cube.data.resize(cube.size());
-  std::vector<float> slab(static_cast<size_t>(std::min(owned + 3, rows)) * nb * stride, 0.0f);
-  SynthesizeSlabs(kind, na, owned, options.threads, slab.data(), [&](int first, int count) {
-    internal::ResampleToCubeFromRows(slab.data(), first, count, na, stride,
+  const int grid_stride = stride > 48 ? (stride + 15) / 16 * 16 : stride;
+  const size_t row_bytes = static_cast<size_t>(nb) * grid_stride * sizeof(float);
+  // Slabs (when the whole grid would be large): each owns the stencil starts
+  // [first, first + owned) and holds 3 more rows.
+  const bool whole = options.max_grid_bytes == 0 || rows * row_bytes <= options.max_grid_bytes;
+  const int owned =
+      whole ? rows
+            : std::max(kWignerBlock, static_cast<int>(options.max_grid_bytes / row_bytes) /
+                                             kWignerBlock * kWignerBlock -
+                                         3);
+  SynthesisScratch local;
+  std::vector<float>& storage = options.scratch != nullptr ? options.scratch->grid : local.grid;
+  constexpr size_t kLineFloats = 16;
+  storage.resize(static_cast<size_t>(std::min(owned + 3, rows)) * nb * grid_stride + kLineFloats);
+  float* grid = storage.data();
+  grid += (kLineFloats - (reinterpret_cast<uintptr_t>(grid) / sizeof(float)) % kLineFloats) %
+          kLineFloats;
+  AllocateCubeData(cube, options.scratch);
+  SynthesizeSlabs(kind, na, owned, options.threads, grid_stride, grid, [&](int first, int count) {
+    internal::ResampleToCubeFromRows(grid, first, count, na, stride, grid_stride,
                                      internal::GridColumns::kShrm, options.threads, cube);
   });
   return cube;
@@ -578,8 +622,7 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeP0(ShrmKind kind, int face_si
   cube.face_size = face_size;
   cube.pmax = 0;
   cube.channels = ch;
-  internal::ReserveLargeBuffer(cube.data, cube.size());
-  cube.data.resize(cube.size());
+  AllocateCubeData(cube, scratch);
   internal::ResampleToCube(values.data(), na, ch, internal::GridColumns::kSht, threads, cube);
   return cube;
 }

@@ -42,13 +42,17 @@ namespace shrm {
 // factor above 7 (e.g. 232 -> 240: an FFT of 2 x 232 = 16 x 29 costs ~1.7x that of 480).
 int FftFriendlyRings(int na);
 
-// Storage of the P = 0 path kept by a caller across BuildCube calls (grown as needed, never
-// shrunk): the padded grid and the inverse transform's work array, reused instead of allocated
-// (and first-touched: ~17 us a page on this machine) per call. A split-sum chain shares one across
-// its levels, a live session across its frames (core/ibl/split_sum.h).
+// Storage kept by a caller across BuildCube calls (grown as needed, never shrunk): the padded
+// grid and the P = 0 inverse transform's work array, reused instead of allocated (and
+// first-touched: ~17 us a page on this machine) per call. A split-sum chain shares one across its
+// levels, a live session across its frames (core/ibl/split_sum.h, core/live/live_session.h).
 struct SynthesisScratch {
   std::vector<float> grid;
   ShtScratch sht;
+  // A released cube's storage (e.g. a live frame no longer held): BuildCube takes it for its
+  // output when its capacity suffices (every value is written again), instead of zero-filling
+  // a fresh buffer. Left empty once taken.
+  std::vector<float> cube;
 };
 
 struct ShrmGridOptions {
@@ -67,7 +71,8 @@ struct ShrmGridOptions {
   // resampled before the next is made (identical values; the grid depends on F + P, not on
   // S_B, e.g. 0.8 GB at (42, 21) even for a 16 x 16 cube). 0 = always whole.
   size_t max_grid_bytes = size_t{64} << 20;
-  // P = 0 SHT path: the caller's storage (SynthesisScratch); nullptr = allocated per call.
+  // The caller's storage (SynthesisScratch) for the grid (either path); nullptr = allocated per
+  // call.
   SynthesisScratch* scratch = nullptr;
 };
 
@@ -138,9 +143,10 @@ class ShrmSynthesizer {
   absl::Status CheckGridRows(ShrmKind kind, int na) const;
   // The padded grid (row r is alpha_{r - 2}, rows 0 .. na + 3) in slabs: slab s holds rows
   // [first, first + count) with first = s x owned and count = min(owned + 3, na + 4 - first),
-  // written to `out` (count x 2 na x stride floats, reused for every slab), then emit(first,
-  // count) is called. owned >= na + 1 makes one slab of the whole grid.
-  void SynthesizeSlabs(ShrmKind kind, int na, int owned, int threads, float* out,
+  // written to `out` (count x 2 na x grid_stride floats, reused for every slab; a node's
+  // ShCount(P) x channels values first, zeros after them), then emit(first, count) is called.
+  // owned >= na + 1 makes one slab of the whole grid.
+  void SynthesizeSlabs(ShrmKind kind, int na, int owned, int threads, int grid_stride, float* out,
                        const std::function<void(int first, int count)>& emit) const;
   // The P = 0 path of BuildCube (ShrmGridOptions::p0_sht_path).
   absl::StatusOr<ShrmCube> BuildCubeP0(ShrmKind kind, int face_size, int na, int threads,
@@ -153,10 +159,11 @@ class ShrmSynthesizer {
   };
   static constexpr int kWignerBlock = WignerColumnTables::kWignerBlock;
   // Coefficients of `rows` <= kWignerBlock consecutive grid rows (alphas[r]) for all nb columns
-  // into rows_out (rows * nb * stride floats).
-  void SynthesizeRows(ShrmKind kind, const double* alphas, int rows, int nb, void* fft_plan,
-                      const WignerColumnTables& tables, const WignerColumnTables& ptables,
-                      RowScratch& scratch, float* rows_out) const;
+  // into rows_out (rows * nb * grid_stride floats).
+  void SynthesizeRows(ShrmKind kind, const double* alphas, int rows, int nb, int grid_stride,
+                      void* fft_plan, const WignerColumnTables& tables,
+                      const WignerColumnTables& ptables, RowScratch& scratch,
+                      float* rows_out) const;
 
   int lmax_ = 0, pmax_ = 0, channels_ = 3;
   // The Wigner column recurrences of BandContributionsAt (|q| <= min(P, F)), built on its first
