@@ -193,6 +193,18 @@ BENCHMARK_CAPTURE(BM_LiveMaterialNewOf, ward_0_2, "ward:alpha=%g,rho_s=0.1,rho_d
 BENCHMARK_CAPTURE(BM_LiveMaterialNewOf, lafortune_20, "lafortune:cx=-1,cy=-1,cz=1,n=%g,rho=1", 20.0)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+BENCHMARK_CAPTURE(BM_LiveMaterialNewOf, ggx_0_3_f0_0_04, "ggx:alpha=%g,f0=0.04", 0.3)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_LiveMaterialNewOf, ggx_0_1_f0_0_04, "ggx:alpha=%g,f0=0.04", 0.1)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_LiveMaterialNewOf, lambert, "lambert:albedo=%g", 0.8)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_LiveMaterialNewOf, kajiya_kay_32, "kajiya-kay:s=%g", 32.0)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_LiveSequence(benchmark::State& state) {
   auto s = Session();

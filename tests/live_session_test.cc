@@ -144,6 +144,30 @@ TEST(LiveSession, FramesEqualOfflinePrefilterAndOnlyWhatChangedIsRecomputed) {
   EXPECT_EQ(stats.frames + stats.dropped, 6u);
 }
 
+// A released frame's cube storage becomes a later frame's (no fresh, zero-filled buffer per
+// frame), and that frame still equals Prefilter()'s cube exactly: every value is written again.
+TEST(LiveSession, ReleasedCubeStorageIsReusedAndEveryValueWrittenAgain) {
+  absl::StatusOr<std::unique_ptr<LiveSession>> s = LiveSession::Create(SessionOptions());
+  ASSERT_TRUE(s.ok()) << s.status();
+  LiveSession& live = **s;
+  const auto microfacet = ParsedBrdf("microfacet:sigma=0.3");
+  live.SetMap(Courtyard());
+  auto first = Frame(live, live.SetBrdf(microfacet));
+  ASSERT_NE(first, nullptr);
+  const float* storage = first->result.cube.data.data();
+  auto second = Frame(live, live.SetRotation(kRotationA));  // the first is still held
+  ASSERT_NE(second, nullptr);
+  EXPECT_NE(second->result.cube.data.data(), storage);
+  first.reset();  // its last holder: the storage goes to the session's pool
+  auto third = Frame(live, live.SetRotation(kRotationB));
+  ASSERT_NE(third, nullptr);
+  EXPECT_EQ(third->result.cube.data.data(), storage);
+  ExpectSameCube(third->result.cube, Offline(*microfacet, kRotationB));
+  // A frame outliving its session lets go of its storage safely.
+  s->reset();
+  third.reset();
+}
+
 TEST(LiveSession, LatestWinsAndTheStatesInBetweenAreDroppedAndCounted) {
   testing::StageGate gate;  // closed: the worker waits before its first frame
   auto hook = gate.Hook();

@@ -143,13 +143,15 @@ class AzimuthRule {
     const int n = n_phi_;
     arc_weighted_.resize(static_cast<size_t>(n) * channels_);
     arc_cosq_.resize(static_cast<size_t>(n) * (qmax_ + 1));
-    for (int m = 0; m < n; ++m) {
-      const double w = arc * 0.5 * gl_.weight[m];
-      const double* v = &arc_values_[static_cast<size_t>(m) * channels_];
-      for (int c = 0; c < channels_; ++c) {
-        arc_weighted_[c * n + m] = w * v[c];
-        sq[c] += w * v[c] * v[c];
+    for (int c = 0; c < channels_; ++c) {
+      double squares = 0;  // in a register: accumulating into sq[c] chained through memory
+      for (int m = 0; m < n; ++m) {
+        const double v = arc_values_[static_cast<size_t>(m) * channels_ + c];
+        const double wv = arc * 0.5 * gl_.weight[m] * v;
+        arc_weighted_[c * n + m] = wv;
+        squares += wv * v;
       }
+      sq[c] += squares;
     }
     double* cosq = arc_cosq_.data();
     for (int m = 0; m < n; ++m) cosq[m] = 1.0;
