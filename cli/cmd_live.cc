@@ -113,13 +113,13 @@ absl::StatusOr<std::vector<FrameJob>> FrameJobs(const LiveArgs& a) {
   std::vector<FrameJob> frames;
   if (a.env.empty()) {
     for (const std::string& path : a.sequence) {
-      FrameJob f{base, path};
+      FrameJob f{base, path, {}};
       f.job.env.files = {path};
       frames.push_back(std::move(f));
     }
   } else {
     for (int k = 0; k < a.turntable; ++k) {
-      FrameJob f{base, a.env};
+      FrameJob f{base, a.env, {}};
       f.job.env.files = {a.env};
       f.job.env.rotate_ypr_deg = std::array<double, 3>{360.0 * k / a.turntable, 0, 0};
       frames.push_back(std::move(f));
@@ -318,8 +318,8 @@ absl::Status RunLiveRemote(const LiveArgs& a, const std::vector<FrameJob>& frame
     if (a.ibl) {
       if (frame->ibl_files.empty()) return ended("with a frame without its split-sum set");
       std::vector<jobs::IblFile> files;
-      for (client::ReceivedFile& r : frame->ibl_files) {
-        files.push_back({r.name, std::move(r.bytes), "", ""});
+      for (client::ReceivedFile& received : frame->ibl_files) {
+        files.push_back({received.name, std::move(received.bytes), "", ""});
       }
       fig.ibl_path = FramePath(a.output, static_cast<int>(k), "ibl");
       SHRM_RETURN_IF_ERROR(WriteFolder(fig.ibl_path, files));

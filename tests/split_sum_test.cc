@@ -19,6 +19,13 @@
 namespace shrm::ibl {
 namespace {
 
+// data/envmaps/<name>, loaded with the default options.
+absl::StatusOr<EnvMap> LoadBundled(const std::string& name) {
+  EnvMapOptions options;
+  options.paths = {std::string(SHRM_SOURCE_DIR) + "/data/envmaps/" + name};
+  return EnvMap::Load(options);
+}
+
 constexpr const char* kMaps[] = {"courtyard.exr", "interior.exr", "city.exr", "forest.exr"};
 
 TEST(SplitSumTest, LobesAreNormalizedOverTheHemisphere) {
@@ -106,8 +113,7 @@ TEST(SplitSumTest, PixelSumTableIsTheReferenceSum) {
   // time) on a real map with a sun (courtyard, full size): single-precision directions and
   // block sums of 256 terms (measured: 1.5e-7 at most).
   constexpr double kTableTol = 2e-6;
-  auto map =
-      EnvMap::Load({.paths = {std::string(SHRM_SOURCE_DIR) + "/data/envmaps/courtyard.exr"}});
+  auto map = LoadBundled("courtyard.exr");
   ASSERT_TRUE(map.ok()) << map.status();
   const PixelSumTable table(*map);
   std::mt19937 rng(5);
@@ -282,7 +288,7 @@ TEST(SplitSumTest, EveryLevelMatchesThePixelSumOnTheBundledMaps) {
   constexpr int kDirections = 48;
   constexpr int kImportanceSamples = 1024;
   for (const char* name : kMaps) {
-    auto map = EnvMap::Load({.paths = {std::string(SHRM_SOURCE_DIR) + "/data/envmaps/" + name}});
+    auto map = LoadBundled(name);
     ASSERT_TRUE(map.ok()) << map.status();
     SpecularOptions opt;
     opt.chain = *MakeMipChain(RoughnessPreset::kFilament, 128, 0);
@@ -330,7 +336,7 @@ TEST(SplitSumTest, BaseLevelIsTheMapAtEveryTexelCentre) {
   // rotation, turned by yaws (the same tables, the azimuth offset) and by a general rotation
   // (the per-texel path); the rotated lighting is looked up at R^-1 d.
   constexpr double kBaseTol = 1e-5;
-  auto map = EnvMap::Load({.paths = {std::string(SHRM_SOURCE_DIR) + "/data/envmaps/city.exr"}});
+  auto map = LoadBundled("city.exr");
   ASSERT_TRUE(map.ok()) << map.status();
   const Mat3 rotations[] = {Mat3::Identity(), RotationFromYawPitchRoll(37, 0, 0),
                             RotationFromYawPitchRoll(-150, 0, 0),
@@ -365,7 +371,7 @@ TEST(SplitSumTest, BaseLevelIsTheMapAtEveryTexelCentre) {
 TEST(SplitSumTest, SheenAndLambertLevelsMatchThePixelSum) {
   constexpr double kLevelRmsTol = 1e-3;  // as for GGX: float storage, the bound
   constexpr double kLevelMaxTol = 1e-2;
-  auto map = EnvMap::Load({.paths = {std::string(SHRM_SOURCE_DIR) + "/data/envmaps/city.exr"}});
+  auto map = LoadBundled("city.exr");
   ASSERT_TRUE(map.ok()) << map.status();
   const double list[] = {0.3, 0.6, 1.0};
   for (SpecularLobe lobe : {SpecularLobe::kCharlie, SpecularLobe::kLambert}) {
