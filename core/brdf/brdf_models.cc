@@ -38,6 +38,11 @@ void ForArcChunks(const Brdf::ArcAzimuths& phi, Chunk&& chunk) {
   }
 }
 
+// GGX's Smith Lambda for a direction at cos theta = c: (sqrt(1 + alpha^2 tan^2 theta) - 1) / 2.
+double SmithLambda(double a2, double c) {
+  return 0.5 * (std::sqrt(1.0 + a2 * (1.0 - c * c) / (c * c)) - 1.0);
+}
+
 // Angle between two unit vectors, accurate near 0: 2 asin(|a - b| / 2).
 double AngleBetween(const Vec3& a, const Vec3& b) {
   return 2.0 * std::asin(std::min(1.0, (a - b).Norm() * 0.5));
@@ -325,10 +330,7 @@ double GgxBrdf::Evaluate(const Vec3& n, const Vec3& v, const Vec3& w) const {
   const double a2 = alpha_ * alpha_;
   const double den = nh * nh * (a2 - 1.0) + 1.0;
   const double d = a2 / (kPi * den * den);
-  const auto lambda = [a2](double c) {
-    return 0.5 * (std::sqrt(1.0 + a2 * (1.0 - c * c) / (c * c)) - 1.0);
-  };
-  const double g = 1.0 / (1.0 + lambda(nv) + lambda(nw));
+  const double g = 1.0 / (1.0 + SmithLambda(a2, nv) + SmithLambda(a2, nw));
   const double x = 1.0 - vh, x2 = x * x;
   const double f = f0_ + (1.0 - f0_) * (x2 * x2 * x);
   return f * d * g / (4.0 * nw * nv);
@@ -346,10 +348,7 @@ void GgxBrdf::ReparamTransferArc(double theta_i, double theta_o, const ArcAzimut
   const ArcFrame f(theta_i, theta_o);
   const double nv = f.n.Dot(f.v);
   const double a2 = alpha_ * alpha_;
-  const auto lambda = [a2](double c) {
-    return 0.5 * (std::sqrt(1.0 + a2 * (1.0 - c * c) / (c * c)) - 1.0);
-  };
-  const double lambda_v = nv > 0 ? lambda(nv) : 0.0;
+  const double lambda_v = nv > 0 ? SmithLambda(a2, nv) : 0.0;
   const size_t total = phi.phi.size();
   for (size_t k = 0; k < total; ++k) {
     const Vec3 w = f.W(phi, k);
@@ -360,7 +359,7 @@ void GgxBrdf::ReparamTransferArc(double theta_i, double theta_o, const ArcAzimut
     const double nh = f.n.Dot(h), vh = std::max(0.0, f.v.Dot(h));
     const double den = nh * nh * (a2 - 1.0) + 1.0;
     const double d = a2 / (kPi * den * den);
-    const double g = 1.0 / (1.0 + lambda_v + lambda(nw_safe));
+    const double g = 1.0 / (1.0 + lambda_v + SmithLambda(a2, nw_safe));
     const double x = 1.0 - vh, x2 = x * x;
     const double fresnel = f0_ + (1.0 - f0_) * (x2 * x2 * x);
     const double value = fresnel * d * g / (4.0 * nw_safe * nv) * nw_safe;

@@ -273,29 +273,22 @@ class LegendreColumns {
       }
     }
   }
-  void Eval(double x, double s, double* out) const {
-    double pmm = std::sqrt(1.0 / (4.0 * kPi));  // lambda_0^0
-    for (int m = 0; m <= mmax_; ++m) {
-      double* col = out + static_cast<size_t>(m) * nl_;
-      if (m > 0) pmm *= -std::sqrt((2.0 * m + 1.0) / (2.0 * m)) * s;
-      col[m] = pmm;
-      if (m + 1 >= nl_) continue;
-      double p2 = pmm, p1 = std::sqrt(2.0 * m + 3.0) * x * pmm;
-      col[m + 1] = p1;
-      const double* a = &a_[m * nl_];
-      const double* b = &b_[m * nl_];
-      for (int l = m + 2; l < nl_; ++l) {
-        const double p = a[l] * (x * p1 - b[l] * p2);
-        col[l] = p;
-        p2 = p1;
-        p1 = p;
-      }
-    }
+  // One node: EvalLanes with the node in every lane, lane 0 copied out (out[m * (lmax + 1) + l]).
+  void Eval(double x, double s, double* out) {
+    double xs[kLanes], ss[kLanes];
+    std::fill_n(xs, kLanes, x);
+    std::fill_n(ss, kLanes, s);
+    lanes_.resize(size() * kLanes);
+    EvalLanes(xs, ss, lanes_.data());
+    for (int m = 0; m <= mmax_; ++m)
+      for (int l = m; l < nl_; ++l)
+        out[static_cast<size_t>(m) * nl_ + l] = lanes_[(m * nl_ + l) * kLanes];
   }
 
  private:
   int nl_, mmax_;
   std::vector<double> a_, b_;
+  std::vector<double> lanes_;  // Eval's buffer
 };
 
 // The fewest Gauss-Legendre nodes of each piece of the split rule.
@@ -381,7 +374,8 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
   const RingQuadrature& ro = CachedGaussLegendre(n_o);
   const RingQuadrature& g_full = CachedGaussLegendre(n_full);
   const int nl = lmax + 1, np = pmax + 1, nq = qmax + 1;
-  const LegendreColumns legendre_i(lmax, qmax), legendre_o(pmax, qmax);
+  const LegendreColumns legendre_i(lmax, qmax);
+  LegendreColumns legendre_o(pmax, qmax);
   std::vector<double> lam_o(legendre_o.size());
   AzimuthRule azimuth(brdf, n_phi, qmax);
   std::vector<double> cq(nq * channels), sq(channels);

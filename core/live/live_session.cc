@@ -157,6 +157,20 @@ LiveStats LiveSession::Stats() const {
   return stats_;
 }
 
+std::vector<float> LiveSession::CubePool::Take() {
+  std::lock_guard<std::mutex> lock(mu_);
+  if (free_.empty()) return {};
+  std::vector<float> data = std::move(free_.back());
+  free_.pop_back();
+  return data;
+}
+
+void LiveSession::CubePool::Put(std::vector<float> data) {
+  if (data.empty()) return;
+  std::lock_guard<std::mutex> lock(mu_);
+  if (free_.size() < kPooledCubes) free_.push_back(std::move(data));
+}
+
 void LiveSession::Run() {
   std::unique_lock<std::mutex> lock(mu_);
   for (;;) {
@@ -178,10 +192,7 @@ void LiveSession::Run() {
     std::shared_ptr<LiveFrame> frame(
         new LiveFrame(Compute(state, previous.get(), &computed_state_)),
         [pool = std::weak_ptr<CubePool>(cube_pool_)](LiveFrame* f) {
-          if (auto p = pool.lock(); p != nullptr && !f->result.cube.data.empty()) {
-            std::lock_guard<std::mutex> pool_lock(p->mu);
-            if (p->free.size() < kPooledCubes) p->free.push_back(std::move(f->result.cube.data));
-          }
+          if (auto p = pool.lock(); p != nullptr) p->Put(std::move(f->result.cube.data));
           delete f;
         });
     frame->update = update;
@@ -293,13 +304,7 @@ LiveFrame LiveSession::Compute(const State& state, const LiveFrame* previous,
       SHRM_RETURN_IF_ERROR(RotateLighting(lmax, state.rotation, lighting.light));
     }
     clock.End();
-    {
-      std::lock_guard<std::mutex> pool_lock(cube_pool_->mu);
-      if (!cube_pool_->free.empty()) {
-        shrm_scratch_.cube = std::move(cube_pool_->free.back());
-        cube_pool_->free.pop_back();
-      }
-    }
+    shrm_scratch_.cube = cube_pool_->Take();
     SHRM_RETURN_IF_ERROR(FinishPrefilter(*brdf, lighting, options_, nullptr, &f.result,
                                          options_.max_cube_values, options_.admit_cube,
                                          &shrm_scratch_));

@@ -191,9 +191,16 @@ class LiveSession {
   // Cube storage of released frames, handed to the next synthesis (SynthesisScratch::cube): no
   // zero-fill and no first-touch page faults of a fresh buffer (10 MB at P = 5) per frame. Shared
   // with the frames' deleters, which run on any thread, also after the session is gone.
-  struct CubePool {
-    std::mutex mu;
-    std::vector<std::vector<float>> free;
+  class CubePool {
+   public:
+    // A released buffer (empty when none is kept).
+    std::vector<float> Take();
+    // Keeps `data` for a later frame (up to kPooledCubes buffers; empty ones are not kept).
+    void Put(std::vector<float> data);
+
+   private:
+    std::mutex mu_;
+    std::vector<std::vector<float>> free_;
   };
   std::shared_ptr<CubePool> cube_pool_ = std::make_shared<CubePool>();
   State computed_state_;  // the state of latest_frame_
