@@ -29,7 +29,9 @@ int g_size = 256;
 
 const EnvMap& Map() {
   static const EnvMap map = [] {
-    auto m = EnvMap::Load({.paths = {std::string(SHRM_SOURCE_DIR) + "/data/envmaps/" + g_map}});
+    EnvMapOptions options;
+    options.paths = {std::string(SHRM_SOURCE_DIR) + "/data/envmaps/" + g_map};
+    auto m = EnvMap::Load(options);
     if (!m.ok()) std::abort();
     return *m;
   }();

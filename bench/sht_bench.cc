@@ -43,9 +43,14 @@ struct Config {
   int width, height, lmax;
 };
 constexpr Config kConfigs[] = {
-    {1024, 512, 30}, {2048, 1024, 30}, {4096, 2048, 30}, {4096, 2048, 60}};
+    {1024, 512, 30}, {2048, 1024, 30}, {4096, 2048, 30}, {4096, 2048, 60}, {1024, 512, 511}};
 
 // Random RGB float map (values 0..10 with a few bright "sun" pixels), cached per size.
+// Below 2F + 1 rings no rule is exact at every degree: the pixels' own Fejer-1 sum, as libsharp's.
+ShtQuadrature Quadrature(const Config& c) {
+  return 2 * c.lmax + 1 > c.height ? ShtQuadrature::kPixelSum : ShtQuadrature::kExact;
+}
+
 const std::vector<float>& MapData(int w, int h) {
   static auto* cache = new std::map<std::pair<int, int>, std::vector<float>>;
   auto& v = (*cache)[{w, h}];
@@ -65,7 +70,7 @@ std::map<std::tuple<int, int, int>, double>& Results() {
   static auto* r = new std::map<std::tuple<int, int, int>, double>;
   return *r;
 }
-enum Which { kOurs = 0, kSharp = 1 };
+enum Which { kOurs = 0, kSharp = 1, kOursInverse = 2, kSharpInverse = 3 };
 // Keeps the fastest repetition (the machine is shared; the minimum is the least disturbed run).
 void RecordMin(const std::tuple<int, int, int>& key, double ms) {
   auto [it, inserted] = Results().emplace(key, ms);
@@ -98,11 +103,11 @@ struct Sharp {
     sharp_destroy_geom_info(geom);
     sharp_destroy_alm_info(alm);
   }
-  void Run() {
+  void Run(sharp_jobtype direction = SHARP_MAP2ALM) {
     for (int ch = 0; ch < kChannels; ++ch) {
       void* a[1] = {alms[ch].data()};
       void* m[1] = {maps[ch].data()};
-      sharp_execute(SHARP_MAP2ALM, 0, a, m, geom, alm, SHARP_DP, nullptr, nullptr);
+      sharp_execute(direction, 0, a, m, geom, alm, SHARP_DP, nullptr, nullptr);
     }
   }
   // libsharp's result in shrm's layout coeff[ShIndex(l, m) * 3 + c].
@@ -135,7 +140,8 @@ Sharp& SharpFor(int idx) {
     SetOmpThreads(1);
     s->Run();
     const std::vector<double> ref = s->AsShrm();
-    auto plan = GetShtPlan({c.width, c.height, ShtGridKind::kEquiangular}, c.lmax, kChannels);
+    auto plan = GetShtPlan({c.width, c.height, ShtGridKind::kEquiangular}, c.lmax, kChannels,
+                           Quadrature(c));
     std::vector<double> ours((*plan)->coeff_size());
     const std::vector<float>& rgb = MapData(c.width, c.height);
     (void)(*plan)->Forward(std::span<const float>(rgb), std::span<double>(ours), 1);
@@ -151,47 +157,56 @@ Sharp& SharpFor(int idx) {
   return *s;
 }
 
-void BM_Libsharp(benchmark::State& state, int idx, int threads) {
+void BM_Libsharp(benchmark::State& state, int idx, int threads, bool inverse) {
   Sharp& s = SharpFor(idx);
   SetOmpThreads(threads);
   int64_t iters = 0;
   const auto t0 = std::chrono::steady_clock::now();
   for (auto _ : state) {
-    s.Run();
+    s.Run(inverse ? SHARP_ALM2MAP : SHARP_MAP2ALM);
     benchmark::DoNotOptimize(s.alms[0].data());
     ++iters;
   }
   const double ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() /
       std::max<int64_t>(iters, 1);
-  RecordMin({idx, threads, kSharp}, ms);
+  RecordMin({idx, threads, inverse ? kSharpInverse : kSharp}, ms);
   state.counters["ms"] = ms;
   SetOmpThreads(1);
 }
 #endif  // SHRM_HAVE_LIBSHARP
 
-void BM_ShrmForward(benchmark::State& state, int idx, int threads) {
+void BM_ShrmForward(benchmark::State& state, int idx, int threads, bool inverse) {
   const Config& c = kConfigs[idx];
   const std::vector<float>& rgb = MapData(c.width, c.height);
-  auto plan = GetShtPlan({c.width, c.height, ShtGridKind::kEquiangular}, c.lmax, kChannels);
+  auto plan =
+      GetShtPlan({c.width, c.height, ShtGridKind::kEquiangular}, c.lmax, kChannels, Quadrature(c));
   if (!plan.ok()) {
     state.SkipWithError(std::string(plan.status().message()).c_str());
     return;
   }
   std::vector<double> coeffs((*plan)->coeff_size());
+  (void)(*plan)->Forward(std::span<const float>(rgb), std::span<double>(coeffs), threads);
+  std::vector<float> map(rgb.size());
+  ShtScratch scratch;
   int64_t iters = 0;
   const auto t0 = std::chrono::steady_clock::now();
   for (auto _ : state) {
-    (void)(*plan)->Forward(std::span<const float>(rgb), std::span<double>(coeffs), threads);
-    benchmark::DoNotOptimize(coeffs.data());
+    if (inverse) {
+      (void)(*plan)->Inverse(coeffs, std::span<float>(map), threads, &scratch);
+      benchmark::DoNotOptimize(map.data());
+    } else {
+      (void)(*plan)->Forward(std::span<const float>(rgb), std::span<double>(coeffs), threads);
+      benchmark::DoNotOptimize(coeffs.data());
+    }
     ++iters;
   }
   const double ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() /
       std::max<int64_t>(iters, 1);
-  RecordMin({idx, threads, kOurs}, ms);
+  RecordMin({idx, threads, inverse ? kOursInverse : kOurs}, ms);
   state.counters["ms"] = ms;
-  auto it = Results().find({idx, threads, kSharp});
+  auto it = Results().find({idx, threads, inverse ? kSharpInverse : kSharp});
   if (it != Results().end()) {
     state.counters["libsharp_ms"] = it->second;
     state.counters["ratio"] = ms / it->second;
@@ -202,35 +217,40 @@ void Register() {
   for (int idx = 0; idx < static_cast<int>(std::size(kConfigs)); ++idx) {
     const Config& c = kConfigs[idx];
     for (int threads : {1, 2}) {
-      const std::string suffix =
-          absl::StrCat("/", c.width, "x", c.height, "/F", c.lmax, "/threads:", threads);
+      for (bool inverse : {false, true}) {
+        const std::string suffix = absl::StrCat(inverse ? "_inverse" : "", "/", c.width, "x",
+                                                c.height, "/F", c.lmax, "/threads:", threads);
 #ifdef SHRM_HAVE_LIBSHARP
-      benchmark::RegisterBenchmark(absl::StrCat("libsharp", suffix).c_str(), BM_Libsharp, idx,
-                                   threads)
-          ->Unit(benchmark::kMillisecond)
-          ->UseRealTime();
+        benchmark::RegisterBenchmark(absl::StrCat("libsharp", suffix).c_str(), BM_Libsharp, idx,
+                                     threads, inverse)
+            ->Unit(benchmark::kMillisecond)
+            ->UseRealTime();
 #endif
-      benchmark::RegisterBenchmark(absl::StrCat("shrm", suffix).c_str(), BM_ShrmForward, idx,
-                                   threads)
-          ->Unit(benchmark::kMillisecond)
-          ->UseRealTime();
+        benchmark::RegisterBenchmark(absl::StrCat("shrm", suffix).c_str(), BM_ShrmForward, idx,
+                                     threads, inverse)
+            ->Unit(benchmark::kMillisecond)
+            ->UseRealTime();
+      }
     }
   }
 }
 
 void PrintTable() {
   std::printf(
-      "\n| size | F | threads | shrm ms | libsharp ms | ratio |\n|---|---|---|---|---|---|\n");
+      "\n| direction | size | F | threads | shrm ms | libsharp ms | ratio |\n"
+      "|---|---|---|---|---|---|---|\n");
   for (const auto& [key, ms] : Results()) {
     const auto [idx, threads, which] = key;
-    if (which != kOurs) continue;
+    if (which != kOurs && which != kOursInverse) continue;
+    const char* direction = which == kOurs ? "analysis" : "synthesis";
     const Config& c = kConfigs[idx];
-    auto it = Results().find({idx, threads, kSharp});
+    auto it = Results().find({idx, threads, which == kOurs ? kSharp : kSharpInverse});
     if (it == Results().end()) {
-      std::printf("| %dx%d | %d | %d | %.2f | - | - |\n", c.width, c.height, c.lmax, threads, ms);
+      std::printf("| %s | %dx%d | %d | %d | %.2f | - | - |\n", direction, c.width, c.height, c.lmax,
+                  threads, ms);
     } else {
-      std::printf("| %dx%d | %d | %d | %.2f | %.2f | %.3f |\n", c.width, c.height, c.lmax, threads,
-                  ms, it->second, ms / it->second);
+      std::printf("| %s | %dx%d | %d | %d | %.2f | %.2f | %.3f |\n", direction, c.width, c.height,
+                  c.lmax, threads, ms, it->second, ms / it->second);
     }
   }
 }

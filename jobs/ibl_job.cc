@@ -43,21 +43,18 @@ void StoreAs(IblFormat format, IblCube& cube) {
   const ktx2::Format f = IblKtx2Format(format);
   for (ibl::SpecularLevel& level : cube.chain.levels) {
     std::vector<float>& d = level.cube.data;
-    double mean = 0;
+    double sum = 0;
     for (size_t i = 0; i < d.size(); i += 3)
-      mean += (0.2126 * d[i] + 0.7152 * d[i + 1] + 0.0722 * d[i + 2]) / (d.size() / 3);
-    for (size_t i = 0; i < d.size(); i += 3) {
-      float v[4] = {d[i], d[i + 1], d[i + 2], 1.0f};
-      for (int c = 0; c < 3; ++c) {
-        if (v[c] < 0) {
-          ++cube.clamped;
-          if (mean > 0) cube.most_negative = std::min(cube.most_negative, v[c] / mean);
-          v[c] = 0;
-        }
+      sum += 0.2126 * d[i] + 0.7152 * d[i + 1] + 0.0722 * d[i + 2];
+    const double mean = d.empty() ? 0.0 : sum / static_cast<double>(d.size() / 3);
+    for (float& v : d) {
+      if (v < 0) {
+        ++cube.clamped;
+        if (mean > 0) cube.most_negative = std::min(cube.most_negative, v / mean);
+        v = 0;
       }
-      ktx2::RoundTrip(f, v);
-      for (int c = 0; c < 3; ++c) d[i + c] = v[c];
     }
+    ktx2::RoundTripRgb(f, d);
   }
 }
 

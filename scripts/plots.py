@@ -586,39 +586,44 @@ def hbasis_plot(bench, png_path):
 # Forward SHT vs libsharp (Google Benchmark JSON of bench/sht_bench).
 
 def sht_rows(bench):
-    """Fastest repetition (ms per RGB forward transform) per (grid, F, threads), shrm beside
-    libsharp, from the benchmark names "<lib>/<W>x<H>/F<lmax>/threads:<n>/real_time"."""
+    """Fastest repetition (ms per RGB transform) per (direction, grid, F, threads), shrm beside
+    libsharp, from the benchmark names "<lib>[_inverse]/<W>x<H>/F<lmax>/threads:<n>/real_time"
+    (analysis; _inverse: synthesis)."""
     best = {}
     for b in bench["benchmarks"]:
         if b.get("run_type") != "iteration":
             continue
         lib, size, f, threads = b["run_name"].split("/")[:4]
+        direction = "synthesis" if lib.endswith("_inverse") else "analysis"
+        lib = lib.removesuffix("_inverse")
         assert b["time_unit"] == "ms"
-        key = (size, int(f[1:]), int(threads.split(":")[1]), lib)
+        key = (direction, size, int(f[1:]), int(threads.split(":")[1]), lib)
         best[key] = min(best.get(key, float("inf")), b["ms"])  # the counter the bench prints
     rows = []
-    for (size, f, threads, lib), ms in best.items():
+    for (direction, size, f, threads, lib), ms in best.items():
         if lib != "shrm":
             continue
         w, h = (int(v) for v in size.split("x"))
-        sharp = best.get((size, f, threads, "libsharp"))
-        rows.append({"size": size, "pixels": w * h, "F": f, "threads": threads, "shrm_ms": ms,
-                     "libsharp_ms": sharp, "ratio": ms / sharp if sharp else None})
-    rows.sort(key=lambda r: (r["pixels"], r["F"], r["threads"]))
+        sharp = best.get((direction, size, f, threads, "libsharp"))
+        rows.append({"direction": direction, "size": size, "pixels": w * h, "F": f,
+                     "threads": threads, "shrm_ms": ms, "libsharp_ms": sharp,
+                     "ratio": ms / sharp if sharp else None})
+    rows.sort(key=lambda r: (r["direction"], r["pixels"], r["F"], r["threads"]))
     return rows
 
 
 def sht_table(bench):
-    lines = ["| size | F | threads | shrm ms | libsharp ms | ratio |", "|---|---|---|---|---|---|"]
+    lines = ["| direction | size | F | threads | shrm ms | libsharp ms | ratio |",
+             "|---|---|---|---|---|---|---|"]
     for r in sht_rows(bench):
-        lines.append(f"| {r['size']} | {r['F']} | {r['threads']} | {r['shrm_ms']:.2f} | "
-                     f"{r['libsharp_ms']:.2f} | {r['ratio']:.2f} |")
+        lines.append(f"| {r['direction']} | {r['size']} | {r['F']} | {r['threads']} | "
+                     f"{r['shrm_ms']:.2f} | {_fmt(r['libsharp_ms'])} | {_fmt(r['ratio'])} |")
     return lines
 
 
 def sht_plot(bench, png_path):
     plt = _pyplot()
-    rows = sht_rows(bench)
+    rows = [r for r in sht_rows(bench) if r["direction"] == "analysis"]
     fig, (times, ratio) = plt.subplots(1, 2, figsize=(10, 4))
     for k, f in enumerate(sorted({r["F"] for r in rows})):
         group = [r for r in rows if r["F"] == f and r["threads"] == 1]
@@ -636,7 +641,7 @@ def sht_plot(bench, png_path):
     times.set_title("Time, 1 thread", fontsize=9)
     ratio.set_xscale("log")
     ratio.axhline(1.0, color="0.6", linewidth=0.8)
-    ratio.set_ylim(0, 1.2)
+    ratio.set_ylim(0, max([1.2] + [1.1 * r["ratio"] for r in rows if r["ratio"]]))
     ratio.set_ylabel("shrm time / libsharp time")
     ratio.set_title("Ratio (below 1: shrm faster)", fontsize=9)
     sizes = sorted({(r["pixels"] / 1e6, r["size"]) for r in rows})

@@ -85,7 +85,9 @@ constexpr double kMaxTol = kIblMaxErrorFactor * kDefaultIblTolerance;
 
 // Each cube of `run` against the pixel sum at 24 texels per level drawn with a seed of its own.
 void ExpectWithinTolerance(const std::string& path, const IblRun& run) {
-  auto map = EnvMap::Load({.paths = {path}});
+  EnvMapOptions options;
+  options.paths = {path};
+  auto map = EnvMap::Load(options);
   ASSERT_TRUE(map.ok());
   std::mt19937 rng(99);  // not the job's seeds
   for (const IblCube* cube : {&run.specular, &run.sheen, &run.irradiance}) {

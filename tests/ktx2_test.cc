@@ -764,6 +764,42 @@ TEST(Ktx2Test, DecodersMatchTheSpecificationFormulas) {
   }
 }
 
+// The whole-span storage rounding a job applies to its RGB cubes, texel by texel, against Imath's
+// half and the specification's decoders of the packed codes.
+TEST(Ktx2Test, RoundTripRgbRoundsEveryTexelAsItsFormatStoresIt) {
+  std::mt19937 rng(6);
+  // Below the half's saturation (65504), where Imath rounds to infinity and the encoder clamps.
+  std::uniform_real_distribution<double> expo(-20, 15.9);
+  std::vector<float> rgb(3 * 3000);
+  for (float& v : rgb) v = static_cast<float>(std::exp2(expo(rng)));
+  for (size_t i = 0; i < rgb.size(); i += 7) rgb[i] = -rgb[i];  // signed formats keep the sign
+  for (Format f : {Format::kR16G16Sfloat, Format::kR16G16B16Sfloat, Format::kR16G16B16A16Sfloat,
+                   Format::kR32G32B32A32Sfloat, Format::kB10G11R11UfloatPack32,
+                   Format::kE5B9G9R9UfloatPack32}) {
+    std::vector<float> got = rgb;
+    RoundTripRgb(f, got);
+    for (size_t i = 0; i < rgb.size(); i += 3) {
+      std::array<float, 3> want = {rgb[i], rgb[i + 1], rgb[i + 2]};
+      if (f == Format::kB10G11R11UfloatPack32) {
+        const uint32_t b = PackB10G11R11(want[0], want[1], want[2]);
+        want = {static_cast<float>(DecodeUfloat(b & 0x7FF, 6)),
+                static_cast<float>(DecodeUfloat((b >> 11) & 0x7FF, 6)),
+                static_cast<float>(DecodeUfloat(b >> 22, 5))};
+      } else if (f == Format::kE5B9G9R9UfloatPack32) {
+        const std::array<double, 3> e = DecodeE5(PackE5B9G9R9(want[0], want[1], want[2]));
+        want = {static_cast<float>(e[0]), static_cast<float>(e[1]), static_cast<float>(e[2])};
+      } else if (f != Format::kR32G32B32A32Sfloat) {
+        for (int c = 0; c < (f == Format::kR16G16Sfloat ? 2 : 3); ++c) {
+          want[c] = static_cast<float>(Imath::half(want[c]));
+        }
+      }
+      for (int c = 0; c < 3; ++c) {
+        ASSERT_EQ(got[i + c], want[c]) << FormatName(f) << " texel " << i / 3 << " channel " << c;
+      }
+    }
+  }
+}
+
 // The encoders against their definition: the code (5-bit exponent, m mantissa bits) whose value,
 // by the specification's formula (DecodeUfloat), is nearest to v, ties to the even code, and the
 // largest finite code above it. Found by bisection over the codes (their values increase).

@@ -168,10 +168,12 @@ class PlotValuesMatchTables(unittest.TestCase):
         data = plots.sht_rows(*[plots.load(p) for p in plots.data_paths("sht")])
         self.assertEqual(len(rows), len(data))
         for row, d in zip(rows, data):
-            self.assertEqual((row[0], int(row[1]), int(row[2])), (d["size"], d["F"], d["threads"]))
-            self.assert_cell(row[3], d["shrm_ms"], d["size"] + " shrm")
-            self.assert_cell(row[4], d["libsharp_ms"], d["size"] + " libsharp")
-            self.assert_cell(row[5], d["ratio"], d["size"] + " ratio")
+            self.assertEqual((row[0], row[1], int(row[2]), int(row[3])),
+                             (d["direction"], d["size"], d["F"], d["threads"]))
+            what = f"{d['direction']} {d['size']} F={d['F']}"
+            self.assert_cell(row[4], d["shrm_ms"], what + " shrm")
+            self.assert_cell(row[5], d["libsharp_ms"], what + " libsharp")
+            self.assert_cell(row[6], d["ratio"], what + " ratio")
         self.assert_whole_table("sht")
 
 

@@ -911,7 +911,9 @@ TEST_F(ServiceTest, LiveCoefficientsGiveTheMapsFramesAndViewsTheirMaps) {
   const std::string map = MapPath("courtyard.exr");
   const std::string brdf = "microfacet:sigma=0.3";
   constexpr int kLmax = 20;  // above F_rho of the BRDF at epsilon 0.03, below the map's H / 2
-  absl::StatusOr<EnvMap> env = EnvMap::Load({.paths = {map}});
+  EnvMapOptions options;
+  options.paths = {map};
+  absl::StatusOr<EnvMap> env = EnvMap::Load(options);
   ASSERT_TRUE(env.ok()) << env.status();
   absl::StatusOr<std::vector<double>> light =
       LightingCoefficients(*env, kLmax, Mat3::Identity(), /*threads=*/1);

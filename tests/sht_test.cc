@@ -191,6 +191,22 @@ TEST(ShtTest, MatchesBruteForcePixelSum) {
   }
 }
 
+// The analysis's theta stage has kernels for 1, 3 and 4 channels (degrees four, two and one at
+// a time, so every residue of lmax - m mod 4 is met over m) and a general path for the others.
+TEST(ShtTest, EveryChannelCountMatchesBruteForcePixelSum) {
+  for (int ch = 1; ch <= 5; ++ch) {
+    for (auto [g, lmax] : {std::pair{ShtGrid{33, 17, ShtGridKind::kGaussLegendre}, 16},
+                           std::pair{ShtGrid{64, 32, ShtGridKind::kEquiangular}, 13}}) {
+      const std::vector<double> map =
+          RandomValues(static_cast<size_t>(g.width) * g.height * ch, 13 + ch, 0.0, 1.0);
+      auto got = ForwardSht(g, lmax, ch, std::span<const double>(map));
+      ASSERT_TRUE(got.ok()) << got.status();
+      EXPECT_LT(MaxAbsDiff(*got, BruteForce(g, lmax, ch, map)), kBruteForceTol)
+          << ch << " channels, " << g.width << "x" << g.height << ", lmax " << lmax;
+    }
+  }
+}
+
 TEST(ShtTest, PixelSumQuadratureMatchesTheBruteForceSumAtEveryDegree) {
   // kPixelSum integrates with the grid's own Fejer rule up to lmax = H - 1 (no theta
   // resampling): the brute-force pixel sum, also where the exact path differs (H < 2 lmax + 1).

@@ -93,7 +93,7 @@ TEST(ToleranceTest, BandContributionsSumToTheDirectValueAtEveryTruncation) {
   const std::vector<DirectionPair> pairs = SeededDirectionPairs(7, 12, ReparamKind::kReflection);
   const BandTable table = BandTable::Compute(*full, pairs, 2);
   const std::vector<double> ones(13, 1.0);
-  for (const auto [f, p] : {std::pair{12, 4}, std::pair{7, 2}, std::pair{3, 0}}) {
+  for (const auto& [f, p] : {std::pair{12, 4}, std::pair{7, 2}, std::pair{3, 0}}) {
     auto part = ShrmSynthesizer::Create(r->light_lmax, 3, r->light, r->brdf, f, p);
     ASSERT_TRUE(part.ok()) << part.status();
     for (size_t k = 0; k < pairs.size(); ++k) {
@@ -226,7 +226,7 @@ TEST(ToleranceTest, BudgetLimitedChoiceFitsAndBeatsTheObviousSplitsOfTheBudget) 
   int p_all = 0;  // the largest P that fits at S = 16
   while (p_all < 31 && CubeValues(16, p_all + 1) <= budget) ++p_all;
   const int s0 = std::min(largest_face(0), 512);
-  for (const auto [f, p, size] :
+  for (const auto& [f, p, size] :
        {std::tuple{std::min(s0 / 2 - 1, (kMapWidth - 1) / 2), 0, s0}, std::tuple{7, p_all, 16}}) {
     PrefilterOptions alt;
     alt.f = f;
@@ -311,23 +311,22 @@ TEST_P(ToleranceRealMapTest, ToleranceIsMetOrReportedAndTheEstimateHolds) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(BundledMaps, ToleranceRealMapTest,
-                         ::testing::Values(RealCase{"courtyard.exr", "phong:s=32"},
-                                           RealCase{"courtyard.exr", "phong:s=512"},
-                                           RealCase{"courtyard.exr", "phong:s=128", false,
-                                                    RingingWindow::kLanczos},
-                                           RealCase{"courtyard.exr", "microfacet:sigma=0.2", true},
-                                           RealCase{"city.exr", "microfacet:sigma=0.1", true},
-                                           RealCase{"forest.exr", "ggx:alpha=0.3,f0=1"},
-                                           RealCase{"interior.exr", "phong:s=8"}),
-                         [](const ::testing::TestParamInfo<RealCase>& info) {
-                           std::string name =
-                               std::string(info.param.map) + "_" + info.param.brdf +
-                               (info.param.window == RingingWindow::kLanczos ? "_lanczos" : "");
-                           for (char& c : name)
-                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                           return name;
-                         });
+INSTANTIATE_TEST_SUITE_P(
+    BundledMaps, ToleranceRealMapTest,
+    ::testing::Values(RealCase{"courtyard.exr", "phong:s=32"},
+                      RealCase{"courtyard.exr", "phong:s=512"},
+                      RealCase{"courtyard.exr", "phong:s=128", false, RingingWindow::kLanczos},
+                      RealCase{"courtyard.exr", "microfacet:sigma=0.2", true},
+                      RealCase{"city.exr", "microfacet:sigma=0.1", true},
+                      RealCase{"forest.exr", "ggx:alpha=0.3,f0=1"},
+                      RealCase{"interior.exr", "phong:s=8"}),
+    [](const ::testing::TestParamInfo<RealCase>& param_info) {
+      std::string name = std::string(param_info.param.map) + "_" + param_info.param.brdf +
+                         (param_info.param.window == RingingWindow::kLanczos ? "_lanczos" : "");
+      for (char& c : name)
+        if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+      return name;
+    });
 
 }  // namespace
 }  // namespace shrm

@@ -398,8 +398,7 @@ double EnvMap::TotalSolidAngle() const {
   return sum;
 }
 
-void EnvMap::BuildSamples(std::vector<EnvSample>* out) const {
-  out->clear();
+void EnvMap::ForEachSample(absl::FunctionRef<void(const EnvSample&)> fn) const {
   if (layout_ == EnvLayout::kLatLong) {
     const Image& img = images_[0];
     const int w = img.width, h = img.height;
@@ -410,7 +409,6 @@ void EnvMap::BuildSamples(std::vector<EnvSample>* out) const {
       sin_p[i] = std::sin(p);
       cos_p[i] = std::cos(p);
     }
-    out->reserve(static_cast<size_t>(w) * h);
     for (int j = 0; j < h; ++j) {
       const double st = q.sin_theta[j], ct = q.cos_theta[j];
       const double omega = q.weight[j] * 2 * kPi / w;
@@ -420,7 +418,7 @@ void EnvMap::BuildSamples(std::vector<EnvSample>* out) const {
         s.solid_angle = omega;
         const float* px = PixelPtr(img, i, j);
         s.rgb = {px[0], px[1], px[2]};
-        out->push_back(s);
+        fn(s);
       }
     }
     return;
@@ -443,13 +441,12 @@ void EnvMap::BuildSamples(std::vector<EnvSample>* out) const {
         s.solid_angle = jac * pixel_area;
         const float* px = PixelPtr(img, i, j);
         s.rgb = {px[0], px[1], px[2]};
-        out->push_back(s);
+        fn(s);
       }
     }
     return;
   }
   const int n = face_size_;
-  out->reserve(static_cast<size_t>(6) * n * n);
   for (int f = 0; f < 6; ++f) {
     for (int y = 0; y < n; ++y) {
       for (int x = 0; x < n; ++x) {
@@ -458,10 +455,26 @@ void EnvMap::BuildSamples(std::vector<EnvSample>* out) const {
         s.solid_angle = CubeTexelSolidAngle(x, y, n);
         const float* px = PixelPtr(images_[f], x, y);
         s.rgb = {px[0], px[1], px[2]};
-        out->push_back(s);
+        fn(s);
       }
     }
   }
+}
+
+size_t EnvMap::sample_count() const {
+  if (layout_ == EnvLayout::kLatLong) {
+    return static_cast<size_t>(images_[0].width) * images_[0].height;
+  }
+  if (layout_ != EnvLayout::kAngular) return static_cast<size_t>(6) * face_size_ * face_size_;
+  size_t n = 0;  // the disc's pixels
+  ForEachSample([&n](const EnvSample&) { ++n; });
+  return n;
+}
+
+void EnvMap::BuildSamples(std::vector<EnvSample>* out) const {
+  out->clear();
+  if (layout_ != EnvLayout::kAngular) out->reserve(sample_count());
+  ForEachSample([out](const EnvSample& s) { out->push_back(s); });
 }
 
 std::array<float, 3> EnvMap::LatLongRadiance(const Vec3& d) const {

@@ -39,6 +39,7 @@
 #include <string_view>
 #include <vector>
 
+#include "absl/functional/function_ref.h"
 #include "absl/status/statusor.h"
 #include "core/base/geometry.h"
 #include "core/io/image.h"
@@ -124,6 +125,11 @@ class EnvMap {
   // then rows, then columns of the face in GL orientation; angular: row-major, pixels inside the
   // disc only). Built on first use (about 48 bytes per pixel) and kept.
   std::span<const EnvSample> samples() const;
+  // The same samples, in the same order, handed to `fn` one at a time without being kept (for a
+  // caller that stores its own form of them: no 48 bytes per pixel).
+  void ForEachSample(absl::FunctionRef<void(const EnvSample&)> fn) const;
+  // How many samples there are (the length of samples()).
+  size_t sample_count() const;
   // Sum of the samples' solid angles (4 pi up to the layout's quadrature accuracy).
   double TotalSolidAngle() const;
 

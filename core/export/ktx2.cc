@@ -438,6 +438,24 @@ void RoundTrip(Format format, float* values) {
   }
 }
 
+void RoundTripRgb(Format format, std::span<float> rgb) {
+  switch (format) {
+    case Format::kR16G16B16Sfloat:
+    case Format::kR16G16B16A16Sfloat:
+      for (float& v : rgb) v = HalfToFloat(FloatToHalf(v));
+      break;
+    case Format::kB10G11R11UfloatPack32:
+    case Format::kE5B9G9R9UfloatPack32:
+      for (size_t i = 0; i + 3 <= rgb.size(); i += 3) RoundTrip(format, &rgb[i]);
+      break;
+    case Format::kR16G16Sfloat:  // R and G stored; B as it is
+      for (size_t i = 0; i + 3 <= rgb.size(); i += 3) RoundTrip(format, &rgb[i]);
+      break;
+    default:  // 32-bit floats are stored as they are
+      break;
+  }
+}
+
 absl::StatusOr<std::string> EncodeKtx2(const Ktx2Image& image, const EncodeOptions& options) {
   if (absl::Status s = ValidateLayout(image); !s.ok()) return s;
   if (absl::Status s = ValidateKeys(image, options); !s.ok()) return s;

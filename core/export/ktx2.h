@@ -58,6 +58,7 @@
 
 #include <cstdint>
 #include <map>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -138,6 +139,9 @@ float HalfToFloat(uint16_t bits);
 void UnpackB10G11R11(uint32_t packed, float rgb[3]);
 void UnpackE5B9G9R9(uint32_t packed, float rgb[3]);
 void RoundTrip(Format format, float* values);
+// RoundTrip of every RGB triple of `rgb` (3 values per texel, the alpha of the RGBA formats being
+// 1), the format decided once for the whole span.
+void RoundTripRgb(Format format, std::span<float> rgb);
 
 }  // namespace shrm::ktx2
 

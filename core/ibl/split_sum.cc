@@ -374,33 +374,40 @@ std::array<double, 3> SplitSumReference(const EnvMap& map, SpecularLobe lobe, do
 }
 
 PixelSumTable::PixelSumTable(const EnvMap& map) {
-  const std::span<const EnvSample> samples = map.samples();
-  blocks_ = static_cast<int>((samples.size() + kBlock - 1) / kBlock);
+  // Streamed from the map (not through map.samples(), which would keep 48 bytes per pixel
+  // besides this table's 28).
+  const size_t count = map.sample_count();
+  blocks_ = static_cast<int>((count + kBlock - 1) / kBlock);
   const size_t n = static_cast<size_t>(blocks_) * kBlock;
   for (std::vector<float>* v : {&x_, &y_, &z_, &omega_, &r_, &g_, &b_}) v->assign(n, 0.0f);
   cones_.resize(blocks_);
+  std::vector<Vec3> sums(blocks_, Vec3{0, 0, 0});
+  size_t i = 0;
+  map.ForEachSample([&](const EnvSample& s) {
+    x_[i] = static_cast<float>(s.dir.x);
+    y_[i] = static_cast<float>(s.dir.y);
+    z_[i] = static_cast<float>(s.dir.z);
+    omega_[i] = static_cast<float>(s.solid_angle);
+    r_[i] = s.rgb[0];
+    g_[i] = s.rgb[1];
+    b_[i] = s.rgb[2];
+    Vec3& sum = sums[i / kBlock];
+    sum = sum + s.dir;
+    ++i;
+  });
   for (int b = 0; b < blocks_; ++b) {
     const size_t begin = static_cast<size_t>(b) * kBlock;
-    const size_t end = std::min(samples.size(), begin + kBlock);
-    Vec3 sum{0, 0, 0};
-    for (size_t i = begin; i < end; ++i) {
-      const EnvSample& s = samples[i];
-      x_[i] = static_cast<float>(s.dir.x);
-      y_[i] = static_cast<float>(s.dir.y);
-      z_[i] = static_cast<float>(s.dir.z);
-      omega_[i] = static_cast<float>(s.solid_angle);
-      r_[i] = s.rgb[0];
-      g_[i] = s.rgb[1];
-      b_[i] = s.rgb[2];
-      sum = sum + s.dir;
-    }
+    const size_t end = std::min(count, begin + kBlock);
     Cone& cone = cones_[b];
-    const double len = sum.Norm();
+    const double len = sums[b].Norm();
     // A block spread over more than a hemisphere (len ~ 0) is never skipped.
-    cone.axis = len > 1e-9 ? sum * (1 / len) : Vec3{0, 0, 1};
+    cone.axis = len > 1e-9 ? sums[b] * (1 / len) : Vec3{0, 0, 1};
     double min_cos = len > 1e-9 ? 1.0 : -1.0;
-    for (size_t i = begin; i < end; ++i) min_cos = std::min(min_cos, cone.axis.Dot(samples[i].dir));
-    // The member directions are rounded to float: widen the cone by more than that.
+    for (size_t k = begin; k < end; ++k) {
+      min_cos = std::min(min_cos, cone.axis.Dot(Vec3{x_[k], y_[k], z_[k]}));
+    }
+    // The member directions are rounded to float (relative 6e-8, so the cosines above are off by
+    // as much): widen the cone by more than that.
     min_cos = std::max(-1.0, min_cos - 1e-6);
     cone.sin_radius = min_cos <= 0 ? 2.0 : std::sqrt(1 - min_cos * min_cos);
   }

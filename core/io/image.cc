@@ -366,12 +366,17 @@ absl::StatusOr<Image> ReadImageRgb(const std::string& path, const ImageLimits& l
   img.width = header.width;
   img.height = header.height;
   img.channels = 3;
-  img.pixels.resize(static_cast<size_t>(img.width) * img.height * 3);
+  // Three channels already: checked in place and kept (no second copy of the pixels).
+  if (nc == 3) {
+    img.pixels = std::move(raw);
+  } else {
+    img.pixels.resize(static_cast<size_t>(img.width) * img.height * 3);
+  }
   int64_t bad = 0;
   int64_t first_bad = -1;
   for (size_t p = 0; p < static_cast<size_t>(img.width) * img.height; ++p) {
     for (int c = 0; c < 3; ++c) {
-      float v = raw[p * nc + std::min(c, nc >= 3 ? c : 0)];
+      float v = nc == 3 ? img.pixels[p * 3 + c] : raw[p * nc + std::min(c, nc >= 3 ? c : 0)];
       if (!std::isfinite(v)) {
         if (first_bad < 0) first_bad = static_cast<int64_t>(p);
         ++bad;

@@ -74,12 +74,13 @@ absl::StatusOr<ShrmSynthesizer> ShrmSynthesizer::Create(int light_lmax, int chan
   s.channels_ = channels;
   s.reparam_ = brdf.reparam;
   s.light_.assign(static_cast<size_t>(2 * f + 1) * (f + 1) * channels, {0.0, 0.0});
-  std::vector<double> real(ShCount(light_lmax));
-  std::vector<std::complex<double>> cplx(ShCount(light_lmax));
+  // Degrees up to f only: the lighting is in degree-major order, so its first (f + 1)^2 values are
+  // those (the lighting can go much higher: degree 511 for a split-sum level of degree 241).
+  std::vector<double> real(ShCount(f));
+  std::vector<std::complex<double>> cplx(ShCount(f));
   for (int c = 0; c < channels; ++c) {
-    for (int k = 0; k < ShCount(light_lmax); ++k)
-      real[k] = light[static_cast<size_t>(k) * channels + c];
-    RealToComplex(light_lmax, real, cplx);
+    for (int k = 0; k < ShCount(f); ++k) real[k] = light[static_cast<size_t>(k) * channels + c];
+    RealToComplex(f, real, cplx);
     for (int l = 0; l <= f; ++l)
       for (int m = -l; m <= l; ++m)
         s.light_[((static_cast<size_t>(m + f)) * (f + 1) + l) * channels + c] = cplx[ShIndex(l, m)];

@@ -257,6 +257,166 @@ absl::StatusOr<std::shared_ptr<const ShtPlan>> ShtPlan::CreateImpl(const ShtGrid
   return std::shared_ptr<const ShtPlan>(std::move(plan));
 }
 
+// lambda_m^m (the sectoral start) into cur and 0 into prev, on every ring pair.
+void StartColumn(int nv, const V4* sect, V4* prev, V4* cur) {
+  for (int v = 0; v < nv; ++v) {
+    prev[v] = V4{0, 0, 0, 0};
+    cur[v] = sect[v];
+  }
+}
+
+// One step of the recurrence: cur = lambda_l^m from cur = lambda_{l-1}^m and prev = lambda_{l-2}^m.
+void AdvanceColumn(int l, int m, int nv, const V4* x, const double* rec_a, const double* rec_b,
+                   V4* prev, V4* cur) {
+  const double a = rec_a[LegendreIndex(l, m)], b = rec_b[LegendreIndex(l, m)];
+  for (int v = 0; v < nv; ++v) {
+    const V4 nx = a * (x[v] * cur[v] - b * prev[v]);
+    prev[v] = cur[v];
+    cur[v] = nx;
+  }
+}
+
+// The recurrence's coefficients of degrees l + 1 .. l + 4 of order m (zero past lmax), and one
+// ring-pair vector's values lambda_l .. lambda_{l+3} from lambda_{l-1} and lambda_l.
+struct FourDegrees {
+  double a[4], b[4];
+  FourDegrees(int l, int m, int lmax, const double* rec_a, const double* rec_b) {
+    for (int i = 0; i < 4; ++i) {
+      const bool exists = l + 1 + i <= lmax;
+      a[i] = exists ? rec_a[LegendreIndex(l + 1 + i, m)] : 0.0;
+      b[i] = exists ? rec_b[LegendreIndex(l + 1 + i, m)] : 0.0;
+    }
+  }
+  // c[i] = lambda_{l+i} for i < 4; returns lambda_{l+4}.
+  [[gnu::always_inline]] V4 Values(V4 x, V4 prev, V4 cur, V4 c[4]) const {
+    c[0] = cur;
+    c[1] = a[0] * (x * c[0] - b[0] * prev);
+    c[2] = a[1] * (x * c[1] - b[1] * c[0]);
+    c[3] = a[2] * (x * c[2] - b[2] * c[1]);
+    return a[3] * (x * c[3] - b[3] * c[2]);
+  }
+};
+
+// One m of the analysis's theta stage for K = 2 x channels arrays (re, im per channel): degrees
+// l and l + 1 (the E and O arrays) in one pass over the pairs, each of the 2K dot products in its
+// own accumulator. Each sum still runs over the pairs in order, lane by lane, so the result is the
+// same as one degree at a time, bit for bit; what changes is that the 2K sums no longer wait on
+// one another (one chain of dependent adds per sum was the stage's limit). `emit(l, sums)` gets
+// the K lane-vectors of degree l.
+template <int K, typename Emit>
+void AnalysisColumn(int m, int lmax, int nv, const V4* x, const V4* sect, const double* rec_a,
+                    const double* rec_b, const V4* e, const V4* o, V4* prev, V4* cur,
+                    const Emit& emit) {
+  StartColumn(nv, sect, prev, cur);
+  int l = m;
+  // Four degrees per pass where the recurrence's coefficients exist: each E/O value loaded once
+  // serves two degrees.
+  for (; l + 3 <= lmax; l += 4) {
+    const FourDegrees rec(l, m, lmax, rec_a, rec_b);
+    V4 se0[K], so1[K], se2[K], so3[K];
+    for (int k = 0; k < K; ++k) se0[k] = so1[k] = se2[k] = so3[k] = V4{0, 0, 0, 0};
+    for (int v = 0; v < nv; ++v) {
+      V4 c[4];
+      const V4 next = rec.Values(x[v], prev[v], cur[v], c);
+      for (int k = 0; k < K; ++k) {
+        const V4 ek = e[static_cast<size_t>(k) * nv + v];
+        const V4 ok = o[static_cast<size_t>(k) * nv + v];
+        se0[k] += c[0] * ek;
+        se2[k] += c[2] * ek;
+        so1[k] += c[1] * ok;
+        so3[k] += c[3] * ok;
+      }
+      prev[v] = c[3];
+      cur[v] = next;
+    }
+    emit(l, se0);
+    emit(l + 1, so1);
+    emit(l + 2, se2);
+    emit(l + 3, so3);
+  }
+  for (; l + 1 <= lmax; l += 2) {
+    // cur = lambda_l (l - m even: E), prev = lambda_{l-1}; lambda_{l+1} pairs with O.
+    const double a1 = rec_a[LegendreIndex(l + 1, m)], b1 = rec_b[LegendreIndex(l + 1, m)];
+    const bool more = l + 2 <= lmax;
+    const double a2 = more ? rec_a[LegendreIndex(l + 2, m)] : 0.0;
+    const double b2 = more ? rec_b[LegendreIndex(l + 2, m)] : 0.0;
+    V4 se[K], so[K];
+    for (int k = 0; k < K; ++k) se[k] = so[k] = V4{0, 0, 0, 0};
+    for (int v = 0; v < nv; ++v) {
+      const V4 c0 = cur[v];
+      const V4 c1 = a1 * (x[v] * c0 - b1 * prev[v]);
+      for (int k = 0; k < K; ++k) {
+        se[k] += c0 * e[static_cast<size_t>(k) * nv + v];
+        so[k] += c1 * o[static_cast<size_t>(k) * nv + v];
+      }
+      prev[v] = c1;
+      cur[v] = a2 * (x[v] * c1 - b2 * c0);
+    }
+    emit(l, se);
+    emit(l + 1, so);
+  }
+  if (l <= lmax) {  // the last degree alone (lmax - m even): cur = lambda_l, E
+    V4 se[K];
+    for (int k = 0; k < K; ++k) se[k] = V4{0, 0, 0, 0};
+    for (int v = 0; v < nv; ++v) {
+      for (int k = 0; k < K; ++k) se[k] += cur[v] * e[static_cast<size_t>(k) * nv + v];
+    }
+    emit(l, se);
+  }
+}
+
+// One m of the synthesis's theta stage: E += q_l lambda_l for even l - m, O += the odd ones, four
+// degrees per pass over the pairs (then two, then one), so that each E/O value is loaded and stored
+// once per four degrees instead of once per degree. Each value still gets the same terms in the
+// same order (one fused multiply-add per degree), so the result is that of one degree at a time.
+// `load(l, q)` fills the K values q_lm (re, im per channel) of degree l.
+template <int K, typename Load, typename Prefetch>
+void SynthesisColumn(int m, int lmax, int nv, const V4* x, const V4* sect, const double* rec_a,
+                     const double* rec_b, const Load& load, const Prefetch& prefetch, V4* e, V4* o,
+                     V4* prev, V4* cur) {
+  StartColumn(nv, sect, prev, cur);
+  int l = m;
+  for (; l + 3 <= lmax; l += 4) {
+    const FourDegrees rec(l, m, lmax, rec_a, rec_b);
+    double q0[K], q1[K], q2[K], q3[K];
+    // The next pass's coefficients (a cache line or two apart per degree) are fetched while this
+    // pass runs.
+    for (int n = l + 4; n < std::min(l + 8, lmax + 1); ++n) prefetch(n);
+    load(l, q0);
+    load(l + 1, q1);
+    load(l + 2, q2);
+    load(l + 3, q3);
+    for (int v = 0; v < nv; ++v) {
+      V4 c[4];
+      const V4 next = rec.Values(x[v], prev[v], cur[v], c);
+      for (int k = 0; k < K; ++k) {
+        V4& ek = e[static_cast<size_t>(k) * nv + v];
+        V4& ok = o[static_cast<size_t>(k) * nv + v];
+        V4 te = ek, to = ok;
+        te += q0[k] * c[0];
+        to += q1[k] * c[1];
+        te += q2[k] * c[2];
+        to += q3[k] * c[3];
+        ek = te;
+        ok = to;
+      }
+      prev[v] = c[3];
+      cur[v] = next;
+    }
+  }
+  // The last one to three degrees, one at a time (cur = lambda_l already on entry).
+  for (const int first = l; l <= lmax; ++l) {
+    if (l > first) AdvanceColumn(l, m, nv, x, rec_a, rec_b, prev, cur);
+    double q[K];
+    load(l, q);
+    V4* d = (l - m) % 2 == 0 ? e : o;
+    for (int k = 0; k < K; ++k) {
+      V4* dk = d + static_cast<size_t>(k) * nv;
+      for (int v = 0; v < nv; ++v) dk[v] += q[k] * cur[v];
+    }
+  }
+}
+
 // Theta stage, eq. (1): coeffs(l, m) = sum_p lambda_l^m(x_p) (E_p or O_p), E/O by parity of l-m.
 // eo layout: [((m * 2 + parity) * channels + c) * 2 + re/im][pair], pairs padded with zeros.
 void ShtPlan::LegendreAnalysis(const RingSet& rings, std::span<const double> eo,
@@ -266,35 +426,15 @@ void ShtPlan::LegendreAnalysis(const RingSet& rings, std::span<const double> eo,
   const int ch = channels_;
   const size_t m_stride = static_cast<size_t>(2) * ch * 2 * pp;
   ParallelFor(lmax_ + 1, num_threads, [&](int m, int) {
-    std::vector<double> prev_store(pp), cur_store(pp), acc_store(2 * ch * kLanes);
+    std::vector<double> prev_store(pp), cur_store(pp);
     V4* prev = reinterpret_cast<V4*>(prev_store.data());
     V4* cur = reinterpret_cast<V4*>(cur_store.data());
-    V4* acc = reinterpret_cast<V4*>(acc_store.data());
     const V4* x = reinterpret_cast<const V4*>(rings.x.data());
     const V4* sect =
         reinterpret_cast<const V4*>(rings.sectoral.data() + static_cast<size_t>(m) * pp);
-    for (int v = 0; v < nv; ++v) {
-      prev[v] = V4{0, 0, 0, 0};
-      cur[v] = sect[v];
-    }
-    const double* eo_m = eo.data() + m * m_stride;
-    for (int l = m; l <= lmax_; ++l) {
-      if (l > m) {
-        const double a = rec_a_[LegendreIndex(l, m)], b = rec_b_[LegendreIndex(l, m)];
-        for (int v = 0; v < nv; ++v) {
-          const V4 nx = a * (x[v] * cur[v] - b * prev[v]);
-          prev[v] = cur[v];
-          cur[v] = nx;
-        }
-      }
-      const V4* d =
-          reinterpret_cast<const V4*>(eo_m + static_cast<size_t>((l - m) & 1) * ch * 2 * pp);
-      for (int k = 0; k < 2 * ch; ++k) {
-        V4 s = {0, 0, 0, 0};
-        const V4* dk = d + static_cast<size_t>(k) * nv;
-        for (int v = 0; v < nv; ++v) s += cur[v] * dk[v];
-        acc[k] = s;
-      }
+    const V4* e = reinterpret_cast<const V4*>(eo.data() + m * m_stride);
+    const V4* o = e + static_cast<size_t>(ch) * 2 * nv;
+    const auto emit = [&](int l, const V4* acc) {
       for (int c = 0; c < ch; ++c) {
         const V4 sr = acc[2 * c], si = acc[2 * c + 1];
         const double re = (sr[0] + sr[1]) + (sr[2] + sr[3]);
@@ -304,6 +444,36 @@ void ShtPlan::LegendreAnalysis(const RingSet& rings, std::span<const double> eo,
         } else {
           coeffs[static_cast<size_t>(ShIndex(l, m)) * ch + c] = kSqrt2 * re;
           coeffs[static_cast<size_t>(ShIndex(l, -m)) * ch + c] = -kSqrt2 * im;
+        }
+      }
+    };
+    const double* ra = rec_a_.data();
+    const double* rb = rec_b_.data();
+    switch (ch) {
+      case 1:
+        AnalysisColumn<2>(m, lmax_, nv, x, sect, ra, rb, e, o, prev, cur, emit);
+        break;
+      case 3:
+        AnalysisColumn<6>(m, lmax_, nv, x, sect, ra, rb, e, o, prev, cur, emit);
+        break;
+      case 4:
+        AnalysisColumn<8>(m, lmax_, nv, x, sect, ra, rb, e, o, prev, cur, emit);
+        break;
+      default: {
+        // Other channel counts: one degree at a time (the same sums, in the same order).
+        std::vector<double> acc_store(static_cast<size_t>(2) * ch * kLanes);
+        V4* acc = reinterpret_cast<V4*>(acc_store.data());
+        StartColumn(nv, sect, prev, cur);
+        for (int l = m; l <= lmax_; ++l) {
+          if (l > m) AdvanceColumn(l, m, nv, x, ra, rb, prev, cur);
+          const V4* d = (l - m) % 2 == 0 ? e : o;
+          for (int k = 0; k < 2 * ch; ++k) {
+            V4 s = {0, 0, 0, 0};
+            const V4* dk = d + static_cast<size_t>(k) * nv;
+            for (int v = 0; v < nv; ++v) s += cur[v] * dk[v];
+            acc[k] = s;
+          }
+          emit(l, acc);
         }
       }
     }
@@ -336,28 +506,36 @@ absl::Status ShtPlan::ForwardImpl(std::span<const T> map, std::span<double> coef
   const int np = rings_.num_pairs, pp = PadPairs(np);
   const int nc = w / 2 + 1;
   const size_t m_stride = static_cast<size_t>(2) * ch * 2 * pp;
-  std::vector<double> eo(m_stride * (lmax + 1), 0.0);
+  // Every value is written below (the padding pairs as zeros), so the buffer starts uninitialized.
+  const size_t eo_size = m_stride * (lmax + 1);
+  std::unique_ptr<double[]> eo_store(new double[eo_size]);
+  const std::span<double> eo(eo_store.get(), eo_size);
   // Phase of eq. (2) for phi_s(i) = 3 pi / 2 - 2 pi (i + 1/2) / W:
   // sum_i f_i e^{-i m phi_s(i)} = e^{-i m (3 pi / 2 - pi / W)} conj(DFT(f)_m).
   std::vector<std::complex<double>> phase(lmax + 1);
   for (int m = 0; m <= lmax; ++m) phase[m] = std::polar(1.0, -m * (1.5 * kPi - kPi / w));
 
-  // Phi stage: one FFT batch per ring pair; writes E = G_n + G_s and O = G_n - G_s.
-  constexpr int kPairsPerTask = 4;
-  const int num_tasks = (np + kPairsPerTask - 1) / kPairsPerTask;
+  // Phi stage: one FFT batch per ring pair, then E = G_n + G_s and O = G_n - G_s written for a
+  // block of pairs at a time: each (m, parity, channel, re/im) row gets kPairsPerTask consecutive
+  // values, a whole cache line, instead of one value per line per pair (the buffer is larger than
+  // the caches, so single values cost a line's traffic each).
+  constexpr int kPairsPerTask = 8;
+  const int num_tasks = (pp + kPairsPerTask - 1) / kPairsPerTask;
   const int workers = std::max(1, std::min(num_threads, num_tasks));
+  // Each pair's spectra start on a 64-byte boundary (FFTW's SIMD alignment, as planned).
+  const size_t pair_spectra = (static_cast<size_t>(2) * ch * nc + 3) / 4 * 4;
   std::vector<std::unique_ptr<FftwBuffer<double>>> in_bufs(workers);
   std::vector<std::unique_ptr<FftwBuffer<fftw_complex>>> out_bufs(workers);
   ParallelFor(num_tasks, workers, [&](int task, int worker) {
     if (!in_bufs[worker]) {
       in_bufs[worker] = std::make_unique<FftwBuffer<double>>(static_cast<size_t>(2) * ch * w);
-      out_bufs[worker] =
-          std::make_unique<FftwBuffer<fftw_complex>>(static_cast<size_t>(2) * ch * nc);
+      out_bufs[worker] = std::make_unique<FftwBuffer<fftw_complex>>(pair_spectra * kPairsPerTask);
     }
     double* in = in_bufs[worker]->data;
-    fftw_complex* out = out_bufs[worker]->data;
-    const int p_end = std::min(np, (task + 1) * kPairsPerTask);
-    for (int p = task * kPairsPerTask; p < p_end; ++p) {
+    const int p_begin = task * kPairsPerTask;
+    const int p_end = std::min(np, p_begin + kPairsPerTask);
+    for (int p = p_begin; p < p_end; ++p) {
+      fftw_complex* out = out_bufs[worker]->data + (p - p_begin) * pair_spectra;
       const bool equator = rings_.has_equator && p == np - 1;
       for (int half = 0; half < 2; ++half) {
         double* dst = in + static_cast<size_t>(half) * ch * w;
@@ -394,21 +572,29 @@ absl::Status ShtPlan::ForwardImpl(std::span<const T> map, std::span<double> coef
         }
       }
       fftw_execute_dft_r2c(fftw_->r2c, in, out);
-      const double scale = ring_scale_[p];
-      for (int m = 0; m <= lmax; ++m) {
-        const std::complex<double> ph = phase[m] * scale;
-        double* e = eo.data() + m * m_stride;
-        double* o = e + static_cast<size_t>(ch) * 2 * pp;
-        for (int c = 0; c < ch; ++c) {
+    }
+    const int p_pad = std::min(pp, p_begin + kPairsPerTask);  // padding pairs get zeros
+    for (int m = 0; m <= lmax; ++m) {
+      double* e = eo.data() + m * m_stride;
+      double* o = e + static_cast<size_t>(ch) * 2 * pp;
+      for (int c = 0; c < ch; ++c) {
+        double* er = e + static_cast<size_t>(2 * c) * pp;
+        double* ei = er + pp;
+        double* orr = o + static_cast<size_t>(2 * c) * pp;
+        double* oi = orr + pp;
+        for (int p = p_begin; p < p_end; ++p) {
+          const fftw_complex* out = out_bufs[worker]->data + (p - p_begin) * pair_spectra;
+          const std::complex<double> ph = phase[m] * ring_scale_[p];
           const fftw_complex& dn = out[static_cast<size_t>(c) * nc + m];
           const fftw_complex& ds = out[static_cast<size_t>(ch + c) * nc + m];
           const std::complex<double> gn = ph * std::complex<double>(dn[0], -dn[1]);
           const std::complex<double> gs = ph * std::complex<double>(ds[0], -ds[1]);
-          e[(2 * c) * pp + p] = gn.real() + gs.real();
-          e[(2 * c + 1) * pp + p] = gn.imag() + gs.imag();
-          o[(2 * c) * pp + p] = gn.real() - gs.real();
-          o[(2 * c + 1) * pp + p] = gn.imag() - gs.imag();
+          er[p] = gn.real() + gs.real();
+          ei[p] = gn.imag() + gs.imag();
+          orr[p] = gn.real() - gs.real();
+          oi[p] = gn.imag() - gs.imag();
         }
+        for (int p = p_end; p < p_pad; ++p) er[p] = ei[p] = orr[p] = oi[p] = 0.0;
       }
     }
   });
@@ -474,89 +660,113 @@ absl::Status ShtPlan::InverseImpl(std::span<const double> coeffs, std::span<T> m
     const V4* x = reinterpret_cast<const V4*>(rings_.x.data());
     const V4* sect =
         reinterpret_cast<const V4*>(rings_.sectoral.data() + static_cast<size_t>(m) * pp);
-    for (int v = 0; v < nv; ++v) {
-      prev[v] = V4{0, 0, 0, 0};
-      cur[v] = sect[v];
-    }
-    V4* eo_m = reinterpret_cast<V4*>(eo.data() + m * m_stride);
-    for (int l = m; l <= lmax; ++l) {
-      if (l > m) {
-        const double a = rec_a_[LegendreIndex(l, m)], b = rec_b_[LegendreIndex(l, m)];
-        for (int v = 0; v < nv; ++v) {
-          const V4 nx = a * (x[v] * cur[v] - b * prev[v]);
-          prev[v] = cur[v];
-          cur[v] = nx;
+    V4* e = reinterpret_cast<V4*>(eo.data() + m * m_stride);
+    V4* o = e + static_cast<size_t>(ch) * 2 * nv;
+    // q[2c] = Re q_lm, q[2c + 1] = Im q_lm of channel c.
+    const auto load = [&](int l, double* q) {
+      for (int c = 0; c < ch; ++c) {
+        if (m == 0) {
+          q[2 * c] = coeffs[static_cast<size_t>(ShIndex(l, 0)) * ch + c];
+          q[2 * c + 1] = 0.0;
+        } else {
+          q[2 * c] = kSqrt2 * coeffs[static_cast<size_t>(ShIndex(l, m)) * ch + c];
+          q[2 * c + 1] = -kSqrt2 * coeffs[static_cast<size_t>(ShIndex(l, -m)) * ch + c];
         }
       }
-      V4* d = eo_m + static_cast<size_t>((l - m) & 1) * ch * 2 * nv;
-      for (int c = 0; c < ch; ++c) {
-        double qr, qi;
-        if (m == 0) {
-          qr = coeffs[static_cast<size_t>(ShIndex(l, 0)) * ch + c];
-          qi = 0.0;
-        } else {
-          qr = kSqrt2 * coeffs[static_cast<size_t>(ShIndex(l, m)) * ch + c];
-          qi = -kSqrt2 * coeffs[static_cast<size_t>(ShIndex(l, -m)) * ch + c];
-        }
-        V4* dr = d + static_cast<size_t>(2 * c) * nv;
-        V4* di = d + static_cast<size_t>(2 * c + 1) * nv;
-        for (int v = 0; v < nv; ++v) {
-          dr[v] += qr * cur[v];
-          di[v] += qi * cur[v];
+    };
+    const auto prefetch = [&](int l) {
+      __builtin_prefetch(&coeffs[static_cast<size_t>(ShIndex(l, m)) * ch]);
+      if (m > 0) __builtin_prefetch(&coeffs[static_cast<size_t>(ShIndex(l, -m)) * ch]);
+    };
+    const double* ra = rec_a_.data();
+    const double* rb = rec_b_.data();
+    switch (ch) {
+      case 1:
+        SynthesisColumn<2>(m, lmax, nv, x, sect, ra, rb, load, prefetch, e, o, prev, cur);
+        break;
+      case 3:
+        SynthesisColumn<6>(m, lmax, nv, x, sect, ra, rb, load, prefetch, e, o, prev, cur);
+        break;
+      case 4:
+        SynthesisColumn<8>(m, lmax, nv, x, sect, ra, rb, load, prefetch, e, o, prev, cur);
+        break;
+      default: {
+        // Other channel counts: one degree at a time (the same sums, in the same order).
+        std::vector<double> q(static_cast<size_t>(2) * ch);
+        StartColumn(nv, sect, prev, cur);
+        for (int l = m; l <= lmax; ++l) {
+          if (l > m) AdvanceColumn(l, m, nv, x, ra, rb, prev, cur);
+          load(l, q.data());
+          V4* d = (l - m) % 2 == 0 ? e : o;
+          for (int k = 0; k < 2 * ch; ++k) {
+            V4* dk = d + static_cast<size_t>(k) * nv;
+            for (int v = 0; v < nv; ++v) dk[v] += q[k] * cur[v];
+          }
         }
       }
     }
   });
 
   // Phi stage: f_i = Re sum_m h_m e^{i m phi_s(i)} = Re sum_m q_m e^{-2 pi i m i / W} with
-  // q_m = h_m e^{i m (3 pi / 2 - pi / W)}; fold into the half-spectrum of a real signal.
+  // q_m = h_m e^{i m (3 pi / 2 - pi / W)}; fold into the half-spectrum of a real signal. A block
+  // of pairs at a time, so that each (m, parity, channel, re/im) row is read a cache line at a
+  // time (as the analysis writes it).
   std::vector<std::complex<double>> phase(lmax + 1);
   for (int m = 0; m <= lmax; ++m) phase[m] = std::polar(1.0, m * (1.5 * kPi - kPi / w));
-  constexpr int kPairsPerTask = 4;
+  constexpr int kPairsPerTask = 8;
   const int num_tasks = (np + kPairsPerTask - 1) / kPairsPerTask;
   const int workers = std::max(1, std::min(num_threads, num_tasks));
+  // Each pair's spectra start on a 64-byte boundary (FFTW's SIMD alignment, as planned).
+  const size_t pair_spectra = (static_cast<size_t>(2) * ch * nc + 3) / 4 * 4;
   std::vector<std::unique_ptr<FftwBuffer<double>>> re_bufs(workers);
   std::vector<std::unique_ptr<FftwBuffer<fftw_complex>>> co_bufs(workers);
   ParallelFor(num_tasks, workers, [&](int task, int worker) {
     if (!re_bufs[worker]) {
       re_bufs[worker] = std::make_unique<FftwBuffer<double>>(static_cast<size_t>(2) * ch * w);
-      co_bufs[worker] =
-          std::make_unique<FftwBuffer<fftw_complex>>(static_cast<size_t>(2) * ch * nc);
+      co_bufs[worker] = std::make_unique<FftwBuffer<fftw_complex>>(pair_spectra * kPairsPerTask);
     }
     double* re = re_bufs[worker]->data;
-    fftw_complex* co = co_bufs[worker]->data;
-    const int p_end = std::min(np, (task + 1) * kPairsPerTask);
-    for (int p = task * kPairsPerTask; p < p_end; ++p) {
-      const bool equator = rings_.has_equator && p == np - 1;
-      std::fill(&co[0][0], &co[0][0] + static_cast<size_t>(2) * ch * nc * 2, 0.0);
-      for (int m = 0; m <= lmax; ++m) {
-        const double* e = eo.data() + m * m_stride;
-        const double* o = e + static_cast<size_t>(ch) * 2 * pp;
-        const int k1 = m % w;
-        const int k2 = (w - k1) % w;
-        for (int c = 0; c < ch; ++c) {
-          const std::complex<double> he(e[(2 * c) * pp + p], e[(2 * c + 1) * pp + p]);
-          const std::complex<double> ho(o[(2 * c) * pp + p], o[(2 * c + 1) * pp + p]);
+    fftw_complex* co_block = co_bufs[worker]->data;
+    const int p_begin = task * kPairsPerTask;
+    const int p_end = std::min(np, p_begin + kPairsPerTask);
+    std::fill(&co_block[0][0], &co_block[0][0] + pair_spectra * kPairsPerTask * 2, 0.0);
+    for (int m = 0; m <= lmax; ++m) {
+      const double* e = eo.data() + m * m_stride;
+      const double* o = e + static_cast<size_t>(ch) * 2 * pp;
+      const int k1 = m % w;
+      const int k2 = (w - k1) % w;
+      for (int c = 0; c < ch; ++c) {
+        const double* er = e + static_cast<size_t>(2 * c) * pp;
+        const double* ei = er + pp;
+        const double* orr = o + static_cast<size_t>(2 * c) * pp;
+        const double* oi = orr + pp;
+        for (int p = p_begin; p < p_end; ++p) {
+          fftw_complex* co = co_block + (p - p_begin) * pair_spectra;
+          const std::complex<double> he(er[p], ei[p]);
+          const std::complex<double> ho(orr[p], oi[p]);
           for (int half = 0; half < 2; ++half) {
             const std::complex<double> q = (half == 0 ? he + ho : he - ho) * phase[m];
-            fftw_complex* x = co + static_cast<size_t>(half * ch + c) * nc;
+            fftw_complex* xs = co + static_cast<size_t>(half * ch + c) * nc;
             if (m == 0) {
-              x[0][0] += q.real();
+              xs[0][0] += q.real();
               continue;
             }
             // Re(q z^-m) = (q z^-m + conj(q) z^m) / 2 on the full spectrum, z = e^{2 pi i / W}.
             if (k1 <= w / 2) {
-              x[k1][0] += 0.5 * q.real();
-              x[k1][1] -= 0.5 * q.imag();
+              xs[k1][0] += 0.5 * q.real();
+              xs[k1][1] -= 0.5 * q.imag();
             }
             if (k2 <= w / 2) {
-              x[k2][0] += 0.5 * q.real();
-              x[k2][1] += 0.5 * q.imag();
+              xs[k2][0] += 0.5 * q.real();
+              xs[k2][1] += 0.5 * q.imag();
             }
           }
         }
       }
-      fftw_execute_dft_c2r(fftw_->c2r, co, re);
+    }
+    for (int p = p_begin; p < p_end; ++p) {
+      const bool equator = rings_.has_equator && p == np - 1;
+      fftw_execute_dft_c2r(fftw_->c2r, co_block + (p - p_begin) * pair_spectra, re);
       for (int half = 0; half < (equator ? 1 : 2); ++half) {
         const int j = half == 0 ? p : h - 1 - p;
         T* dst = map.data() + static_cast<size_t>(j) * w * ch;
