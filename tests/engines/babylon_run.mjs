@@ -31,6 +31,15 @@
 //                and once for WHITE_SET (a white furnace: the factor F itself), and spec / F is
 //                compared with the node's trilinear textureLod (seamless: neighbouring faces'
 //                texels across edges) at the mesh's own interpolated vertex normal, where F >= F_MIN.
+//   diffuse:     the dielectric sphere's diffuse term against E(n) / pi of the set's own SH9. The
+//                full render (the cube as linear, the light's SH) minus the specular-only render
+//                is what the SH adds; divided by the same difference for WHITE_SET (E / pi = 1 at
+//                every normal, so any per-pixel factor of Babylon's diffuse that does not depend
+//                on the light cancels), it is the E / pi Babylon shows. The reference is computed
+//                here from sh9.json's radiance_sh9 (shrm's real SH basis and frame,
+//                docs/conventions.md) with the Lambert factors A_l / pi = 1, 2/3, 1/4, at the
+//                mesh's interpolated vertex normal: docs/ibl_sh9.md says Babylon's default path
+//                gives exactly that from the `gltf` coefficients the file carries.
 //   orientation: (PATCH_SET) the red patch lights the +X side of the mirror sphere where the
 //                reflection of the view hits it, and the +X side of the diffuse sphere; a copy
 //                of the GLB mirrored in x (faces and SH, written here) must fail that check.
@@ -66,6 +75,14 @@ const HALF_REL = 2 ** -11;
 // pixel, and the quotient spec / F at roughness 0.9, F about 0.15: measured 0.6-1.2%) and none
 // by more than HARD x the peak (measured 0.05).
 const REL = 0.02, ABS = 0.002, FRACTION = 0.02, HARD = 0.1;
+// Babylon's diffuse / the white set's vs E(n) / pi, per pixel and channel:
+// |b - e| <= DIFFUSE_REL x e + DIFFUSE_ABS x (the sphere's largest e). Babylon evaluates the SH
+// polynomial in float, so what is left is float rounding (of the polynomial, of the two
+// differences of renders, of the interpolated normal) and whatever of the specular term the
+// light's SH feeds (Babylon mixes irradiance into rough reflections): measured 8e-4-1e-3 of the
+// peak on average, 4.3e-3 at worst (patches and courtyard). A wrong convention moves the values
+// by far more: the legacy path's band weights are checked to fail.
+const DIFFUSE_REL = 0.01, DIFFUSE_ABS = 0.01;
 // The white furnace's factor below which a pixel is not compared (the quotient would amplify the
 // half-float rounding of both renders beyond REL).
 const F_MIN = 0.1;
@@ -287,7 +304,56 @@ function compareSpecular(name, spec, white, sc, cube, light, S, scale) {
     `Babylon ${name} specular term / white-furnace factor vs the node render (trilinear textureLod of the decoded cube at R_B, lod = log2(S (r^2 + 0.0005)) x ${scale.toFixed(4)}): ${compared} metallic-sphere pixels (${skipped} with F < ${F_MIN} skipped), ${over} (${((100 * over) / compared).toFixed(2)}%) beyond ${REL} x value + ${ABS} x peak (allowed ${100 * FRACTION}%), worst ${worstHard.toExponential(2)} of the peak (limit ${HARD}); per sphere |diff| / peak: ${stats.join('; ')}`);
 }
 
+// E(n) / pi of real SH9 radiance coefficients L[i][rgb] (i = l (l + 1) + m) in shrm's basis, at a
+// unit world normal n (glTF's world is shrm's: sh9.json's gltf frame_from_world is the identity):
+// SH frame (x, -z, y) (ShFrameFromWorld), real SH with the Condon-Shortley phase, A_l / pi.
+function shIrradianceOverPi(L, n, bands = [1, 2 / 3, 0.25]) {
+  const [x, y, z] = [n[0], -n[2], n[1]];
+  const k0 = 0.5 / Math.sqrt(Math.PI), k1 = Math.sqrt(3 / (4 * Math.PI));
+  const k2 = 0.5 * Math.sqrt(15 / Math.PI), k20 = 0.25 * Math.sqrt(5 / Math.PI), k22 = 0.25 * Math.sqrt(15 / Math.PI);
+  const Y = [k0, -k1 * y, k1 * z, -k1 * x, k2 * x * y, -k2 * y * z, k20 * (3 * z * z - 1), -k2 * x * z, k22 * (x * x - y * y)];
+  const A = [0, 1, 1, 1, 2, 2, 2, 2, 2].map((l) => bands[l]);
+  return [0, 1, 2].map((c) => Y.reduce((sum, y_i, i) => sum + A[i] * L[i][c] * y_i, 0));
+}
+
+// The diffuse term: (full - spec) / (whiteFull - whiteSpec) on the dielectric sphere against
+// E(n) / pi x the light's intensity. The same pixels against Babylon's legacy polynomial path
+// (bands weighed (A_l / pi)^2: 1, 4/9, 1/16, docs/ibl_sh9.md) must fail: the check can tell the
+// conventions apart.
+function compareDiffuse(name, full, spec, whiteFull, whiteSpec, sc, sh9, light) {
+  const L = sh9.radiance_sh9;
+  const pix = [];
+  for (let j = 0; j < H; ++j) for (let i = 0; i < W; ++i) {
+    const hit = pixelNormal(sc, i, j, 0.95);
+    if (!hit || sc.spheres[hit.k].metallic !== 0) continue;
+    const q = 4 * (j * W + i);
+    const got = [0, 1, 2].map((c) => (full.img[q + c] - spec.img[q + c]) / (whiteFull.img[q + c] - whiteSpec.img[q + c]));
+    pix.push([hit.n, got]);
+  }
+  const against = (bands) => {
+    const want = pix.map(([n]) => shIrradianceOverPi(L, n, bands).map((v) => v * light.intensity));
+    const peak = Math.max(...want.flat());
+    let over = 0, worst = 0, sum = 0;
+    pix.forEach(([, got], k) => {
+      let o = false;
+      for (let c = 0; c < 3; ++c) {
+        const d = Math.abs(got[c] - want[k][c]);
+        worst = Math.max(worst, d / peak);
+        sum += d / peak;
+        if (!(d <= DIFFUSE_REL * want[k][c] + DIFFUSE_ABS * peak)) o = true;
+      }
+      if (o) over++;
+    });
+    return { over, worst, mean: sum / (3 * pix.length), peak };
+  };
+  const r = against([1, 2 / 3, 0.25]);
+  const legacy = against([1, 4 / 9, 1 / 16]);
+  check(pix.length > 0 && r.over === 0 && legacy.over > 0,
+    `Babylon ${name} diffuse term (full render - specular-only render, over the same for the white set) vs E(n) / pi of the set's radiance_sh9 (A_l / pi = 1, 2/3, 1/4): ${pix.length} dielectric-sphere pixels, ${r.over} beyond ${DIFFUSE_REL} x value + ${DIFFUSE_ABS} x peak (peak ${r.peak.toFixed(4)}), |diff| / peak mean ${r.mean.toExponential(2)} worst ${r.worst.toExponential(2)}; against the legacy path's weights 1, 4/9, 1/16: ${legacy.over} pixels beyond, worst ${legacy.worst.toExponential(2)} of the peak`);
+}
+
 let whiteRender = null;
+let whiteFullRender = null;
 
 
 // --- the checks for one set ---------------------------------------------------------------------
@@ -350,9 +416,14 @@ async function checkSet(dir, withOrientation) {
     check(wsc.spheres.length === sc.spheres.length && wsc.spheres.every((s, k) => s.x === sc.spheres[k].x && s.roughness === sc.spheres[k].roughness),
       `white-furnace set ${basename(whiteSet)}: the same scene (sphere positions and roughness) as ${name}`);
     whiteRender = await babylonRender(0, wsc, true, true);
+    whiteFullRender = await babylonRender(0, wsc, true, false);
     screenshot(`babylon_${basename(whiteSet)}_specular.png`, whiteRender.img);
   }
   compareSpecular(name, spec, whiteRender, sc, cube, light, S, scale);
+  const full = await babylonRender(ci, sc, true, false);
+  const sh9 = JSON.parse(readFileSync(join(dir, 'sh9.json'), 'utf8'));
+  check(sh9.sh_window.width === 0, `${name}/sh9.json: no SH window applied (the coefficients in ibl.glb are A_l x radiance_sh9)`);
+  compareDiffuse(name, full, spec, whiteFullRender, whiteRender, sc, sh9, light);
   return { img: def.img, sc, glb };
 }
 
