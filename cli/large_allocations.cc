@@ -15,10 +15,11 @@
 // block is reused for a request of at least half its size, so a cached mapping never holds more
 // than twice what it serves.
 //
-// Only large blocks are affected; everything smaller goes to malloc as before. A large block is
-// recognised at delete by its position (64 bytes past a 2 MiB boundary) and a header holding a
-// magic number and its own address, so no table or lock is needed. Not compiled under
-// AddressSanitizer, which must see every allocation itself.
+// Only large blocks are affected; everything smaller goes to malloc as before. A large block
+// starts on a 2 MiB boundary and is recognised at delete by that and by the 64-byte header just
+// below it (at the end of an ordinary page of its mapping), holding a magic number and its own
+// address, so no table or lock is needed. Not compiled under AddressSanitizer, which must see
+// every allocation itself.
 #include <sys/mman.h>
 
 #include <atomic>
@@ -42,14 +43,26 @@ namespace {
 
 constexpr size_t kHugePage = size_t{2} << 20;
 constexpr size_t kLargeThreshold = size_t{1} << 20;
-constexpr size_t kHeaderBytes = 64;  // keeps the returned block 64-byte aligned
+// The header sits at the end of an ordinary page just below the block, so that the block itself
+// starts on a 2 MiB boundary and a block of k x 2 MiB (the common power-of-two arrays) takes k
+// huge pages, not k + 1 of which the last holds 64 bytes: every huge page touched is zeroed whole
+// by the kernel.
+constexpr size_t kHeaderPage = 4096;
+constexpr size_t kHeaderBytes = 64;
 constexpr uint64_t kMagic = 0x53'48'52'4d'4c'41'52'47ull;  // "SHRMLARG"
 
 struct Header {
   uint64_t magic;
   const void* self;  // the header's own address: a stray match of the magic number fails this
-  size_t length;     // bytes mapped, from the header on
+  size_t body;       // bytes of the block's mapping, from its 2 MiB boundary on
 };
+
+// The mapping of a header: its page and the body after it.
+void* MappingOf(const Header* h) {
+  return const_cast<char*>(reinterpret_cast<const char*>(h) + kHeaderBytes - kHeaderPage);
+}
+size_t MappedBytes(const Header* h) { return kHeaderPage + h->body; }
+void* BlockOf(Header* h) { return reinterpret_cast<char*>(h) + kHeaderBytes; }
 
 constexpr int kCacheSlots = 16;
 constexpr size_t kCacheBytes = size_t{1} << 30;
@@ -74,14 +87,14 @@ Header* TakeCached(size_t body) {
   int best = -1;
   for (int i = 0; i < kCacheSlots; ++i) {
     const Header* h = g_cache.slot[i];
-    if (h == nullptr || h->length < body || h->length > 2 * body) continue;
-    if (best < 0 || h->length < g_cache.slot[best]->length) best = i;
+    if (h == nullptr || h->body < body || h->body > 2 * body) continue;
+    if (best < 0 || h->body < g_cache.slot[best]->body) best = i;
   }
   Header* h = nullptr;
   if (best >= 0) {
     h = g_cache.slot[best];
     g_cache.slot[best] = nullptr;
-    g_cache.bytes -= h->length;
+    g_cache.bytes -= MappedBytes(h);
   }
   g_cache.Unlock();
   return h;
@@ -91,11 +104,11 @@ Header* TakeCached(size_t body) {
 bool PutCached(Header* h) {
   g_cache.Lock();
   bool kept = false;
-  if (g_cache.bytes + h->length <= kCacheBytes) {
+  if (g_cache.bytes + MappedBytes(h) <= kCacheBytes) {
     for (Header*& slot : g_cache.slot) {
       if (slot == nullptr) {
         slot = h;
-        g_cache.bytes += h->length;
+        g_cache.bytes += MappedBytes(h);
         kept = true;
         break;
       }
@@ -106,30 +119,32 @@ bool PutCached(Header* h) {
 }
 
 void* MapLarge(size_t n) {
-  if (n > (SIZE_MAX >> 1)) return nullptr;
-  const size_t body = (kHeaderBytes + n + kHugePage - 1) & ~(kHugePage - 1);
-  if (Header* h = TakeCached(body)) return reinterpret_cast<char*>(h) + kHeaderBytes;
-  const size_t length = body + kHugePage;  // room to align the start to 2 MiB
+  if (n > (SIZE_MAX >> 2)) return nullptr;
+  const size_t body = (n + kHugePage - 1) & ~(kHugePage - 1);
+  if (Header* h = TakeCached(body)) return BlockOf(h);
+  const size_t length = kHeaderPage + body + kHugePage;  // room to align the body to 2 MiB
   void* m = mmap(nullptr, length, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
   if (m == MAP_FAILED) return nullptr;
   const uintptr_t raw = reinterpret_cast<uintptr_t>(m);
-  const uintptr_t start = (raw + kHugePage - 1) & ~(kHugePage - 1);
-  if (const size_t head = start - raw; head > 0) munmap(m, head);
-  if (const size_t tail = length - (start - raw) - body; tail > 0) {
+  const uintptr_t start = (raw + kHeaderPage + kHugePage - 1) & ~(kHugePage - 1);
+  const uintptr_t first = start - kHeaderPage;  // the header's page
+  if (const size_t head = first - raw; head > 0) munmap(m, head);
+  if (const size_t tail = raw + length - (start + body); tail > 0) {
     munmap(reinterpret_cast<void*>(start + body), tail);
   }
-  void* base = reinterpret_cast<void*>(start);
-  madvise(base, body, MADV_HUGEPAGE);
-  auto* h = static_cast<Header*>(base);
+  madvise(reinterpret_cast<void*>(start), body, MADV_HUGEPAGE);
+  auto* h = reinterpret_cast<Header*>(start - kHeaderBytes);
   h->magic = kMagic;
   h->self = h;
-  h->length = body;
-  return static_cast<char*>(base) + kHeaderBytes;
+  h->body = body;
+  return reinterpret_cast<void*>(start);
 }
 
-// The header of a block MapLarge returned, or nullptr for any other pointer.
+// The header of a block MapLarge returned, or nullptr for any other pointer. (The 64 bytes below
+// any pointer on a 2 MiB boundary are readable: operator new's own blocks have their header page
+// there, and malloc's blocks their chunk headers, within the same heap or mapping.)
 const Header* LargeHeader(void* p) {
-  if ((reinterpret_cast<uintptr_t>(p) & (kHugePage - 1)) != kHeaderBytes) return nullptr;
+  if ((reinterpret_cast<uintptr_t>(p) & (kHugePage - 1)) != 0) return nullptr;
   const auto* h = reinterpret_cast<const Header*>(static_cast<char*>(p) - kHeaderBytes);
   return h->magic == kMagic && h->self == h ? h : nullptr;
 }
@@ -142,7 +157,7 @@ void* Allocate(size_t n) noexcept {
 void Release(void* p) noexcept {
   if (p == nullptr) return;
   if (const Header* h = LargeHeader(p)) {
-    if (!PutCached(const_cast<Header*>(h))) munmap(const_cast<Header*>(h), h->length);
+    if (!PutCached(const_cast<Header*>(h))) munmap(MappingOf(h), MappedBytes(h));
   } else {
     std::free(p);
   }

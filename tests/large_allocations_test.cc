@@ -1,6 +1,7 @@
 // The `shrm` program's operator new/delete (cli/large_allocations.cc, linked into this test as
-// into the program): blocks of 1 MiB or more are huge-page-advised mappings of their own, 64 bytes
-// past a 2 MiB boundary, kept for reuse when freed (a bounded cache) and otherwise returned to the
+// into the program): blocks of 1 MiB or more are huge-page-advised mappings of their own, starting
+// on a 2 MiB boundary and as long as the request rounded up to whole 2 MiB (the header is on an
+// ordinary page below), kept for reuse when freed (a bounded cache) and otherwise returned to the
 // system; smaller ones come from malloc.
 // Checked against the kernel's own account of the process's mappings (/proc/self/smaps).
 #include <cstdint>
@@ -24,8 +25,9 @@ constexpr bool kReplaced = true;
 constexpr uintptr_t kHugePage = uintptr_t{2} << 20;
 constexpr size_t kLarge = size_t{3} << 20;  // above the 1 MiB threshold
 
-// The smaps entry of the mapping holding `p`: its "VmFlags:" line ("" when not found).
-std::string VmFlagsOf(const void* p) {
+// The smaps entry of the mapping holding `p`: its "VmFlags:" line ("" when not found), and its
+// address range.
+std::string VmFlagsOf(const void* p, uintptr_t* begin = nullptr, uintptr_t* end = nullptr) {
   std::ifstream smaps("/proc/self/smaps");
   std::string line;
   bool inside = false;
@@ -36,6 +38,8 @@ std::string VmFlagsOf(const void* p) {
     std::istringstream head(line);
     if (head >> std::hex >> lo >> dash >> hi && dash == '-') {
       inside = lo <= a && a < hi;
+      if (inside && begin != nullptr) *begin = lo;
+      if (inside && end != nullptr) *end = hi;
     } else if (inside && line.rfind("VmFlags:", 0) == 0) {
       return line;
     }
@@ -55,7 +59,7 @@ TEST(LargeAllocationsTest, LargeBlocksAreHugePageAdvisedMappingsOfTheirOwn) {
   if (!kReplaced) GTEST_SKIP() << "not replaced under AddressSanitizer";
   auto block = std::make_unique<char[]>(kLarge);
   const uintptr_t a = reinterpret_cast<uintptr_t>(block.get());
-  EXPECT_EQ(a % kHugePage, 64u);
+  EXPECT_EQ(a % kHugePage, 0u);
   const std::string flags = VmFlagsOf(block.get());
   ASSERT_FALSE(flags.empty());
   // MADV_HUGEPAGE, on kernels built with transparent huge pages (the advice is the program's;
@@ -66,6 +70,25 @@ TEST(LargeAllocationsTest, LargeBlocksAreHugePageAdvisedMappingsOfTheirOwn) {
   // Every byte is usable, zero-initialized by make_unique<char[]>.
   for (size_t i = 0; i < kLarge; i += 4096) EXPECT_EQ(block[i], 0);
   block[kLarge - 1] = 1;
+}
+
+// A block of exactly k x 2 MiB (the power-of-two arrays of a job) is k huge pages: the advised
+// mapping starts at the block and ends at its end, so touching the last byte does not fault in
+// (and have the kernel zero) one more huge page.
+TEST(LargeAllocationsTest, WholeHugePagesAreNotExceeded) {
+  if (!kReplaced) GTEST_SKIP() << "not replaced under AddressSanitizer";
+  // (Sizes above every block the other tests free: a cached block of up to twice the request
+  // would serve it otherwise, by design.)
+  for (size_t k : {5, 9}) {
+    const size_t n = k * kHugePage;
+    void* p = ::operator new(n);
+    uintptr_t begin = 0, end = 0;
+    ASSERT_FALSE(VmFlagsOf(p, &begin, &end).empty());
+    EXPECT_EQ(begin, reinterpret_cast<uintptr_t>(p)) << k;
+    EXPECT_EQ(end - begin, n) << k;
+    static_cast<char*>(p)[n - 1] = 1;
+    ::operator delete(p);
+  }
 }
 
 TEST(LargeAllocationsTest, FreedBlocksGoBackAndContentsSurviveGrowth) {
