@@ -335,6 +335,25 @@ TEST(ShrmSynthesisTest, TexelCentresEqualDirectEvaluationForEveryKernel) {
   }
 }
 
+// The tangent reparameterization (Kajiya-Kay): rho_lpq only for q = 0, whose l-sums alone the
+// synthesis forms (the others are zero); the texel centres still equal the direct evaluation,
+// which sums every q.
+TEST(ShrmSynthesisTest, TangentCoefficientsOnlyQZeroTexelCentresEqualDirectEvaluation) {
+  std::mt19937 rng(23);
+  for (const int pmax : {2, 5, 8}) {
+    BrdfCoefficients brdf = TestBrdf(10, pmax);
+    brdf.reparam = ReparamKind::kTangent;
+    const ShrmSynthesizer synth = MakeSynth(brdf);
+    ASSERT_EQ(synth.RhoQmax(), 0);
+    for (ShrmKind kind : {ShrmKind::kGlobal, ShrmKind::kLocal}) {
+      auto cube = synth.BuildCube(kind, 12);
+      ASSERT_TRUE(cube.ok()) << cube.status();
+      EXPECT_LT(TexelCentreError(synth, *cube, rng), kTexelCentreTol)
+          << "P " << pmax << (kind == ShrmKind::kGlobal ? " global" : " local");
+    }
+  }
+}
+
 // A grid too large for ShrmGridOptions::max_grid_bytes is made in slabs of rows, each resampled
 // before the next: the texel centres still equal the direct evaluation (RadianceAt, eq. 5.23 with
 // the library's Wigner tables), and the slabs' cube is the whole grid's value for value (the

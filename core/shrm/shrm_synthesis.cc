@@ -235,6 +235,9 @@ void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int ro
   constexpr int B = kWignerBlock;
   const int f = lmax_, pm = pmax_, ch = channels_;
   const int qmax = std::min(pm, f);
+  // The orders q whose rho_lpq can be nonzero: all, or only q = 0 for the tangent
+  // reparameterization (Create leaves the others zero); the l-sums of the rest are zero.
+  const int qrho = RhoQmax();
   const int n = ShCount(pm);
   const int stride = n * ch;
   // Step 1 (eq. 5.24, the l-sum) for the block of rows at once: the Wigner columns of all rows
@@ -248,8 +251,8 @@ void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int ro
   double* bim = scratch.bim.data();
   for (int m = -f; m <= f; ++m) {
     const std::complex<double>* lm = light_.data() + static_cast<size_t>(m + f) * (f + 1) * ch;
-    for (int q = 0; q <= qmax; ++q) {
-      const double* d = scratch.cols.data() + WignerColumnIndex(f, qmax, 0, m, q) * B;
+    for (int q = 0; q <= qrho; ++q) {
+      const double* d = scratch.cols.data() + WignerColumnIndex(f, qrho, 0, m, q) * B;
       const int l0 = std::max(std::abs(m), std::abs(q));
       for (int p = std::abs(q); p <= pm; ++p) {
         const double* rho =
@@ -292,7 +295,7 @@ void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int ro
     // q < 0 from q > 0: with L_{l,-m} = (-1)^m conj(L_lm) (real lighting), rho_{l,p,-q} = rho_lpq
     // and d^l_{-m,-q} = (-1)^{m-q} d^l_mq, B_{m,p,q} = (-1)^q conj(B_{-m,p,-q}) (half of the
     // l-sums; tests/shrm_synthesis_test.cc checks the grid against the direct eq. 5.23 / 5.14).
-    for (int q = 1; q <= qmax; ++q) {
+    for (int q = 1; q <= qrho; ++q) {
       const double sign = q % 2 == 0 ? 1.0 : -1.0;
       for (int p = q; p <= pm; ++p)
         for (int c = 0; c < ch; ++c)
@@ -321,9 +324,13 @@ void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int ro
         for (int q = 0; q <= std::min(p, qmax); ++q) {
           const int t = p * (p + 1) / 2 + q;
           for (int c = 0; c < ch; ++c) {
+            std::complex<double>* w = work + static_cast<size_t>(t * ch + c) * nb;
+            if (q > qrho) {  // rho_lpq = 0
+              for (int m = -f; m <= f; ++m) w[bin(m)] = {0.0, 0.0};
+              continue;
+            }
             const double* re = bre + bm_at(p, q, c);
             const double* im = bim + bm_at(p, q, c);
-            std::complex<double>* w = work + static_cast<size_t>(t * ch + c) * nb;
             for (int m = -f; m <= f; ++m) w[bin(m)] = {re[m + f], im[m + f]};
           }
         }
@@ -337,7 +344,7 @@ void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int ro
           const int t = p * (p + 1) / 2 + s;
           for (int c = 0; c < ch; ++c) {
             for (size_t i = 0; i < nm; ++i) sre[i] = sim[i] = 0.0;
-            for (int q = -std::min(p, qmax); q <= std::min(p, qmax); ++q) {
+            for (int q = -std::min(p, qrho); q <= std::min(p, qrho); ++q) {
               const double w = dp[WignerColumnIndex(pm, pm, p, s, q)];
               const double* re = bre + bm_at(p, q, c);
               const double* im = bim + bm_at(p, q, c);
@@ -424,8 +431,8 @@ void ShrmSynthesizer::SynthesizeSlabs(ShrmKind kind, int na, int owned, int thre
     plan = fftw_plan_many_dft(1, n, nseries, probe, nullptr, 1, nb, probe_out, nullptr, 1, nb,
                               FFTW_BACKWARD, FFTW_ESTIMATE);
   }
-  const int qmax = std::min(pmax_, lmax_);
-  const WignerColumnTables tables(lmax_, qmax), ptables(pmax_, pmax_);
+  const int qrho = RhoQmax();
+  const WignerColumnTables tables(lmax_, qrho), ptables(pmax_, pmax_);
   constexpr int B = kWignerBlock;
   std::vector<RowScratch> scratches(std::max(1, threads));
   for (RowScratch& scratch : scratches) {
@@ -435,7 +442,7 @@ void ShrmSynthesizer::SynthesizeSlabs(ShrmKind kind, int na, int owned, int thre
       scratch.out = reinterpret_cast<std::complex<double>*>(fftw_alloc_complex(work_size));
     }
     std::fill(scratch.work, scratch.work + work_size, std::complex<double>(0, 0));
-    scratch.cols.resize(WignerColumnCount(lmax_, qmax) * B);
+    scratch.cols.resize(WignerColumnCount(lmax_, qrho) * B);
     scratch.dp.resize(WignerColumnCount(pmax_, pmax_));
     const size_t nbm = static_cast<size_t>(2 * lmax_ + 1) * ShCount(pmax_) * channels_ * B;
     scratch.bre.assign(nbm, 0.0);

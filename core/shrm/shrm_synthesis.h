@@ -20,6 +20,7 @@
 #ifndef SHRM_CORE_SHRM_SHRM_SYNTHESIS_H_
 #define SHRM_CORE_SHRM_SHRM_SYNTHESIS_H_
 
+#include <algorithm>
 #include <array>
 #include <complex>
 #include <functional>
@@ -94,6 +95,9 @@ class ShrmSynthesizer {
   int pmax() const { return pmax_; }
   int channels() const { return channels_; }
   ReparamKind reparam() const { return reparam_; }
+  // The largest order |q| whose rho_lpq can be nonzero: min(P, F), or 0 for the tangent
+  // reparameterization (whose coefficients Create keeps for q = 0 only).
+  int RhoQmax() const { return reparam_ == ReparamKind::kTangent ? 0 : std::min(pmax_, lmax_); }
 
   // Eq. 5.7 (no Lambda): B_lmpq = L_lm rho_lpq (complex), any signs of m and q.
   std::complex<double> Blmpq(int l, int m, int p, int q, int c) const;
