@@ -595,11 +595,14 @@ sleep_until $((PHASE_START + 6))
 # SIGTERM when replica 1 surely has a job in flight, so the drain has work to finish. The clients'
 # jobs take milliseconds: by the time a poll of the shrm_jobs_in_flight gauge has answered and the
 # signal is sent, the job it saw may be done (on a loaded machine it often is). So one job of
-# a few tenths of a second alone (an SHRM at orders (20, 6), 48 x 48; seconds on the loaded
-# replica, well within its 30 s grace period) goes to replica 1 directly, and the
-# signal waits for the server's first progress event of that job: it is then running there.
+# about half a second (an SHRM at orders (60, 8), 32 x 32: 0.5 s alone on one thread and 110 MB,
+# 10-20 times that on the loaded replica, measured 13 s at orders (80, 10): within its 30 s grace
+# period) goes to replica 1 directly, and
+# the signal waits for the server's first progress event of that job: it is then running there.
+# (A job of a few tenths of a second, orders (20, 6), was sometimes over before the signal once
+# the transforms got faster.)
 SLOW=(prefilter --env "$ROOT/data/envmaps/courtyard.exr" --brdf microfacet:sigma=0.1
-  --orders 20,6 --size 48 --verify 0 --verbose -o "$TMP/work/slow.shrm.exr")
+  --orders 60,8 --size 32 --verify 0 --verbose -o "$TMP/work/slow.shrm.exr")
 "$SHRM" "${SLOW[@]}" --server "127.0.0.1:$P1" >"$TMP/work/slow.log" 2>&1 &
 SLOW_PID=$!
 wait_log "$TMP/work/slow.log" 'remote ' 30 ||

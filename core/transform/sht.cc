@@ -257,6 +257,8 @@ absl::StatusOr<std::shared_ptr<const ShtPlan>> ShtPlan::CreateImpl(const ShtGrid
   return std::shared_ptr<const ShtPlan>(std::move(plan));
 }
 
+namespace {
+
 // lambda_m^m (the sectoral start) into cur and 0 into prev, on every ring pair.
 void StartColumn(int nv, const V4* sect, V4* prev, V4* cur) {
   for (int v = 0; v < nv; ++v) {
@@ -299,9 +301,9 @@ struct FourDegrees {
 
 // One m of the analysis's theta stage for K = 2 x channels arrays (re, im per channel): degrees
 // l and l + 1 (the E and O arrays) in one pass over the pairs, each of the 2K dot products in its
-// own accumulator. Each sum still runs over the pairs in order, lane by lane, so the result is the
-// same as one degree at a time, bit for bit; what changes is that the 2K sums no longer wait on
-// one another (one chain of dependent adds per sum was the stage's limit). `emit(l, sums)` gets
+// own accumulator. Each sum still runs over the pairs in order, lane by lane, as one degree at a
+// time did; what changes is that the 2K sums no longer wait on one another (one chain of dependent
+// adds per sum was the stage's limit). `emit(l, sums)` gets
 // the K lane-vectors of degree l.
 template <int K, typename Emit>
 void AnalysisColumn(int m, int lmax, int nv, const V4* x, const V4* sect, const double* rec_a,
@@ -416,6 +418,8 @@ void SynthesisColumn(int m, int lmax, int nv, const V4* x, const V4* sect, const
     }
   }
 }
+
+}  // namespace
 
 // Theta stage, eq. (1): coeffs(l, m) = sum_p lambda_l^m(x_p) (E_p or O_p), E/O by parity of l-m.
 // eo layout: [((m * 2 + parity) * channels + c) * 2 + re/im][pair], pairs padded with zeros.
