@@ -3,6 +3,7 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
 
+#include <algorithm>
 #include <chrono>
 #include <thread>
 
@@ -14,8 +15,8 @@
 namespace shrm::server {
 
 namespace {
-// How long a draining server stays after its last call completed, for the transport to deliver
-// what it still holds (see Shutdown).
+// How long a draining server waits after its last job, before the shutdown, for the transport to
+// deliver what it still holds (see Shutdown).
 constexpr std::chrono::milliseconds kFlushLinger{500};
 }  // namespace
 
@@ -68,14 +69,27 @@ void ShrmServer::Shutdown(absl::Duration grace) {
   LogEvent("draining", {{"grace_ms", std::to_string(absl::ToInt64Milliseconds(grace))}});
   server_->GetHealthCheckService()->SetServingStatus(kReadinessService, false);
   service_->BeginDrain();
-  server_->Shutdown(std::chrono::system_clock::now() +
-                    std::chrono::milliseconds(absl::ToInt64Milliseconds(grace)));
-  // A call is complete for Shutdown once its last message and status are handed to the
-  // transport, which may still be writing them (a result of megabytes waits on the client's flow
-  // control): the transport keeps running while the server object lives, so stay a moment
-  // before the process can exit (measured: a 6 MB result of a job that finished during the drain
-  // was lost when the process exited 25 ms after it, and the client's retry found no server).
-  if (grace > absl::ZeroDuration()) std::this_thread::sleep_for(kFlushLinger);
+  // gRPC's Shutdown counts a call complete once its last message is handed to the transport, and
+  // then tears the connections down with whatever the transport still holds: a 6 MB result of a
+  // job that finished during the drain was lost that way (deploy_test). So the running jobs
+  // finish first, with the server still up (new ones are refused by BeginDrain), and the
+  // transport gets a moment to deliver their results before the shutdown; the grace period
+  // bounds it all.
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::milliseconds(absl::ToInt64Milliseconds(grace));
+  while (service_->running_jobs() > 0 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  if (grace > absl::ZeroDuration()) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        deadline - std::chrono::steady_clock::now());
+    std::this_thread::sleep_for(
+        std::max(std::chrono::milliseconds(0), std::min(kFlushLinger, left)));
+  }
+  const auto left =
+      std::max(std::chrono::milliseconds(0), std::chrono::duration_cast<std::chrono::milliseconds>(
+                                                 deadline - std::chrono::steady_clock::now()));
+  server_->Shutdown(std::chrono::system_clock::now() + left);
   LogEvent("stopped", {});
 }
 
