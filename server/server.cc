@@ -77,19 +77,16 @@ void ShrmServer::Shutdown(absl::Duration grace) {
   // bounds it all.
   const auto deadline = std::chrono::steady_clock::now() +
                         std::chrono::milliseconds(absl::ToInt64Milliseconds(grace));
-  while (service_->running_jobs() > 0 && std::chrono::steady_clock::now() < deadline) {
+  const auto left = [&] {
+    return std::max(std::chrono::milliseconds(0),
+                    std::chrono::duration_cast<std::chrono::milliseconds>(
+                        deadline - std::chrono::steady_clock::now()));
+  };
+  while (service_->running_jobs() > 0 && left() > std::chrono::milliseconds(0)) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
-  if (grace > absl::ZeroDuration()) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
-        deadline - std::chrono::steady_clock::now());
-    std::this_thread::sleep_for(
-        std::max(std::chrono::milliseconds(0), std::min(kFlushLinger, left)));
-  }
-  const auto left =
-      std::max(std::chrono::milliseconds(0), std::chrono::duration_cast<std::chrono::milliseconds>(
-                                                 deadline - std::chrono::steady_clock::now()));
-  server_->Shutdown(std::chrono::system_clock::now() + left);
+  std::this_thread::sleep_for(std::min(kFlushLinger, left()));
+  server_->Shutdown(std::chrono::system_clock::now() + left());
   LogEvent("stopped", {});
 }
 

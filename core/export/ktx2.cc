@@ -446,9 +446,7 @@ void RoundTripRgb(Format format, std::span<float> rgb) {
       break;
     case Format::kB10G11R11UfloatPack32:
     case Format::kE5B9G9R9UfloatPack32:
-      for (size_t i = 0; i + 3 <= rgb.size(); i += 3) RoundTrip(format, &rgb[i]);
-      break;
-    case Format::kR16G16Sfloat:  // R and G stored; B as it is
+    case Format::kR16G16Sfloat:  // (R and G stored; B as it is)
       for (size_t i = 0; i + 3 <= rgb.size(); i += 3) RoundTrip(format, &rgb[i]);
       break;
     default:  // 32-bit floats are stored as they are
