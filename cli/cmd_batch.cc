@@ -342,6 +342,14 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
             err(path, "must be \"none\", \"lanczos\" or \"auto\"");
           else
             opt->job.window = *w;
+        } else if (key == "view_variable") {
+          absl::StatusOr<std::optional<ViewVariable>> w =
+              v.is_string() ? jobs::ParseViewChoice(v.get<std::string>())
+                            : absl::InvalidArgumentError("not a string");
+          if (!w.ok())
+            err(path, "must be \"auto\", \"view\" or \"normal\"");
+          else
+            opt->job.view = *w;
         } else if (key == "kind") {
           if (!v.is_string() || (v != "global" && v != "local"))
             err(path, "must be \"global\" or \"local\"");
@@ -377,8 +385,8 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
           if (!ParseRotate(v, &opt->job.env.rotate_ypr_deg)) err(path, kRotateError);
         } else {
           err(path,
-              "unknown option (expected epsilon, tolerance, window, verify, kind, size, orders, "
-              "half, max_size, rotate, report, preview, ktx2, report_html)");
+              "unknown option (expected epsilon, tolerance, window, view_variable, verify, kind, "
+              "size, orders, half, max_size, rotate, report, preview, ktx2, report_html)");
         }
       }
       if (absl::Status rule = jobs::SetOrderRule(&opt->job, epsilon, tolerance, orders,

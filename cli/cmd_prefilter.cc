@@ -252,6 +252,9 @@ void AddPrefilterJobOptions(CLI::App* sub, PrefilterArgs* args) {
   sub->add_option("--window", args->window, Help("window"))
       ->capture_default_str()
       ->check(CLI::IsMember({"none", "lanczos", "auto"}));
+  sub->add_option("--view-variable", args->view_variable, Help("view_variable"))
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "view", "normal"}));
   sub->add_option("--verify", args->verify, Help("verify"))
       ->capture_default_str()
       ->check(CLI::Range(0, jobs::kMaxVerifyPairs));
@@ -277,6 +280,9 @@ absl::StatusOr<jobs::PrefilterJob> PrefilterJobFromArgs(const PrefilterArgs& a) 
   if (!window.ok())
     return WithMessage(window.status(), absl::StrCat("--", window.status().message()));
   job.window = *window;
+  absl::StatusOr<std::optional<ViewVariable>> view = jobs::ParseViewChoice(a.view_variable);
+  if (!view.ok()) return WithMessage(view.status(), absl::StrCat("--", view.status().message()));
+  job.view = *view;
   std::optional<jobs::Orders> orders;
   if (!a.orders.empty()) {
     SHRM_ASSIGN_OR_RETURN(orders, jobs::ParseOrdersText(a.orders, "--orders"));

@@ -27,6 +27,7 @@ struct PrefilterArgs {
   std::optional<double> tolerance;
   int verify = jobs::kDefaultVerify;
   std::string window = RingingWindowName(RingingWindow::kAuto);
+  std::string view_variable = "auto";
   std::string kind = jobs::ShrmKindName(ShrmKind::kGlobal);
   int size = 0;
   bool half = false;

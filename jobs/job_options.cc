@@ -64,7 +64,7 @@ const Option* FindOption(const std::array<Option, N>& table, std::string_view na
 }
 
 // The prefilter job's own options (after the environment's).
-const std::array<JobOption, 10> kPrefilterJobOptions = {{
+const std::array<JobOption, 11> kPrefilterJobOptions = {{
     {"brdf", "BRDF spec, e.g. microfacet:sigma=0.2 (docs/brdf.md)", kCommandLine | kWire,
      "--brdf ggx:alpha=0.3", "", [](PrefilterJob* j) { j->brdf = "ggx:alpha=0.3"; },
      "manifest: \"brdfs\" lists the specs, one job each"},
@@ -80,6 +80,11 @@ const std::array<JobOption, 10> kPrefilterJobOptions = {{
     {"window", "ringing window on the lighting bands: none, lanczos, or auto (--tolerance chooses)",
      kEverywhere, "--window lanczos", "\"lanczos\"",
      [](PrefilterJob* j) { j->window = RingingWindow::kLanczos; }, ""},
+    {"view_variable",
+     "variable of the view expansion: normal (N = (R + V)/|R + V|: converges at grazing views), "
+     "view (the paper's V), or auto (normal with --tolerance, view with --epsilon or --orders)",
+     kEverywhere, "--view-variable normal", "\"normal\"",
+     [](PrefilterJob* j) { j->view = ViewVariable::kNormal; }, ""},
     {"verify",
      "measure the result at N seeded (N, V) pairs against the brute-force sum (default 64; 0: "
      "no check)",
@@ -103,7 +108,7 @@ const std::array<JobOption, 10> kPrefilterJobOptions = {{
      "within it, reported, when the tolerance needs more",
      kEverywhere, "--max-size 32", "32", [](PrefilterJob* j) { j->max_size_mb = 32; }, ""},
 }};
-const std::array<JobOption, 17> kPrefilterOptions =
+const std::array<JobOption, 18> kPrefilterOptions =
     Concat(EnvironmentOptions<PrefilterJob>(), kPrefilterJobOptions);
 
 // The IBL job's own options (after the environment's).

@@ -18,6 +18,23 @@ namespace shrm::jobs {
 
 const char* ShrmKindName(ShrmKind kind) { return kind == ShrmKind::kLocal ? "local" : "global"; }
 
+const char* ViewChoiceName(const std::optional<ViewVariable>& view) {
+  return view ? ViewVariableName(*view) : "auto";
+}
+
+absl::StatusOr<std::optional<ViewVariable>> ParseViewChoice(absl::string_view name) {
+  if (name == "auto") return std::optional<ViewVariable>();
+  if (name == "view") return std::optional<ViewVariable>(ViewVariable::kView);
+  if (name == "normal") return std::optional<ViewVariable>(ViewVariable::kNormal);
+  return absl::InvalidArgumentError(
+      absl::StrCat("view-variable must be auto, view or normal, got '", name, "'"));
+}
+
+ViewVariable ResolvedViewVariable(const PrefilterJob& job) {
+  if (job.view) return *job.view;
+  return job.tolerance > 0 && !job.orders ? ViewVariable::kNormal : ViewVariable::kView;
+}
+
 absl::StatusOr<ShrmKind> ParseShrmKind(absl::string_view name) {
   if (name == "global") return ShrmKind::kGlobal;
   if (name == "local") return ShrmKind::kLocal;
@@ -80,6 +97,11 @@ absl::Status ValidatePrefilterJob(const PrefilterJob& job) {
     return absl::InvalidArgumentError(
         "tolerance and orders exclude each other (the tolerance chooses the orders)");
   }
+  if (job.view == ViewVariable::kNormal && job.tolerance == 0 && !job.orders) {
+    return absl::InvalidArgumentError(
+        "view-variable normal needs the tolerance rule or explicit orders: the epsilon rule's "
+        "analysis (eqs. 5.15-5.19) is the paper's, in the view variable");
+  }
   if (job.orders) {
     const Orders& o = *job.orders;
     if (o.f < 0 || o.p < 0 || o.f > kMaxOrderF || o.p > kMaxOrderP) {
@@ -115,6 +137,7 @@ PrefilterOptions CorePrefilterOptions(const PrefilterJob& job, int threads) {
   opt.tolerance = job.tolerance;
   if (job.tolerance > 0) opt.size_budget_values = SizeBudgetValues(job);
   opt.window = job.window;
+  opt.view = ResolvedViewVariable(job);
   opt.verify = job.verify;
   opt.kind = job.kind;
   opt.face_size = job.face_size;
@@ -188,6 +211,7 @@ nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProve
   report["kind"] = ShrmKindName(job.kind);
   report["face_size"] = result.cube.face_size;
   report["window"] = RingingWindowName(result.window);
+  report["view_variable"] = ViewVariableName(result.brdf.view);
   report["order_rule"] = OrderRuleName(job);
   if (result.verified_pairs > 0) {
     report["measured"] = {{"pairs", result.verified_pairs},
@@ -197,12 +221,16 @@ nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProve
   }
   if (result.tolerance_rule) {
     const ToleranceChoice& c = result.choice;
-    const ToleranceTargets t = TargetsForTolerance(job.tolerance);
+    const ToleranceTargets t = TargetsForTolerance(job.tolerance, result.brdf.view);
     const double bytes = job.half ? 2.0 : 4.0;
     const DirectionalError total = TotalEstimate(c);
     report["tolerance"] = {
         {"tolerance", job.tolerance},
-        {"targets", {{"front_rms", t.rms}, {"front_max", t.max}, {"grazing_rms", t.grazing_rms}}},
+        {"targets",
+         {{"front_rms", t.rms},
+          {"front_max", t.max},
+          {"grazing_rms", t.grazing_rms},
+          {"grazing_is_target", t.grazing}}},
         {"estimate",
          {{"front", StatsJson(total.front)},
           {"grazing", StatsJson(total.grazing)},
@@ -246,6 +274,10 @@ std::string WhyFileDiffers(const PrefilterJob& job, const std::string& canonical
   if (job.window != RingingWindow::kAuto &&
       !(why = differs("shrm:window", RingingWindowName(job.window))).empty())
     return why;
+  // The normal variable is not asked of the BRDFs it does not apply to (P = 0, tangent): a file
+  // in the view variable differs only when the job asks for the view explicitly and it is normal.
+  if (job.view == ViewVariable::kView && file.cube.view == ViewVariable::kNormal)
+    return "view variable normal != view";
   if (job.orders &&
       !(why = differs("shrm:orders", absl::StrCat(job.orders->f, ",", job.orders->p))).empty())
     return why;
@@ -307,12 +339,18 @@ std::string FormatMb(double mb) { return absl::StrFormat("%.1f", std::ceil(mb * 
 absl::Status ToleranceOutcome(const PrefilterJob& job, const nlohmann::json& report) {
   if (job.tolerance <= 0 || !report.contains("tolerance")) return absl::OkStatus();
   const nlohmann::json& t = report["tolerance"];
-  const ToleranceTargets targets = TargetsForTolerance(job.tolerance);
+  const ToleranceTargets targets = TargetsForTolerance(
+      job.tolerance, report.value("view_variable", "view") == "normal" ? ViewVariable::kNormal
+                                                                       : ViewVariable::kView);
   const std::string where =
       absl::StrCat(" at (F_B, P_B) = (", report.value("F_B", 0), ", ", report.value("P_B", 0),
                    "), S_B ", report.value("face_size", 0));
   if (!t.value("met", false)) {
     const nlohmann::json& front = t["estimate"]["front"];
+    const std::string grazing =
+        targets.grazing ? absl::StrCat(", grazing RMS ", t["estimate"]["grazing"].value("rms", 0.0),
+                                       " (target ", targets.grazing_rms, ")")
+                        : "";
     const std::string within =
         t.value("budget_limited", false)
             ? absl::StrCat("the most accurate within the size budget of ", job.max_size_mb,
@@ -325,16 +363,23 @@ absl::Status ToleranceOutcome(const PrefilterJob& job, const nlohmann::json& rep
     return absl::FailedPreconditionError(absl::StrCat(
         "tolerance ", job.tolerance, " not met: estimated front RMS ", front.value("rms", 0.0),
         " (target ", targets.rms, "), largest ", front.value("max", 0.0), " (target ", targets.max,
-        ")", where, ": ", within, "; the outputs were written"));
+        ")", grazing, where, ": ", within, "; the outputs were written"));
   }
   if (report.contains("measured")) {
     const nlohmann::json& front = report["measured"]["front"];
     const double rms = front.value("rms", 0.0), largest = front.value("max", 0.0);
-    if (rms > targets.rms || largest > targets.max) {
+    const nlohmann::json& graze = report["measured"]["grazing"];
+    const double grazing_rms = graze.value("rms", 0.0);
+    const bool grazing_missed = targets.grazing && grazing_rms > targets.grazing_rms;
+    if (rms > targets.rms || largest > targets.max || grazing_missed) {
       return absl::FailedPreconditionError(absl::StrCat(
           "tolerance ", job.tolerance, " not met: measured front RMS ", rms, " (target ",
-          targets.rms, "), largest ", largest, " (target ", targets.max, ") at ",
-          report["measured"].value("pairs", 0), " pairs", where, "; the outputs were written"));
+          targets.rms, "), largest ", largest, " (target ", targets.max, ")",
+          targets.grazing
+              ? absl::StrCat(", grazing RMS ", grazing_rms, " (target ", targets.grazing_rms, ")")
+              : "",
+          " at ", report["measured"].value("pairs", 0), " pairs", where,
+          "; the outputs were written"));
     }
   }
   return absl::OkStatus();

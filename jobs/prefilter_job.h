@@ -77,6 +77,10 @@ struct PrefilterJob {
   double tolerance = kDefaultTolerance;
   // Ringing window on the lighting bands; kAuto = chosen by the tolerance rule (none otherwise).
   RingingWindow window = RingingWindow::kAuto;
+  // The variable of the view expansion (core/brdf/brdf_coefficients.h, docs/shrm.md "The view
+  // variable"); nullopt = auto: the normal with the tolerance rule, the paper's view with the
+  // epsilon rule and explicit orders. The epsilon rule takes the view only.
+  std::optional<ViewVariable> view;
   // > 0: the job measures its cube at this many seeded pairs against the brute-force sum
   // (FastReference): the report's "measured", shrm:measured_error; 0 = no check.
   int verify = kDefaultVerify;
@@ -105,6 +109,11 @@ const char* OrderRuleName(const PrefilterJob& job);
 // "global" / "local", and back (InvalidArgument naming the accepted values).
 const char* ShrmKindName(ShrmKind kind);
 absl::StatusOr<ShrmKind> ParseShrmKind(absl::string_view name);
+// "auto" (nullopt), "view", "normal", and back (InvalidArgument naming the accepted values).
+const char* ViewChoiceName(const std::optional<ViewVariable>& view);
+absl::StatusOr<std::optional<ViewVariable>> ParseViewChoice(absl::string_view name);
+// The view variable the job asks the core pipeline for (auto resolved by the order rule).
+ViewVariable ResolvedViewVariable(const PrefilterJob& job);
 
 // Every option within its range (names as in docs/cli.md without the dashes); the BRDF spec is
 // checked when it is parsed (ParseBrdfSpec).

@@ -160,6 +160,9 @@ v1::PrefilterRequest EncodePrefilterRequest(const jobs::PrefilterJob& job,
   req.set_window(job.window == RingingWindow::kNone      ? v1::RINGING_WINDOW_NONE
                  : job.window == RingingWindow::kLanczos ? v1::RINGING_WINDOW_LANCZOS
                                                          : v1::RINGING_WINDOW_AUTO);
+  req.set_view_variable(!job.view                          ? v1::VIEW_VARIABLE_AUTO
+                        : *job.view == ViewVariable::kView ? v1::VIEW_VARIABLE_VIEW
+                                                           : v1::VIEW_VARIABLE_NORMAL);
   req.set_kind(job.kind == ShrmKind::kLocal ? v1::SHRM_KIND_LOCAL : v1::SHRM_KIND_GLOBAL);
   req.set_face_size(job.face_size);
   req.set_half(job.half);
@@ -201,6 +204,19 @@ absl::StatusOr<WirePrefilter> DecodePrefilterRequest(const v1::PrefilterRequest&
       break;
     default:
       return absl::InvalidArgumentError("window: unknown value");
+  }
+  switch (request.view_variable()) {
+    case v1::VIEW_VARIABLE_AUTO:
+      w.job.view.reset();
+      break;
+    case v1::VIEW_VARIABLE_VIEW:
+      w.job.view = ViewVariable::kView;
+      break;
+    case v1::VIEW_VARIABLE_NORMAL:
+      w.job.view = ViewVariable::kNormal;
+      break;
+    default:
+      return absl::InvalidArgumentError("view_variable: unknown value");
   }
   switch (request.kind()) {
     case v1::SHRM_KIND_UNSPECIFIED:

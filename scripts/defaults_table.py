@@ -12,6 +12,14 @@ The figure and the markdown table of docs/results.md come from the JSON: `script
 defaults` and `scripts/plots.py table defaults`.
 
 `run` takes about 15 minutes on one core of the reference machine.
+
+  scripts/defaults_table.py normal [--shrm build/cli/shrm] [--json docs/data/defaults_normal.json]
+  scripts/defaults_table.py normal-table [--json docs/data/defaults_normal.json]
+
+The view variable (docs/shrm.md "The view variable"): the view-dependent BRDFs only, with the
+default rule as it is since session 21 (`--tolerance 0.01`, the normal variable, the grazing RMS
+a target), and the markdown table of docs/results.md beside the rows of the same jobs in the
+view variable (docs/data/defaults.json's "tolerance 0.01", session 13).
 """
 import argparse
 import json
@@ -29,6 +37,7 @@ BRDFS = [
     "ggx:alpha=0.1,f0=0.04", "ggx:alpha=0.1,f0=1", "ggx:alpha=0.3,f0=0.04", "ggx:alpha=0.3,f0=1",
 ]
 RULES = {"tolerance 0.01": ["--tolerance", "0.01"], "epsilon 0.03": ["--epsilon", "0.03"]}
+NORMAL_RULE = ("tolerance 0.01, normal", ["--tolerance", "0.01", "--view-variable", "normal"])
 VERIFY = 256
 
 
@@ -54,6 +63,7 @@ def run_one(shrm, env, brdf, rule_args, tmp):
         "file_mb": round(os.path.getsize(out) / 1e6, 3),
         "measured": r.get("measured"),
         "timings": r.get("timings"),
+        "view_variable": r.get("view_variable", "view"),
     })
     if "tolerance" in r:
         t = r["tolerance"]
@@ -63,13 +73,14 @@ def run_one(shrm, env, brdf, rule_args, tmp):
     return row
 
 
-def cmd_run(args):
+def sweep(args, rules, brdfs):
+    """run_one for every map x BRDF x rule, printed as it goes, written to args.json."""
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for m in MAPS:
             env = os.path.join(ROOT, "data", "envmaps", m + ".exr")
-            for b in BRDFS:
-                for rule, rule_args in RULES.items():
+            for b in brdfs:
+                for rule, rule_args in rules.items():
                     row = run_one(args.shrm, env, b, rule_args, tmp)
                     row.update({"map": m, "brdf": b, "rule": rule})
                     rows.append(row)
@@ -78,10 +89,44 @@ def cmd_run(args):
                           f"{row.get('F_B', '-')},{row.get('P_B', '-')} S {row.get('face_size', '-')} "
                           f"{row.get('file_mb', '-')} MB {row['wall_s']} s "
                           f"front {meas.get('front', {}).get('rms', '-')} / "
-                          f"{meas.get('front', {}).get('max', '-')}", flush=True)
+                          f"{meas.get('front', {}).get('max', '-')} grazing "
+                          f"{meas.get('grazing', {}).get('rms', '-')}", flush=True)
     with open(args.json, "w") as f:
         json.dump({"verify_pairs": VERIFY, "rows": rows}, f, indent=1)
         f.write("\n")
+
+
+def cmd_run(args):
+    sweep(args, RULES, BRDFS)
+
+
+def cmd_normal(args):
+    # Radially symmetric BRDFs (Phong) are left out: P = 0, the view variable does not enter.
+    sweep(args, dict([NORMAL_RULE]), [b for b in BRDFS if not b.startswith("phong")])
+
+
+def cmd_normal_table(args):
+    with open(args.json) as f:
+        normal = json.load(f)["rows"]
+    with open(os.path.join(ROOT, "docs", "data", "defaults.json")) as f:
+        view = {(r["map"], r["brdf"]): r for r in json.load(f)["rows"] if r["rule"] == "tolerance 0.01"}
+
+    def cells(r):
+        if r is None or "F_B" not in r:
+            return ["-", "-", "-", "-", "-"]
+        m = r.get("measured") or {}
+        front, graze = m.get("front", {}), m.get("grazing", {})
+        budget = " (budget)" if r.get("budget_limited") else ""
+        return [f"({r['F_B']}, {r['P_B']}), {r['face_size']}{budget}", f"{r['file_mb']:.3g}",
+                f"{r['wall_s']:.3g}", f"{front.get('rms', 0):.3g} / {front.get('max', 0):.3g}",
+                f"{graze.get('rms', 0):.3g}"]
+
+    print("| map | BRDF | normal: (F, P), S | MB | s | front RMS / largest | grazing RMS "
+          "| view (session 13): (F, P), S | MB | s | front RMS / largest | grazing RMS |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in normal:
+        print("| " + " | ".join([r["map"], r["brdf"]] + cells(r) +
+                                cells(view.get((r["map"], r["brdf"])))) + " |")
 
 
 def main(argv):
@@ -90,8 +135,13 @@ def main(argv):
     r = sub.add_parser("run")
     r.add_argument("--shrm", default=os.path.join(ROOT, "build", "cli", "shrm"))
     r.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "defaults.json"))
+    n = sub.add_parser("normal")
+    n.add_argument("--shrm", default=os.path.join(ROOT, "build", "cli", "shrm"))
+    n.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "defaults_normal.json"))
+    t = sub.add_parser("normal-table")
+    t.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "defaults_normal.json"))
     args = ap.parse_args(argv)
-    cmd_run(args)
+    {"run": cmd_run, "normal": cmd_normal, "normal-table": cmd_normal_table}[args.cmd](args)
 
 
 if __name__ == "__main__":

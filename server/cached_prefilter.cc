@@ -52,9 +52,11 @@ absl::StatusOr<CachedPrefilterResult> CachedPrefilter(const CachedPrefilterInput
   // 1. rho_lpq.
   SHRM_RETURN_IF_ERROR(clock.Begin("brdf"));
   const std::string brdf_key =
-      explicit_orders ? absl::StrCat(brdf.spec(), "|orders=", options.f, ",",
-                                     brdf.radially_symmetric() ? 0 : options.p)
-                      : absl::StrCat(brdf.spec(), "|epsilon=", KeyNumber(options.epsilon));
+      explicit_orders
+          ? absl::StrCat(brdf.spec(), "|orders=", options.f, ",",
+                         brdf.radially_symmetric() ? 0 : options.p,
+                         "|view=", ViewVariableName(EffectiveViewVariable(brdf, options.view)))
+          : absl::StrCat(brdf.spec(), "|epsilon=", KeyNumber(options.epsilon));
   std::shared_ptr<const CachedBrdf> cb = caches->brdf.Get(brdf_key);
   out.brdf_hit = cb != nullptr;
   if (!cb) {

@@ -205,22 +205,27 @@ echo "(Filament done: $(($(date +%s) - START)) s)"
 before=$FAILURES
 SHRMS="$TMP/shrms"
 mkdir -p "$SHRMS"
-for kind in global local; do
+# The "-n" pair: the same in the normal variable (shrm:view_variable "normal", docs/shaders.md).
+for name in global local global-n local-n; do
+  kind=${name%-n}
+  variable=view
+  [ "$kind" = "$name" ] || variable=normal
   if "$SHRM" prefilter --env "$COURTYARD" --brdf microfacet:sigma=0.3 --orders 8,3 --size 16 \
-    --kind "$kind" -o "$SHRMS/$kind.shrm.exr" --ktx2 "$SHRMS/$kind.shrm.ktx2" --threads 2 \
-    >"$TMP/shrm-$kind.log" 2>&1 &&
-    "$SHRM" render --shrm "$SHRMS/$kind.shrm.ktx2" --view 0.3,0.5,0.8 -o "$SHRMS/$kind-ref.ktx2" \
-      >>"$TMP/shrm-$kind.log" 2>&1; then
-    echo "PASS: shrm prefilter --kind $kind --ktx2, shrm render --view 0.3,0.5,0.8 (courtyard)"
+    --kind "$kind" --view-variable "$variable" -o "$SHRMS/$name.shrm.exr" \
+    --ktx2 "$SHRMS/$name.shrm.ktx2" --threads 2 >"$TMP/shrm-$name.log" 2>&1 &&
+    "$SHRM" render --shrm "$SHRMS/$name.shrm.ktx2" --view 0.3,0.5,0.8 -o "$SHRMS/$name-ref.ktx2" \
+      >>"$TMP/shrm-$name.log" 2>&1; then
+    echo "PASS: shrm prefilter --kind $kind --view-variable $variable --ktx2, shrm render --view 0.3,0.5,0.8 (courtyard)"
   else
-    echo "FAIL: shrm prefilter/render ($kind):"
-    cat "$TMP/shrm-$kind.log"
+    echo "FAIL: shrm prefilter/render ($name):"
+    cat "$TMP/shrm-$name.log"
     FAILURES=$((FAILURES + 1))
   fi
 done
 if [ "$FAILURES" -eq "$before" ]; then
   CHROMIUM="$CHROMIUM" run_node shaders run_shaders.mjs "$ROOT/shaders/wgsl/shrm.wgsl" \
-    "$SHRMS/global.shrm.ktx2" "$SHRMS/global-ref.ktx2" "$SHRMS/local.shrm.ktx2" "$SHRMS/local-ref.ktx2"
+    "$SHRMS/global.shrm.ktx2" "$SHRMS/global-ref.ktx2" "$SHRMS/local.shrm.ktx2" "$SHRMS/local-ref.ktx2" \
+    "$SHRMS/global-n.shrm.ktx2" "$SHRMS/global-n-ref.ktx2" "$SHRMS/local-n.shrm.ktx2" "$SHRMS/local-n-ref.ktx2"
 fi
 echo "(shaders done: $(($(date +%s) - START)) s)"
 

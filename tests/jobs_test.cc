@@ -132,6 +132,20 @@ TEST(PrefilterJob, ToleranceRuleRecordsItsEstimateAndSaysWhenItIsMissed) {
       jobs::ToleranceOutcome(job, jobs::PrefilterReportJson(job, Provenance(), r));
   EXPECT_EQ(measured.code(), absl::StatusCode::kFailedPrecondition);
   EXPECT_NE(measured.message().find("measured front RMS 0.004"), std::string::npos) << measured;
+  // In the normal variable the grazing RMS is a target too (docs/shrm.md "The view variable").
+  r.measured.front = {64, 0.004, 0.03};
+  r.measured.grazing = {8, 0.07, 0.2};
+  EXPECT_TRUE(jobs::ToleranceOutcome(job, jobs::PrefilterReportJson(job, Provenance(), r)).ok());
+  r.brdf.view = ViewVariable::kNormal;
+  const nlohmann::json normal_report = jobs::PrefilterReportJson(job, Provenance(), r);
+  EXPECT_EQ(normal_report["view_variable"], "normal");
+  EXPECT_EQ(normal_report["tolerance"]["targets"]["grazing_is_target"], true);
+  const absl::Status grazing = jobs::ToleranceOutcome(job, normal_report);
+  EXPECT_EQ(grazing.code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_NE(grazing.message().find("grazing RMS 0.07 (target 0.05)"), std::string::npos) << grazing;
+  r.brdf.view = ViewVariable::kView;
+  r.measured = {};
+  r.measured.front = {64, 0.004, 0.08};
   // A file of another tolerance is recomputed by a resumed batch.
   ShrmFile file;
   file.attributes = attrs;
@@ -199,6 +213,25 @@ TEST(PrefilterJob, DefaultIsTheToleranceRuleCheckedAndOneRuleAtATime) {
   ASSERT_TRUE(jobs::SetOrderRule(&job, std::nullopt, 0.02, std::nullopt, "x").ok());
   EXPECT_STREQ(jobs::OrderRuleName(job), "tolerance");
   EXPECT_FALSE(job.orders.has_value());
+  // The view variable: auto resolves to the normal with the tolerance rule, to the paper's view
+  // with the epsilon rule and explicit orders; an explicit choice is kept.
+  EXPECT_FALSE(PrefilterJob{}.view.has_value());
+  EXPECT_EQ(jobs::ResolvedViewVariable(PrefilterJob{}), ViewVariable::kNormal);
+  EXPECT_EQ(jobs::CorePrefilterOptions(PrefilterJob{}, 1).view, ViewVariable::kNormal);
+  PrefilterJob eps;
+  jobs::UseEpsilonRule(&eps, 0.03);
+  EXPECT_EQ(jobs::ResolvedViewVariable(eps), ViewVariable::kView);
+  PrefilterJob orders;
+  jobs::UseExplicitOrders(&orders, jobs::Orders{8, 2});
+  EXPECT_EQ(jobs::ResolvedViewVariable(orders), ViewVariable::kView);
+  orders.view = ViewVariable::kNormal;
+  EXPECT_EQ(jobs::CorePrefilterOptions(orders, 1).view, ViewVariable::kNormal);
+  PrefilterJob viewed;
+  viewed.view = ViewVariable::kView;
+  EXPECT_EQ(jobs::ResolvedViewVariable(viewed), ViewVariable::kView);
+  for (const char* name : {"auto", "view", "normal"})
+    EXPECT_STREQ(jobs::ViewChoiceName(*jobs::ParseViewChoice(name)), name);
+  EXPECT_EQ(jobs::ParseViewChoice("halfway").status().code(), absl::StatusCode::kInvalidArgument);
   const absl::Status two = jobs::SetOrderRule(&job, 0.05, 0.02, std::nullopt, "--a and --b");
   EXPECT_EQ(two.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(two.message().find("--a and --b exclude each other"), std::string::npos) << two;
@@ -242,6 +275,11 @@ TEST(PrefilterJob, ValidationNamesTheOption) {
          j->env.rotate_ypr_deg = std::array<double, 3>{0, INFINITY, 0};
        },
        "rotate"},
+      {[](PrefilterJob* j) {
+         jobs::UseEpsilonRule(j, 0.03);
+         j->view = ViewVariable::kNormal;
+       },
+       "view-variable normal"},
   };
   for (const Case& c : cases) {
     PrefilterJob job = ok;

@@ -43,6 +43,49 @@ TEST(ShrmFileTest, RoundTripKeepsEveryCoefficientInPlace) {
   fs::remove(path);
 }
 
+// shrm:view_variable: "normal" read back as the normal variable; a file without the attribute
+// (written before it existed) is in the view; anything else, or "normal" on a tangent-indexed
+// cube, is refused by name.
+TEST(ShrmFileTest, ViewVariableRoundTripsAndOldFilesAreInTheView) {
+  ShrmCube c = MakeCube(2);
+  c.view = ViewVariable::kNormal;
+  const std::string path = Temp("normal.shrm.exr");
+  ASSERT_TRUE(WriteShrmFile(path, c, {}).ok());
+  auto back = ReadShrmFile(path);
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->cube.view, ViewVariable::kNormal);
+  EXPECT_EQ(back->attributes.at("shrm:view_variable"), "normal");
+  EXPECT_NE(back->attributes.at("shrm:eval").find("N = (R + V)/|R + V|"), std::string::npos);
+  fs::remove(path);
+
+  auto write_with = [&](const char* value, const char* index) {
+    CubeExr exr;
+    exr.face_size = c.face_size;
+    for (int p = 0; p <= c.pmax; ++p)
+      for (int q = -p; q <= p; ++q) exr.group_names.push_back(ShrmChannelGroup(p, q));
+    exr.attributes = ShrmConventionAttributes(c);
+    exr.attributes["shrm:index"] = index;
+    if (value == nullptr) {
+      exr.attributes.erase("shrm:view_variable");
+    } else {
+      exr.attributes["shrm:view_variable"] = value;
+    }
+    exr.data = c.data;
+    EXPECT_TRUE(WriteCubeExr(path, exr).ok());
+    return ReadShrmFile(path);
+  };
+  auto old = write_with(nullptr, "reflection");
+  ASSERT_TRUE(old.ok()) << old.status();
+  EXPECT_EQ(old->cube.view, ViewVariable::kView);
+  for (const auto& [value, index] :
+       {std::pair{"halfway", "reflection"}, std::pair{"normal", "tangent"}}) {
+    auto bad = write_with(value, index);
+    EXPECT_EQ(bad.status().code(), absl::StatusCode::kInvalidArgument) << value << " " << index;
+    EXPECT_NE(bad.status().message().find("shrm:view_variable"), std::string::npos) << bad.status();
+  }
+  fs::remove(path);
+}
+
 TEST(ShrmFileTest, PlainCubeIsNotAnShrm) {
   CubeExr exr;
   exr.face_size = 2;

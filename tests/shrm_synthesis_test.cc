@@ -38,6 +38,9 @@ constexpr double kWignerTol = 1e-11;
 // Grid (4x4 Lagrange) + float storage at texel centres, F = 20 on >= 128 alpha rows:
 // (F h)^4 / 40 ~ 6e-5 for the top band, smaller for the energy-weighted error.
 constexpr double kTexelCentreTol = 2e-4;
+// ShrmEval from N against ShrmEvalAt from R = 2 (N.V) N - V, whose argument (R + V)/|R + V| is N
+// again up to the rounding of the reflection and the normalization.
+constexpr double kSameArgumentTol = 1e-9;
 
 constexpr int kF = 20;
 constexpr int kP = 3;
@@ -79,7 +82,8 @@ BrdfCoefficients TestBrdf(int lmax = kF, int pmax = kP) {
   return b;
 }
 
-// rho-hat(w_i', w_o') of a coefficient set, in a world-frame local frame with pole R.
+// rho-hat(w_i', w_o') of a coefficient set, in a world-frame local frame with pole R (the
+// view's argument w_o' is V in that frame, or N for ViewVariable::kNormal).
 class TestTransfer {
  public:
   explicit TestTransfer(const BrdfCoefficients& b) : b_(b) {}
@@ -105,7 +109,8 @@ class TestTransfer {
     const Vec3 a = std::abs(r_.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
     e1_ = a.Cross(r_).Normalized();
     e2_ = r_.Cross(e1_);
-    const Vec3 vl{v.Dot(e1_), v.Dot(e2_), v.Dot(r_)};
+    const Vec3 arg = b_.view == ViewVariable::kNormal ? n : v;
+    const Vec3 vl{arg.Dot(e1_), arg.Dot(e2_), arg.Dot(r_)};
     double theta, phi;
     AnglesFromDirection(vl, &theta, &phi);
     std::vector<std::complex<double>> yo(ShCount(b_.pmax));
@@ -166,19 +171,24 @@ double RelRms(const std::vector<double>& a, const std::vector<double>& b) {
   return std::sqrt(num / den);
 }
 
-TEST(ShrmSynthesisTest, DirectLocalAndGlobalMatchBruteForceOnRealMap) {
-  const BrdfCoefficients brdf = TestBrdf();
-  const ShrmSynthesizer synth = MakeSynth(brdf);
+// The direct evaluation of `synth` (local and global) and the pixel sum of the world-frame BRDF
+// `brdf` defines (TestTransfer), at 24 random front-facing (N, V): {local, global, reference}.
+struct DirectAndReference {
+  std::vector<double> local, global, ref;
+};
+DirectAndReference DirectVsBruteForce(const ShrmSynthesizer& synth, const BrdfCoefficients& brdf,
+                                      uint32_t seed) {
+  DirectAndReference out;
   auto integ = ReferenceIntegrator::Create(GetScene().samples);
-  ASSERT_TRUE(integ.ok());
+  EXPECT_TRUE(integ.ok());
+  if (!integ.ok()) return out;
   TestTransfer transfer(brdf);
   TransferFunction fn = [&transfer](const Vec3& n, const Vec3& v, const Vec3& w, int c) {
     return transfer(n, v, w, c);
   };
   ReferenceOptions opt;
   opt.grey = true;
-  std::mt19937 rng(7);
-  std::vector<double> ref, local, global;
+  std::mt19937 rng(seed);
   for (int i = 0; i < 24; ++i) {
     Vec3 n, v;
     RandomNormalView(rng, &n, &v);
@@ -187,11 +197,18 @@ TEST(ShrmSynthesisTest, DirectLocalAndGlobalMatchBruteForceOnRealMap) {
     const auto b_loc = synth.RadianceAt(ShrmKind::kLocal, r, v);
     const auto b_glo = synth.RadianceAt(ShrmKind::kGlobal, r, v);
     for (int c = 0; c < 3; ++c) {
-      ref.push_back(b_ref[c]);
-      local.push_back(b_loc[c]);
-      global.push_back(b_glo[c]);
+      out.ref.push_back(b_ref[c]);
+      out.local.push_back(b_loc[c]);
+      out.global.push_back(b_glo[c]);
     }
   }
+  return out;
+}
+
+TEST(ShrmSynthesisTest, DirectLocalAndGlobalMatchBruteForceOnRealMap) {
+  const BrdfCoefficients brdf = TestBrdf();
+  const ShrmSynthesizer synth = MakeSynth(brdf);
+  const auto [local, global, ref] = DirectVsBruteForce(synth, brdf, 7);
   const double err_local = RelRms(local, ref), err_global = RelRms(global, ref);
   std::printf("direct local vs brute force: rel RMS %.3g; global %.3g\n", err_local, err_global);
   EXPECT_LT(err_local, kDirectVsReferenceTol);
@@ -350,6 +367,40 @@ TEST(ShrmSynthesisTest, TangentCoefficientsOnlyQZeroTexelCentresEqualDirectEvalu
       ASSERT_TRUE(cube.ok()) << cube.status();
       EXPECT_LT(TexelCentreError(synth, *cube, rng), kTexelCentreTol)
           << "P " << pmax << (kind == ShrmKind::kGlobal ? " global" : " local");
+    }
+  }
+}
+
+// The normal variable (brdf_coefficients.h ViewVariable::kNormal): coefficients (p + q even) read
+// as an expansion in n' = Rot(R)^T N. The direct evaluation, local and global, against the
+// pixel sum of the world-frame BRDF they define; the cubes' texel centres against the direct
+// evaluation; ShrmEval from (N, V) against ShrmEvalAt from (R, V).
+TEST(ShrmSynthesisTest, NormalVariableMatchesBruteForceAndTexelCentres) {
+  BrdfCoefficients brdf = TestBrdf();
+  brdf.view = ViewVariable::kNormal;
+  for (int l = 0; l <= brdf.lmax; ++l)
+    for (int p = 0; p <= brdf.pmax; ++p)
+      for (int q = 0; q <= std::min(l, p); ++q)
+        if ((p + q) % 2 != 0) brdf.values[brdf.Index(l, p, q, 0)] = 0;
+  const ShrmSynthesizer synth = MakeSynth(brdf);
+  EXPECT_EQ(synth.view(), ViewVariable::kNormal);
+  const auto [local, global, ref] = DirectVsBruteForce(synth, brdf, 9);
+  std::mt19937 rng(9);
+  std::printf("normal variable, direct vs brute force: local %.3g, global %.3g\n",
+              RelRms(local, ref), RelRms(global, ref));
+  EXPECT_LT(RelRms(local, ref), kDirectVsReferenceTol);
+  EXPECT_LT(RelRms(global, ref), kDirectVsReferenceTol);
+  for (ShrmKind kind : {ShrmKind::kGlobal, ShrmKind::kLocal}) {
+    auto cube = synth.BuildCube(kind, 16);
+    ASSERT_TRUE(cube.ok());
+    EXPECT_EQ(cube->view, ViewVariable::kNormal);
+    EXPECT_LT(TexelCentreError(synth, *cube, rng), kTexelCentreTol);
+    for (int i = 0; i < 16; ++i) {
+      Vec3 n, v;
+      RandomNormalView(rng, &n, &v);
+      const Vec3 r = n * (2 * n.Dot(v)) - v;
+      const auto a = ShrmEval(*cube, n, v), b = ShrmEvalAt(*cube, r, v);
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(a[c], b[c], kSameArgumentTol * (1 + std::abs(b[c])));
     }
   }
 }

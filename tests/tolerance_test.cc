@@ -243,19 +243,36 @@ TEST(ToleranceTest, BudgetLimitedChoiceFitsAndBeatsTheObviousSplitsOfTheBudget) 
   }
 }
 
+enum class Expect {
+  kAll,  // front RMS, front largest, no negatives; and grazing RMS in the normal variable
+  // The paper's view variable and a BRDF whose rho-hat jumps to 0 at the normal's horizon (the
+  // simplified microfacet of eq. 5.34): the view expansion converges slowly where the horizon
+  // cuts the lobe, the largest front error (N.V just above kGrazingCosine) is beyond the estimate
+  // (measured 0.08-0.10 at P ~ 20), grazing values can be negative. The RMS and the estimate
+  // only: the reason the normal variable is the default (docs/shrm.md "The view variable").
+  kFrontRms,
+  // The normal variable, a sharp lobe (microfacet sigma 0.1) within the job's default size
+  // budget of 256 MB: the tolerance's choice ((110, 30), S 96: 638 MB) does not fit; the most
+  // accurate one within it ((127, 12), S 72) meets the front targets as measured, and its
+  // grazing RMS (measured 0.062 against 0.05) is reported. The grazing estimate rests on the ~9%
+  // of 256 selection pairs that graze (about 23): it is coarse (0.02-0.6 where 0.05-0.12 is
+  // measured), docs/shrm.md.
+  kFront,
+};
+
 struct RealCase {
   const char* map;
   const char* brdf;
-  // rho-hat jumps to 0 at the normal's horizon (the simplified microfacet of eq. 5.34): the view
-  // expansion converges slowly where the horizon cuts the lobe, and the largest front error (at
-  // N.V just above kGrazingCosine) is beyond the estimate (measured 0.08-0.10 at P ~ 20), and
-  // grazing values can be negative (open in docs/shrm.md). Only the RMS and the estimate are
-  // asserted for these.
-  bool horizon_jump = false;
+  Expect expect = Expect::kAll;
   // The window asked for (kAuto: the rule's choice; kLanczos: forced, F searched with its bias).
   // A forced Lanczos window blurs too much for 1% (w_l = 0.64 at l = F / 2): the rule must say
   // so (met = false at the map's highest order) and its estimate still predict the measurement.
   RingingWindow window = RingingWindow::kAuto;
+  // The default of the job layer's tolerance rule (jobs::ResolvedViewVariable); radially
+  // symmetric models take the view whatever is asked (P = 0).
+  ViewVariable view = ViewVariable::kNormal;
+  // The size budget (PrefilterOptions::size_budget_values) in MB of float32 values; 0 = none.
+  double budget_mb = 0;
 };
 
 class ToleranceRealMapTest : public ::testing::TestWithParam<RealCase> {};
@@ -272,6 +289,8 @@ TEST_P(ToleranceRealMapTest, ToleranceIsMetOrReportedAndTheEstimateHolds) {
   opt.window = rc.window;
   opt.threads = 2;
   opt.verify = kPairs;
+  opt.view = rc.view;
+  opt.size_budget_values = rc.budget_mb * 1e6 / 4;
   auto r = Prefilter(env, *brdf, opt);
   ASSERT_TRUE(r.ok()) << r.status();
   ASSERT_TRUE(r->tolerance_rule);
@@ -290,12 +309,13 @@ TEST_P(ToleranceRealMapTest, ToleranceIsMetOrReportedAndTheEstimateHolds) {
   EXPECT_NEAR(r->measured.grazing.rms, e.grazing.rms, kVerifyAgreement * (1 + e.grazing.rms));
   const double estimate = std::hypot(ch.truncation.front.rms, ch.interpolation.front.rms);
   std::printf(
-      "%s %s: (F, P) = (%d, %d) window %s S = %d (reference (%d, %d)); estimate front rms %.4f "
-      "(trunc %.4f max %.3f, interp %.4f); measured front rms %.4f max %.3f, grazing rms %.4f "
-      "max %.3f, negative %d\n",
-      rc.map, rc.brdf, ch.f, ch.p, RingingWindowName(ch.window), ch.face_size, ch.f_ref, ch.p_ref,
-      estimate, ch.truncation.front.rms, ch.truncation.front.max, ch.interpolation.front.rms,
-      e.front.rms, e.front.max, e.grazing.rms, e.grazing.max, e.negative);
+      "%s %s: view %s (F, P) = (%d, %d) window %s S = %d (reference (%d, %d)); estimate front rms "
+      "%.4f (trunc %.4f max %.3f, interp %.4f), grazing rms %.4f; measured front rms %.4f max "
+      "%.3f, grazing rms %.4f max %.3f, negative %d\n",
+      rc.map, rc.brdf, ViewVariableName(r->brdf.view), ch.f, ch.p, RingingWindowName(ch.window),
+      ch.face_size, ch.f_ref, ch.p_ref, estimate, ch.truncation.front.rms, ch.truncation.front.max,
+      ch.interpolation.front.rms, ch.truncation.grazing.rms, e.front.rms, e.front.max,
+      e.grazing.rms, e.grazing.max, e.negative);
   EXPECT_LE(e.front.rms, kEstimateFactor * estimate + kEstimateSlack);
   if (rc.window == RingingWindow::kLanczos) {
     EXPECT_EQ(ch.window, RingingWindow::kLanczos);
@@ -303,26 +323,33 @@ TEST_P(ToleranceRealMapTest, ToleranceIsMetOrReportedAndTheEstimateHolds) {
     EXPECT_GE(e.front.rms, estimate / kEstimateFactor);
     return;
   }
-  EXPECT_TRUE(ch.met);
+  // Within a size budget the rule may have to take less than the tolerance needs; it says so.
+  EXPECT_TRUE(ch.met || (rc.budget_mb > 0 && ch.budget_limited));
   EXPECT_LE(e.front.rms, kTolerance);
-  if (!rc.horizon_jump) {
+  if (rc.expect != Expect::kFrontRms) {
     EXPECT_LE(e.front.max, kMaxErrorFactor * kTolerance);
     EXPECT_EQ(e.negative, 0);
+  }
+  if (rc.expect == Expect::kAll && r->brdf.view == ViewVariable::kNormal) {
+    EXPECT_LE(e.grazing.rms, kGrazingFactor * kTolerance);
   }
 }
 
 INSTANTIATE_TEST_SUITE_P(
     BundledMaps, ToleranceRealMapTest,
-    ::testing::Values(RealCase{"courtyard.exr", "phong:s=32"},
-                      RealCase{"courtyard.exr", "phong:s=512"},
-                      RealCase{"courtyard.exr", "phong:s=128", false, RingingWindow::kLanczos},
-                      RealCase{"courtyard.exr", "microfacet:sigma=0.2", true},
-                      RealCase{"city.exr", "microfacet:sigma=0.1", true},
-                      RealCase{"forest.exr", "ggx:alpha=0.3,f0=1"},
-                      RealCase{"interior.exr", "phong:s=8"}),
+    ::testing::Values(
+        RealCase{"courtyard.exr", "phong:s=32"}, RealCase{"courtyard.exr", "phong:s=512"},
+        RealCase{"courtyard.exr", "phong:s=128", Expect::kAll, RingingWindow::kLanczos},
+        RealCase{"courtyard.exr", "microfacet:sigma=0.2"},
+        RealCase{"courtyard.exr", "microfacet:sigma=0.2", Expect::kFrontRms, RingingWindow::kAuto,
+                 ViewVariable::kView},
+        RealCase{"city.exr", "microfacet:sigma=0.1", Expect::kFront, RingingWindow::kAuto,
+                 ViewVariable::kNormal, 256},
+        RealCase{"forest.exr", "ggx:alpha=0.3,f0=1"}, RealCase{"interior.exr", "phong:s=8"}),
     [](const ::testing::TestParamInfo<RealCase>& param_info) {
       std::string name = std::string(param_info.param.map) + "_" + param_info.param.brdf +
-                         (param_info.param.window == RingingWindow::kLanczos ? "_lanczos" : "");
+                         (param_info.param.window == RingingWindow::kLanczos ? "_lanczos" : "") +
+                         (param_info.param.view == ViewVariable::kView ? "_view" : "");
       for (char& c : name)
         if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
       return name;

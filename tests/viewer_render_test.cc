@@ -146,6 +146,10 @@ void Expect(const Comparison& c, double fail_fraction, double hard_limit, const 
   EXPECT_LE(c.max_rel, hard_limit) << what;
 }
 
+// Views: a generic one, and one looking down near the +Y pole, where the local frames of the
+// texels turn fastest (mode 2 must not mix them).
+const OrbitView kViews[] = {{30, 20, 3}, {-120, 75, 3}};
+
 class ViewerRenderTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -188,6 +192,28 @@ class ViewerRenderTest : public ::testing::Test {
   }
 
   // HDR frame of `mode` without background.
+  // Modes 1 and 2 at every view of kViews against the CPU's evaluation of the scene's SHRMs
+  // (`data`): mode 1 by eq. 5.35 for the central view, mode 2 by eq. 5.10 per pixel.
+  static void ExpectModesMatchCpu(const ShrmData& data, const std::string& label) {
+    for (const OrbitView& view : kViews) {
+      const OrbitCamera camera(view);
+      const GeometryBuffer g = SphereGeometry(camera, kWidth, kHeight);
+      const std::vector<float> m1 = RenderMode(1, camera), m2 = RenderMode(2, camera);
+      const Image c1 =
+          ShadeImage(g, ShrmPixelShader(data.global, ViewModel::kCentral, camera.CentralView()), 2);
+      const Image c2 = ShadeImage(g, ShrmPixelShader(data.local, ViewModel::kPerPixel, {}), 2);
+      std::printf("view %g,%g,%g\n", view.azimuth_deg, view.elevation_deg, view.distance);
+      const std::string tag =
+          absl::StrCat(label, "cpu_", view.azimuth_deg, "_", view.elevation_deg);
+      Dump(tag + "_mode1", m1, c1, Mask(m1, g));
+      Dump(tag + "_mode2", m2, c2, Mask(m2, g));
+      Expect(Compare(m1, c1, Mask(m1, g), kSameCubeTol), kSameCubeFailFraction, kSameCubeHardLimit,
+             (label + "mode 1 vs CPU eq. 5.35 map (global, central V)").c_str());
+      Expect(Compare(m2, c2, Mask(m2, g), kSameCubeTol), kSameCubeFailFraction, kSameCubeHardLimit,
+             (label + "mode 2 vs CPU ShrmEval (local, per-pixel V)").c_str());
+    }
+  }
+
   static std::vector<float> RenderMode(int mode, const OrbitCamera& camera) {
     RenderSettings s;
     s.mode = mode;
@@ -222,28 +248,36 @@ std::shared_ptr<const ShrmData> ViewerRenderTest::shrm_;
 GlContext* ViewerRenderTest::context_ = nullptr;
 Renderer* ViewerRenderTest::renderer_ = nullptr;
 
-// Views: a generic one, and one looking down near the +Y pole, where the local frames of the
-// texels turn fastest (mode 2 must not mix them).
-const OrbitView kViews[] = {{30, 20, 3}, {-120, 75, 3}};
-
 TEST_F(ViewerRenderTest, ModesMatchCpuEvaluationOfTheSameShrm) {
   ASSERT_NE(renderer_, nullptr);
-  for (const OrbitView& view : kViews) {
-    const OrbitCamera camera(view);
-    const GeometryBuffer g = SphereGeometry(camera, kWidth, kHeight);
-    const std::vector<float> m1 = RenderMode(1, camera), m2 = RenderMode(2, camera);
-    const Image c1 =
-        ShadeImage(g, ShrmPixelShader(shrm_->global, ViewModel::kCentral, camera.CentralView()), 2);
-    const Image c2 = ShadeImage(g, ShrmPixelShader(shrm_->local, ViewModel::kPerPixel, {}), 2);
-    std::printf("view %g,%g,%g\n", view.azimuth_deg, view.elevation_deg, view.distance);
-    const std::string tag = absl::StrCat("cpu_", view.azimuth_deg, "_", view.elevation_deg);
-    Dump(tag + "_mode1", m1, c1, Mask(m1, g));
-    Dump(tag + "_mode2", m2, c2, Mask(m2, g));
-    Expect(Compare(m1, c1, Mask(m1, g), kSameCubeTol), kSameCubeFailFraction, kSameCubeHardLimit,
-           "mode 1 vs CPU ShrmEval (global, central V)");
-    Expect(Compare(m2, c2, Mask(m2, g), kSameCubeTol), kSameCubeFailFraction, kSameCubeHardLimit,
-           "mode 2 vs CPU ShrmEval (local, per-pixel V)");
-  }
+  ExpectModesMatchCpu(*shrm_, "");
+}
+
+// SHRMs in the normal variable (shrm:view_variable "normal", docs/shaders.md): the global pass
+// with SHRM_VIEW_NORMAL (each texel at its own normal) and the local form with the argument
+// ShrmViewNormal(R, V), against the CPU's evaluation of the same cubes.
+TEST_F(ViewerRenderTest, NormalVariableModesMatchCpuEvaluation) {
+  ASSERT_NE(renderer_, nullptr);
+  const EnvMap env = EnvMap::FromLatLong(*map_);
+  PrefilterOptions opt;
+  opt.f = kF;
+  opt.p = kP;
+  opt.face_size = kFaceSize;
+  opt.threads = 2;
+  opt.view = ViewVariable::kNormal;
+  auto data = std::make_shared<ShrmData>(*shrm_);
+  opt.kind = ShrmKind::kGlobal;
+  data->global = Prefilter(env, *brdf_, opt).value().cube;
+  opt.kind = ShrmKind::kLocal;
+  data->local = Prefilter(env, *brdf_, opt).value().cube;
+  ASSERT_EQ(data->global.view, ViewVariable::kNormal);
+  SceneData scene;
+  scene.shrm = data;
+  ASSERT_TRUE(renderer_->SetScene(scene).ok());
+  ExpectModesMatchCpu(*data, "normal variable: ");
+  SceneData back;
+  back.shrm = shrm_;
+  ASSERT_TRUE(renderer_->SetScene(back).ok());
 }
 
 TEST_F(ViewerRenderTest, ModesMatchBruteForce) {

@@ -61,6 +61,18 @@ PixelShader ShrmPixelShader(const ShrmCube& cube, ViewModel model, const Vec3& c
     const Vec3 index = cube.index == ReparamKind::kTangent
                            ? p.tangent
                            : p.normal * (2 * p.normal.Dot(p.view)) - p.view;
+    if (model == ViewModel::kCentral && cube.view == ViewVariable::kNormal) {
+      // Eq. 5.35's map in the normal variable: each texel at its own normal (R_texel + V) /
+      // |R_texel + V|, then bilinear in R (what the GPU pass and its filtering compute).
+      std::array<double, 3> out{0, 0, 0};
+      for (const CubeTap& tap : ShrmBilinearTaps(cube.face_size, index)) {
+        if (tap.weight == 0) continue;
+        const std::array<double, 3> t =
+            ShrmTexelRadiance(cube, tap.face, tap.x, tap.y, central_view);
+        for (int c = 0; c < 3; ++c) out[c] += tap.weight * t[c];
+      }
+      return out;
+    }
     return ShrmEvalAt(cube, index, model == ViewModel::kCentral ? central_view : p.view);
   };
 }

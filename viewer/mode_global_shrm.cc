@@ -72,16 +72,20 @@ class GlobalShrmMode final : public RenderMode {
     }
     const int s = cube.face_size;
     // The per-frame pass of the shipped shader library (shaders/glsl/shrm_global.glsl).
-    if (!pass_ || pmax_ != cube.pmax) {
+    // shrm:view_variable "normal": the pass takes Y_pq of each texel's normal (SHRM_VIEW_NORMAL).
+    const bool view_normal = cube.view == ViewVariable::kNormal;
+    if (!pass_ || pmax_ != cube.pmax || view_normal_ != view_normal) {
       pass_.reset();
       pmax_ = -1;
-      const std::string fragment =
-          absl::StrCat("#version 330 core\n#define PMAX ", cube.pmax,
-                       "\n#define SHRM_GLOBAL_PASS\n", shaders::kCommonGlsl, shaders::kGlobalGlsl);
+      const std::string fragment = absl::StrCat("#version 330 core\n#define PMAX ", cube.pmax,
+                                                "\n#define SHRM_GLOBAL_PASS\n",
+                                                view_normal ? "#define SHRM_VIEW_NORMAL\n" : "",
+                                                shaders::kCommonGlsl, shaders::kGlobalGlsl);
       SHRM_ASSIGN_OR_RETURN(
           pass_, BuildProgram(absl::StrCat("#version 330 core\n", shaders::kFullscreenVert),
                               fragment, "mode 1 (eq. 5.35 pass, shaders/glsl/shrm_global.glsl)"));
       pmax_ = cube.pmax;
+      view_normal_ = view_normal;
     }
     // The coefficients exactly as the KTX2 SHRM stores them (shaders' binding shrm_coeffs).
     std::vector<float> layers;
@@ -171,7 +175,7 @@ class GlobalShrmMode final : public RenderMode {
   GlFramebuffer fbo_;
   GlVertexArray vao_;
   int pmax_ = -1, size_ = 0;
-  bool tangent_index_ = false, ready_ = false;
+  bool tangent_index_ = false, view_normal_ = false, ready_ = false;
 };
 
 }  // namespace

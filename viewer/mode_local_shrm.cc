@@ -23,6 +23,7 @@ in vec3 v_normal;
 in vec4 v_tangent;
 uniform vec3 u_eye;
 uniform int u_tangent_index;
+uniform int u_view_normal;  // shrm:view_variable "normal": Y_pq of N = (R + V) / |R + V|, not of V
 out vec4 o_color;
 
 #if FAST_PATH
@@ -33,15 +34,16 @@ void main() {
   vec3 n = normalize(v_normal);
   vec3 v = normalize(u_eye - v_position);
   vec3 index = u_tangent_index != 0 ? normalize(v_tangent.xyz) : ShrmReflect(n, v);
+  vec3 arg = u_view_normal != 0 ? ShrmViewNormal(index, v) : v;
 #if FAST_PATH
   // Pass 1, away from the poles the local coefficient field is smooth: filter it in hardware and
   // evaluate once in the frame of the pixel's own index direction.
   if (ShrmPoleDistance(index) <= u_pole_sin) discard;  // left to the four-tap pass
-  o_color = vec4(ShrmLocalFiltered(index, v), 1.0);
+  o_color = vec4(ShrmLocalFiltered(index, arg), 1.0);
 #else
   // The four nearest texels, each in its own frame (everywhere, or in pass 2 only the pixels
   // that pass 1 left: the others fail the depth test before shading).
-  o_color = vec4(ShrmLocal(index, v), 1.0);
+  o_color = vec4(ShrmLocal(index, arg), 1.0);
 #endif
 }
 )";
@@ -95,6 +97,7 @@ class LocalShrmMode final : public RenderMode {
     }
     size_ = s;
     tangent_index_ = cube.index == ReparamKind::kTangent;
+    view_normal_ = cube.view == ViewVariable::kNormal;
     ready_ = true;
     return absl::OkStatus();
   }
@@ -126,6 +129,7 @@ class LocalShrmMode final : public RenderMode {
                static_cast<float>(frame.eye.z));
     SetUniform(program, "shrm_size", size_);
     SetUniform(program, "u_tangent_index", tangent_index_ ? 1 : 0);
+    SetUniform(program, "u_view_normal", view_normal_ ? 1 : 0);
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_2D_ARRAY, texture_.get());
     SetUniform(program, "shrm_coeffs", 0);
@@ -144,7 +148,7 @@ class LocalShrmMode final : public RenderMode {
   GlProgram filtered_program_, taps_program_;
   GlTexture filtered_, texture_;
   int pmax_ = -1, size_ = 0;
-  bool tangent_index_ = false, ready_ = false, fast_path_ = false;
+  bool tangent_index_ = false, view_normal_ = false, ready_ = false, fast_path_ = false;
 };
 
 }  // namespace

@@ -34,6 +34,12 @@ absl::StatusOr<GlobalReflectionSum> GlobalReflectionSum::Create(const ShrmCube& 
   if (cube.kind != ShrmKind::kGlobal) {
     return absl::InvalidArgumentError("the per-view reflection map (eq. 5.35) needs a global SHRM");
   }
+  if (cube.view != ViewVariable::kView) {
+    return absl::InvalidArgumentError(
+        "the per-view sum takes Y_pq(V) once per frame: an SHRM in the normal variable "
+        "(shrm:view_variable "
+        "\"normal\") needs Y_pq per texel (core's ReflectionMapForView, or the GPU pass)");
+  }
   if (cube.face_size < 1 || cube.pmax < 0 || cube.channels < 1 || cube.data.size() != cube.size()) {
     return absl::InvalidArgumentError(absl::StrCat("inconsistent SHRM cube (face size ",
                                                    cube.face_size, ", P ", cube.pmax, ", ",

@@ -5,6 +5,10 @@
 
 namespace shrm {
 
+const char* ViewVariableName(ViewVariable v) {
+  return v == ViewVariable::kNormal ? "normal" : "view";
+}
+
 double CapturedFraction(const BrdfCoefficients& coeffs, int F, int P, int channel) {
   F = std::min(F, coeffs.lmax);
   P = std::min(P, coeffs.pmax);
@@ -37,6 +41,7 @@ BrdfCoefficients TruncateBrdfCoefficients(const BrdfCoefficients& coeffs, int F,
   out.pmax = std::clamp(P, 0, coeffs.pmax);
   out.channels = coeffs.channels;
   out.reparam = coeffs.reparam;
+  out.view = coeffs.view;
   out.total_energy = coeffs.total_energy;
   out.values.assign(
       static_cast<size_t>(out.lmax + 1) * (out.pmax + 1) * (out.pmax + 1) * out.channels, 0.0);

@@ -23,11 +23,25 @@ enum class ReparamKind {
   kTangent,     // the tangent T (Kajiya-Kay): only q = 0 terms
 };
 
+// The variable of the view expansion in R's frame (docs/shrm.md "The view variable").
+//   kView:   w_o' = Rot(R)^T V, the paper's eqs. 5.10 and 5.22.
+//   kNormal: n' = Rot(R)^T N with N = (R + V) / |R + V| the normal that reflects V into R:
+//            n' has the azimuth of w_o' and theta_n' = theta_o' / 2, so the sphere of views maps
+//            onto the hemisphere theta_n' <= pi / 2; rho-hat is extended evenly across its
+//            equator, so rho_lpq = 0 unless p + q is even. V = -R (N.V = 0) is the whole equator
+//            instead of one point where the limit depends on the side it is approached from:
+//            grazing views converge in P. Reflection models only (kTangent keeps kView).
+// The convolution B_lmpq = L_lm rho_lpq is the same for both: only rho_lpq and the argument of
+// Y_pq in the evaluation differ.
+enum class ViewVariable { kView, kNormal };
+const char* ViewVariableName(ViewVariable v);  // "view", "normal"
+
 struct BrdfCoefficients {
   int lmax = 0;      // F_rho: l <= lmax
   int pmax = 0;      // P_rho: p <= pmax
   int channels = 1;  // 1 (grey analytic models) or 3 (RGB tables)
   ReparamKind reparam = ReparamKind::kReflection;
+  ViewVariable view = ViewVariable::kView;
   // rho_lpq for 0 <= q <= min(l, p) (zero elsewhere), at Index(l, p, q, c).
   std::vector<double> values;
   // Per channel: the full energy double-integral of rho-hat^2 over both spheres (the right side

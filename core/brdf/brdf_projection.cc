@@ -50,15 +50,17 @@ Rule1D GaussOn(const RingQuadrature& gl, double a, double b) {
 }
 
 // Composite Gauss-Legendre in theta over [0, pi] with the sin(theta) weight folded in:
-// sum w_j g(theta_j) ~ integral_0^pi g(theta) sin(theta) dtheta.
-Rule1D SinPanels(int panels, int order) {
+// sum w_j g(theta_j) ~ integral_0^pi g(theta) sin(theta) dtheta; half_angle: sin(theta / 2)
+// instead, the measure of the normal's sphere in theta_o' (ViewVariable::kNormal: theta_n' =
+// theta_o' / 2 over the hemisphere, times 2 for its even extension).
+Rule1D SinPanels(int panels, int order, bool half_angle = false) {
   const RingQuadrature gl = GaussLegendreRule(order);
   Rule1D r;
   for (int p = 0; p < panels; ++p) {
     const Rule1D panel = GaussOn(gl, kPi * p / panels, kPi * (p + 1) / panels);
     for (size_t j = 0; j < panel.x.size(); ++j) {
       r.x.push_back(panel.x[j]);
-      r.w.push_back(panel.w[j] * std::sin(panel.x[j]));
+      r.w.push_back(panel.w[j] * std::sin(half_angle ? 0.5 * panel.x[j] : panel.x[j]));
     }
   }
   return r;
@@ -359,8 +361,13 @@ void RadialCoefficients(const Brdf& brdf, int lmax, const BrdfSampling& s, BrdfC
 // Both rules then converge fast, where one Gauss-Legendre rule over the whole [-1, 1] converges
 // only algebraically across the kinks. The same evaluations give the energy (the integral of
 // rho-hat^2, eq. 5.18), so the coefficients and their denominator come from one pass.
+// ViewVariable::kNormal: the theta_o' nodes are the same, each the normal n' at theta_o' / 2;
+// its Legendre values are taken there, the measure sin(theta_o' / 2) replaces sin(theta_o')
+// (the hemisphere's integral doubled by the even extension, d theta_n' = d theta_o' / 2), and
+// only p + q even are formed.
 void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling& s,
                        BrdfCoefficients* out) {
+  const bool normal = out->view == ViewVariable::kNormal;
   const int channels = brdf.channels();
   const int qmax = pmax;
   const int sharp = brdf.bandwidth_hint().lmax;
@@ -432,7 +439,9 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
     const double u_o = 0.5 * (1.0 + ro.cos_theta[k]);
     const double theta_o = kPi * u_o * u_o * (3.0 - 2.0 * u_o);
     const double cos_o = std::cos(theta_o), sin_o = std::sin(theta_o);
-    const double w_o = 0.5 * ro.weight[k] * kPi * 6.0 * u_o * (1.0 - u_o) * sin_o;
+    const double half_c = std::cos(0.5 * theta_o), half_s = std::sin(0.5 * theta_o);
+    const double w_o =
+        0.5 * ro.weight[k] * kPi * 6.0 * u_o * (1.0 - u_o) * (normal ? half_s : sin_o);
     const double a = 0.5 * kPi - 0.5 * theta_o, b = 0.5 * kPi + 0.5 * theta_o;
     // [0, a] in x = cos theta_i' over [cos a, 1] (dx = sin theta dtheta).
     const double xa = std::cos(a);
@@ -462,9 +471,13 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
       acc[i] = sum;
     }
     for (int c = 0; c < channels; ++c) energy[c] += w_o * energy_k[c];
-    legendre_o.Eval(cos_o, sin_o, lam_o.data());
+    if (normal) {
+      legendre_o.Eval(half_c, half_s, lam_o.data());
+    } else {
+      legendre_o.Eval(cos_o, sin_o, lam_o.data());
+    }
     for (int q = 0; q <= qmax; ++q) {
-      for (int p = q; p <= pmax; ++p) {
+      for (int p = q; p <= pmax; p += normal ? 2 : 1) {
         const double bq = scale * w_o * lam_o[static_cast<size_t>(q) * np + p];
         for (int c = 0; c < channels; ++c) {
           const double* src = &acc[(c * nq + q) * nl];
@@ -478,8 +491,12 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
   for (int c = 0; c < channels; ++c) out->total_energy[c] = 4.0 * kPi * energy[c];
 }
 
+// ViewVariable::kNormal: the theta_o' rule is Gauss-Legendre in cos theta_n' over [0, 1] (the
+// hemisphere; its weights doubled for the even extension are those of [-1, 1]), theta_o' =
+// 2 theta_n', and only p + q even are formed.
 void SeparableCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling& s,
                            BrdfCoefficients* out) {
+  const bool normal = out->view == ViewVariable::kNormal;
   const int channels = brdf.channels();
   const int qmax = pmax;
   const int sharp = brdf.bandwidth_hint().lmax;  // the lobe's own bandwidth
@@ -487,7 +504,15 @@ void SeparableCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampl
   const int n_o = Or(s.theta_o, std::max(4 * pmax + 16, 48));
   const int n_phi = Or(s.phi, std::max(2 * pmax + 24, 32));
   const RingQuadrature ri = GaussLegendreRule(n_i);
-  const RingQuadrature ro = GaussLegendreRule(n_o);
+  RingQuadrature ro = GaussLegendreRule(n_o);
+  if (normal) {
+    for (int k = 0; k < n_o; ++k) {
+      const double x = 0.5 * (1.0 + ro.cos_theta[k]);  // cos theta_n'
+      ro.cos_theta[k] = x;
+      ro.sin_theta[k] = std::sqrt(std::max(0.0, 1.0 - x * x));
+      ro.theta[k] = 2.0 * std::acos(x);  // theta_o', for the BRDF
+    }
+  }
   const int nl = lmax + 1, np = pmax + 1, nq = qmax + 1;
 
   // lambda_l^q(cos theta) for q <= qmax only: lam_i[(j * nq + q) * nl + l].
@@ -526,7 +551,7 @@ void SeparableCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampl
       }
     }
     for (int q = 0; q <= qmax; ++q) {
-      for (int p = q; p <= pmax; ++p) {
+      for (int p = q; p <= pmax; p += normal ? 2 : 1) {
         const double b = scale * ro.weight[k] * lam_o[(k * nq + q) * np + p];
         for (int c = 0; c < channels; ++c) {
           const double* src = &acc[(c * nq + q) * nl];
@@ -539,7 +564,9 @@ void SeparableCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampl
 
 }  // namespace
 
-std::vector<double> BrdfEnergy(const Brdf& brdf, int lmax_hint, const BrdfSampling& s) {
+std::vector<double> BrdfEnergy(const Brdf& brdf, int lmax_hint, const BrdfSampling& s,
+                               ViewVariable view) {
+  const bool half = EffectiveViewVariable(brdf, view) == ViewVariable::kNormal;
   const int channels = brdf.channels();
   std::vector<double> energy(channels, 0.0);
   std::vector<double> values(channels);
@@ -572,7 +599,7 @@ std::vector<double> BrdfEnergy(const Brdf& brdf, int lmax_hint, const BrdfSampli
         Or(s.energy_panels_i, std::max({24, lmax_hint, brdf.bandwidth_hint().lmax}));
     const RingQuadrature gl = GaussLegendreRule(order);
     const int sharp = brdf.bandwidth_hint().lmax;  // the lobe's own bandwidth
-    const Rule1D ro = SinPanels(Or(s.energy_panels_o, std::max(6, sharp / 12)), order);
+    const Rule1D ro = SinPanels(Or(s.energy_panels_o, std::max(6, sharp / 12)), order, half);
     AzimuthRule azimuth(brdf, Or(s.energy_phi, std::max(16, sharp / 3)), 0);
     for (size_t k = 0; k < ro.x.size(); ++k) {
       const double a = 0.5 * kPi - 0.5 * ro.x[k], b = 0.5 * kPi + 0.5 * ro.x[k];
@@ -606,7 +633,7 @@ std::vector<double> BrdfEnergy(const Brdf& brdf, int lmax_hint, const BrdfSampli
     int panels_i = Or(s.energy_panels_i, std::max({48, lmax_hint, brdf.bandwidth_hint().lmax}));
     panels_i += panels_i % 2;
     const Rule1D ri = SinPanels(panels_i, order);
-    const Rule1D ro = SinPanels(Or(s.energy_panels_o, 12), order);
+    const Rule1D ro = SinPanels(Or(s.energy_panels_o, 12), order, half);
     AzimuthRule azimuth(brdf, Or(s.energy_phi, 32), 0);
     for (size_t k = 0; k < ro.x.size(); ++k) {
       for (size_t j = 0; j < ri.x.size(); ++j) {
@@ -621,8 +648,15 @@ std::vector<double> BrdfEnergy(const Brdf& brdf, int lmax_hint, const BrdfSampli
   return energy;
 }
 
+ViewVariable EffectiveViewVariable(const Brdf& brdf, ViewVariable requested) {
+  if (brdf.radially_symmetric() || brdf.reparam() != ReparamKind::kReflection)
+    return ViewVariable::kView;
+  return requested;
+}
+
 absl::StatusOr<BrdfCoefficients> ComputeBrdfCoefficients(const Brdf& brdf, int lmax, int pmax,
-                                                         const BrdfSampling& sampling) {
+                                                         const BrdfSampling& sampling,
+                                                         ViewVariable view) {
   if (lmax < 0 || lmax > kMaxBrdfLmax) {
     return absl::InvalidArgumentError(
         absl::StrCat("brdf coefficients: lmax = ", lmax, " out of range [0, ", kMaxBrdfLmax, "]"));
@@ -643,6 +677,7 @@ absl::StatusOr<BrdfCoefficients> ComputeBrdfCoefficients(const Brdf& brdf, int l
   out.pmax = pmax;
   out.channels = brdf.channels();
   out.reparam = brdf.reparam();
+  out.view = EffectiveViewVariable(brdf, view);
   out.values.assign(static_cast<size_t>(lmax + 1) * (pmax + 1) * (pmax + 1) * out.channels, 0.0);
   if (brdf.radially_symmetric()) {
     RadialCoefficients(brdf, lmax, sampling, &out);
@@ -652,7 +687,7 @@ absl::StatusOr<BrdfCoefficients> ComputeBrdfCoefficients(const Brdf& brdf, int l
   } else {
     SeparableCoefficients(brdf, lmax, pmax, sampling, &out);
   }
-  out.total_energy = BrdfEnergy(brdf, lmax, sampling);
+  out.total_energy = BrdfEnergy(brdf, lmax, sampling, out.view);
   return out;
 }
 

@@ -60,17 +60,25 @@ struct BrdfSampling {
   bool coefficients_uniform = false;
 };
 
+// The view variable a BRDF's coefficients take when `requested` is asked for: kView for
+// radially symmetric models (P = 0: the view does not enter) and tangent models (no normal
+// reflects V into T); `requested` otherwise.
+ViewVariable EffectiveViewVariable(const Brdf& brdf, ViewVariable requested);
+
 // Coefficients for l <= lmax, p <= pmax (0 <= lmax <= kMaxBrdfLmax, 0 <= pmax <= kMaxBrdfPmax),
-// all channels, with total_energy filled by the independent angular-domain integral of
-// rho-hat^2. Errors: InvalidArgument for out-of-range orders or sampling sizes, and for an
+// all channels, in the view variable EffectiveViewVariable(brdf, view) (brdf_coefficients.h),
+// with total_energy filled by the independent angular-domain integral of rho-hat^2 over the same
+// variable. Errors: InvalidArgument for out-of-range orders or sampling sizes, and for an
 // anisotropic Ward (alpha_x != alpha_y: the reparameterization of sec. 5.3.1 needs isotropy).
 absl::StatusOr<BrdfCoefficients> ComputeBrdfCoefficients(const Brdf& brdf, int lmax, int pmax,
-                                                         const BrdfSampling& sampling = {});
+                                                         const BrdfSampling& sampling = {},
+                                                         ViewVariable view = ViewVariable::kView);
 
 // The energy double-integral of rho-hat^2 over both spheres, per channel (eqs. 5.17/5.18 right
 // sides without (1 - epsilon); 5.17's 2 pi integral rho-hat^2 sin t dt times 4 pi for the 1D case,
 // so that it equals the sum of rho_lpq^2 in all cases).
-std::vector<double> BrdfEnergy(const Brdf& brdf, int lmax_hint, const BrdfSampling& sampling = {});
+std::vector<double> BrdfEnergy(const Brdf& brdf, int lmax_hint, const BrdfSampling& sampling = {},
+                               ViewVariable view = ViewVariable::kView);
 
 struct BrdfOrderOptions {
   int initial_fmax = 0;   // 0: brdf.bandwidth_hint().lmax

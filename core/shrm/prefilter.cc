@@ -73,7 +73,8 @@ absl::StatusOr<BrdfStage> ComputeBrdfStage(const Brdf& brdf, const PrefilterOpti
   if (ExplicitOrders(options)) {
     st.f_rho = options.f;
     st.p_rho = brdf.radially_symmetric() ? 0 : options.p;
-    SHRM_ASSIGN_OR_RETURN(st.coefficients, ComputeBrdfCoefficients(brdf, st.f_rho, st.p_rho));
+    SHRM_ASSIGN_OR_RETURN(st.coefficients,
+                          ComputeBrdfCoefficients(brdf, st.f_rho, st.p_rho, {}, options.view));
   } else {
     SHRM_ASSIGN_OR_RETURN(BrdfOrders orders, SelectBrdfOrders(brdf, options.epsilon));
     st.f_rho = orders.F;
@@ -190,7 +191,8 @@ absl::Status ChooseOrdersForTolerance(const EnvMap& env, const Brdf& brdf,
   BandTable table_of_last_round;
   for (int round = 0;; ++round) {
     SHRM_RETURN_IF_ERROR(clock.Begin("brdf"));
-    SHRM_ASSIGN_OR_RETURN(b->coefficients, ComputeBrdfCoefficients(brdf, f_ref, p_ref));
+    SHRM_ASSIGN_OR_RETURN(b->coefficients,
+                          ComputeBrdfCoefficients(brdf, f_ref, p_ref, {}, options.view));
     clock.End();
     SHRM_RETURN_IF_ERROR(clock.Begin("lighting"));
     SHRM_ASSIGN_OR_RETURN(l->light,

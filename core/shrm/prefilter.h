@@ -42,6 +42,9 @@ struct PrefilterOptions {
   double tolerance = 0;
   // Ringing window on the lighting bands; kAuto (tolerance rule only) = chosen per job.
   RingingWindow window = RingingWindow::kNone;
+  // The view expansion's variable (brdf_coefficients.h) for the tolerance rule and explicit
+  // orders; the epsilon rule (eqs. 5.15-5.19, Table 5.5) is the paper's and always takes kView.
+  ViewVariable view = ViewVariable::kView;
   // Pairs of the tolerance rule's estimate (seeded: kSelectionSeed).
   int selection_pairs = 256;
   // Tolerance rule only, > 0: the size budget on CubeValues(S_B, P_B) (ToleranceOptions::

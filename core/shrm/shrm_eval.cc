@@ -18,6 +18,17 @@ void ShrmAnglesFromWorld(const Vec3& world_dir, double* alpha, double* beta) {
 
 Mat3 ShrmLocalFrame(double alpha, double beta) { return RotationZ(beta) * RotationY(alpha); }
 
+Vec3 ShrmViewArgument(ViewVariable variable, const Vec3& index_dir, const Vec3& view) {
+  if (variable == ViewVariable::kView) return view;
+  const Vec3 h = index_dir + view;
+  const double len = h.Norm();
+  // |R + V| = 2 N.V: below 1e-12 the direction of h is rounding.
+  if (len > 1e-12) return h * (1.0 / len);
+  double alpha, beta;
+  ShrmAnglesFromWorld(index_dir, &alpha, &beta);
+  return WorldFromShFrame(ShrmLocalFrame(alpha, beta) * Vec3{1, 0, 0});
+}
+
 namespace {
 
 // Real SH coefficients of one texel in its local frame evaluated at the world view.
@@ -27,7 +38,8 @@ double DotSh(std::span<const double> y, const float* coeffs, int count, int chan
   return s;
 }
 
-// Value of texel (face, x, y) of `cube` for the view (SH frame), channel-wise into out.
+// Value of texel (face, x, y) of `cube` for the argument of Y_pq (V or N, SH frame), channel-wise
+// into out.
 void TexelValue(const ShrmCube& cube, int face, int x, int y, const Vec3& view_sh,
                 std::span<const double> y_global, double weight, std::array<double, 3>& out) {
   const int n = cube.coeff_count();
@@ -91,9 +103,14 @@ std::array<CubeTap, 4> ShrmBilinearTaps(int face_size, const Vec3& index_dir) {
 }
 
 std::array<double, 3> ShrmEvalAt(const ShrmCube& cube, const Vec3& index_dir, const Vec3& view) {
+  return ShrmEvalArgument(cube, index_dir, ShrmViewArgument(cube.view, index_dir, view));
+}
+
+std::array<double, 3> ShrmEvalArgument(const ShrmCube& cube, const Vec3& index_dir,
+                                       const Vec3& argument) {
   std::array<double, 3> out{0, 0, 0};
   if (cube.face_size < 1 || cube.data.size() != cube.size()) return out;
-  const Vec3 view_sh = ShFrameFromWorld(view);
+  const Vec3 view_sh = ShFrameFromWorld(argument);
   std::vector<double> y_global;
   if (cube.kind == ShrmKind::kGlobal) y_global = EvalSh(cube.pmax, view_sh);
   for (const CubeTap& tap : ShrmBilinearTaps(cube.face_size, index_dir)) {
@@ -106,13 +123,15 @@ std::array<double, 3> ShrmEvalAt(const ShrmCube& cube, const Vec3& index_dir, co
 std::array<double, 3> ShrmEval(const ShrmCube& cube, const Vec3& n, const Vec3& v) {
   if (cube.index == ReparamKind::kTangent) return ShrmEvalAt(cube, n, v);
   const Vec3 r = n * (2 * n.Dot(v)) - v;
+  if (cube.view == ViewVariable::kNormal) return ShrmEvalArgument(cube, r, n);
   return ShrmEvalAt(cube, r, v);
 }
 
 std::array<double, 3> ShrmTexelRadiance(const ShrmCube& cube, int face, int x, int y,
                                         const Vec3& view) {
   std::array<double, 3> out{0, 0, 0};
-  const Vec3 view_sh = ShFrameFromWorld(view);
+  const Vec3 view_sh = ShFrameFromWorld(
+      ShrmViewArgument(cube.view, CubeTexelDirection(face, x, y, cube.face_size), view));
   std::vector<double> y_global;
   if (cube.kind == ShrmKind::kGlobal) y_global = EvalSh(cube.pmax, view_sh);
   TexelValue(cube, face, x, y, view_sh, y_global, 1.0, out);

@@ -125,7 +125,8 @@ absl::Status ReflectionMapsForViewsInto(const ShrmCube& cube, std::span<const Ve
   maps.resize(views.size());
   for (RadianceCube& m : maps) PrepareMap(m, size, ch);
   const int rows = kCubeFaceCount * size;
-  if (cube.kind == ShrmKind::kGlobal) {
+  // kNormal cubes take Y_pq of each texel's own normal (R_texel + V) / |R_texel + V|: per texel.
+  if (cube.kind == ShrmKind::kGlobal && cube.view == ViewVariable::kView) {
     std::vector<float> y(views.size() * n);
     for (size_t v = 0; v < views.size(); ++v) {
       const std::vector<double> yv = EvalSh(cube.pmax, ShFrameFromWorld(views[v]));
@@ -230,7 +231,9 @@ absl::StatusOr<std::vector<RadianceCube>> KautzMcCoolSlices(const ShrmCube& loca
   std::vector<RadianceCube> slices(t_b, EmptyMap(size, ch));
   std::vector<double> lambda(LegendreCount(pm));
   for (int k = 0; k < t_b; ++k) {
-    const double theta = KautzMcCoolTheta(k, t_b);
+    // kNormal: the view at theta_o' is the normal at theta_o' / 2.
+    const double theta =
+        KautzMcCoolTheta(k, t_b) * (local_cube.view == ViewVariable::kNormal ? 0.5 : 1.0);
     NormalizedLegendre(pm, std::cos(theta), std::sin(theta), lambda);
     for (int f = 0; f < kCubeFaceCount; ++f)
       for (int y = 0; y < size; ++y)

@@ -1,6 +1,7 @@
 // Explicit (tabular) forms computed from an SHRM cube (Ramamoorthi & Hanrahan, end of sec. 5.6.2
 // and sec. 5.7.5), and Lambertian irradiance maps:
-//   eq. 5.35: the reflection map of one global view V, B~(R) = sum_pq B^_pq(R) Y_pq(V);
+//   eq. 5.35: the reflection map of one global view V, B~(R) = sum_pq B^_pq(R) Y_pq(V) (cubes in
+//             the normal variable: Y_pq of each texel's N = (R + V) / |R + V|);
 //   Cabral et al.'s twelve views (V = icosahedron vertices) and a T_B x T_B set of views;
 //   eq. 5.25: Kautz & McCool's 3D texture B(alpha, beta, theta_o) = sum_p B_p0 Y_p0(theta_o) from
 //             the q = 0 terms of a LOCAL SHRM, at T_B slices theta_o,k = pi (k + 1/2) / T_B;

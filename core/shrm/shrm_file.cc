@@ -35,6 +35,13 @@ std::map<std::string, std::string> ShrmConventionAttributes(const ShrmCube& cube
   attrs["shrm:kind"] = cube.kind == ShrmKind::kLocal ? "local" : "global";
   attrs["shrm:index"] = cube.index == ReparamKind::kTangent ? "tangent" : "reflection";
   attrs["shrm:pmax"] = absl::StrCat(cube.pmax);
+  attrs["shrm:view_variable"] = ViewVariableName(cube.view);
+  if (cube.view == ViewVariable::kNormal) {
+    attrs["shrm:eval"] =
+        "R = 2(N.V)N - V picks the texel; global: B = sum c_pq Y_pq(N_s); local: B = sum c_pq "
+        "Y_pq(Rot^T N_s), Rot = Rz(beta) Ry(alpha), (alpha, beta) the SH angles of R; N_s = the "
+        "normal N = (R + V)/|R + V| in the SH frame (local c_pq with p + q odd are 0)";
+  }
   return attrs;
 }
 
@@ -67,6 +74,18 @@ absl::Status ParseShrmConventionAttributes(const std::string& label,
   constexpr int kMaxPmax = 255;
   if (!absl::SimpleAtoi(pmax, &cube->pmax) || cube->pmax < 0 || cube->pmax > kMaxPmax) {
     return absl::InvalidArgumentError(absl::StrCat(label, ": bad shrm:pmax '", pmax, "'"));
+  }
+  // shrm:view_variable: absent in files written before the normal variable existed (they are
+  // "view").
+  cube->view = ViewVariable::kView;
+  if (auto it = attributes.find("shrm:view_variable"); it != attributes.end()) {
+    if (it->second == "normal" && index == "reflection") {
+      cube->view = ViewVariable::kNormal;
+    } else if (it->second != "view") {
+      return absl::InvalidArgumentError(absl::StrCat(label, ": bad shrm:view_variable '",
+                                                     it->second,
+                                                     "' (view, or normal with index reflection)"));
+    }
   }
   cube->kind = kind == "local" ? ShrmKind::kLocal : ShrmKind::kGlobal;
   cube->index = index == "tangent" ? ReparamKind::kTangent : ReparamKind::kReflection;

@@ -5,6 +5,9 @@
 //   local  (eq. 5.10): B(R, V) = sum_{p,q} B_pq(R) Y_pq(w_o'), w_o' = Rot(R)^T V in the SH frame,
 //                      Rot(R) = Rz(beta) Ry(alpha), (alpha, beta) the SH angles of R;
 //   global (eq. 5.11): B(R, V) = sum_{p,q} B^_pq(R) Y_pq(V), V in the SH frame.
+// With ViewVariable::kNormal (brdf_coefficients.h) the argument is the normal N = (R + V) / |R + V|
+// instead of V in both forms: Y_pq(Rot(R)^T N) and Y_pq(N); local coefficients with p + q odd
+// are zero.
 //
 // Coefficients are real SH (docs/conventions.md), converted from the paper's complex B_pq with
 // ComplexToReal (the view-dependent function is real). Texels follow core/base/cubemap.h.
@@ -24,6 +27,7 @@ enum class ShrmKind { kLocal, kGlobal };
 struct ShrmCube {
   ShrmKind kind = ShrmKind::kGlobal;
   ReparamKind index = ReparamKind::kReflection;  // what addresses the texels: R or T
+  ViewVariable view = ViewVariable::kView;       // the argument of Y_pq: V or N
   int face_size = 0;                             // S_B
   int pmax = 0;  // P_B: ShCount(pmax) coefficients per texel and channel
   int channels = 3;

@@ -73,6 +73,7 @@ absl::StatusOr<ShrmSynthesizer> ShrmSynthesizer::Create(int light_lmax, int chan
   s.pmax_ = p;
   s.channels_ = channels;
   s.reparam_ = brdf.reparam;
+  s.view_ = brdf.view;
   s.light_.assign(static_cast<size_t>(2 * f + 1) * (f + 1) * channels, {0.0, 0.0});
   // Degrees up to f only: the lighting is in degree-major order, so its first (f + 1)^2 values are
   // those (the lighting can go much higher: degree 511 for a split-sum level of degree 241).
@@ -166,12 +167,17 @@ void ShrmSynthesizer::CoefficientsAt(ShrmKind kind, double alpha, double beta,
 
 std::array<double, 3> ShrmSynthesizer::RadianceAt(ShrmKind kind, const Vec3& index_dir,
                                                   const Vec3& view) const {
+  return RadianceAtArgument(kind, index_dir, ShrmViewArgument(view_, index_dir, view));
+}
+
+std::array<double, 3> ShrmSynthesizer::RadianceAtArgument(ShrmKind kind, const Vec3& index_dir,
+                                                          const Vec3& argument) const {
   double alpha, beta;
   ShrmAnglesFromWorld(index_dir, &alpha, &beta);
   const int n = ShCount(pmax_);
   std::vector<double> coeffs(static_cast<size_t>(n) * channels_);
   CoefficientsAt(kind, alpha, beta, coeffs);
-  Vec3 w = ShFrameFromWorld(view);
+  Vec3 w = ShFrameFromWorld(argument);
   if (kind == ShrmKind::kLocal) w = ShrmLocalFrame(alpha, beta).Transposed() * w;
   const std::vector<double> y = EvalSh(pmax_, w);
   std::array<double, 3> out{0, 0, 0};
@@ -182,6 +188,11 @@ std::array<double, 3> ShrmSynthesizer::RadianceAt(ShrmKind kind, const Vec3& ind
 
 void ShrmSynthesizer::BandContributionsAt(const Vec3& index_dir, const Vec3& view,
                                           std::span<double> out) const {
+  BandContributionsAtArgument(index_dir, ShrmViewArgument(view_, index_dir, view), out);
+}
+
+void ShrmSynthesizer::BandContributionsAtArgument(const Vec3& index_dir, const Vec3& argument,
+                                                  std::span<double> out) const {
   const int f = lmax_, pm = pmax_, ch = channels_;
   const int qmax = std::min(pm, f);
   double alpha, beta;
@@ -192,7 +203,7 @@ void ShrmSynthesizer::BandContributionsAt(const Vec3& index_dir, const Vec3& vie
   thread_local std::vector<double> d;
   d.resize(WignerColumnCount(f, qmax));
   band_tables_->tables->Compute(alpha, d);
-  const Vec3 w = ShrmLocalFrame(alpha, beta).Transposed() * ShFrameFromWorld(view);
+  const Vec3 w = ShrmLocalFrame(alpha, beta).Transposed() * ShFrameFromWorld(argument);
   const std::vector<double> y = EvalSh(pm, w);
   // e^{i m beta} L_lm for every (m, l, c), then per l the sums over m
   //   S_lq = sum_m e^{i m beta} L_lm d^l_mq(alpha)   (q = 0 .. min(l, P)),
@@ -531,6 +542,7 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCube(ShrmKind kind, int face_size
   ShrmCube cube;
   cube.kind = kind;
   cube.index = reparam_;
+  cube.view = view_;
   cube.face_size = face_size;
   cube.pmax = pmax_;
   cube.channels = channels_;
@@ -627,6 +639,7 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeP0(ShrmKind kind, int face_si
   ShrmCube cube;
   cube.kind = kind;
   cube.index = reparam_;
+  cube.view = view_;
   cube.face_size = face_size;
   cube.pmax = 0;
   cube.channels = ch;

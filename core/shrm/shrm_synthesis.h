@@ -95,6 +95,7 @@ class ShrmSynthesizer {
   int pmax() const { return pmax_; }
   int channels() const { return channels_; }
   ReparamKind reparam() const { return reparam_; }
+  ViewVariable view() const { return view_; }
   // The largest order |q| whose rho_lpq can be nonzero: min(P, F), or 0 for the tangent
   // reparameterization (whose coefficients Create keeps for q = 0 only).
   int RhoQmax() const { return reparam_ == ReparamKind::kTangent ? 0 : std::min(pmax_, lmax_); }
@@ -113,6 +114,9 @@ class ShrmSynthesizer {
   void CoefficientsAt(ShrmKind kind, double alpha, double beta, std::span<double> out) const;
   // B(R, V) with R (or T) and V world directions, by CoefficientsAt (no resampling).
   std::array<double, 3> RadianceAt(ShrmKind kind, const Vec3& index_dir, const Vec3& view) const;
+  // The same with the argument of Y_pq given (V or N, world, unit; ShrmViewArgument).
+  std::array<double, 3> RadianceAtArgument(ShrmKind kind, const Vec3& index_dir,
+                                           const Vec3& argument) const;
   // The terms of B(R, V) by band: out[(l * (pmax() + 1) + p) * channels() + c] is the part of
   // the value at (index_dir, view) that comes from lighting band l and view band p, so that the
   // sum over l <= F, p <= P is the order-(F, P) value (the sum over all bands = RadianceAt, of
@@ -120,6 +124,9 @@ class ShrmSynthesizer {
   // Wigner columns |q| <= P. out.size() >= (lmax() + 1) (pmax() + 1) channels(). Drives the
   // per-direction accuracy estimate of core/shrm/tolerance.h.
   void BandContributionsAt(const Vec3& index_dir, const Vec3& view, std::span<double> out) const;
+  // The same with the argument of Y_pq given (V or N, world, unit; ShrmViewArgument).
+  void BandContributionsAtArgument(const Vec3& index_dir, const Vec3& argument,
+                                   std::span<double> out) const;
 
   // Fast path (sec. 5.6.2 step 3): the SHRM on the equiangular (alpha, beta) grid, then resampled
   // onto the texel centres of a cube map of face_size S_B by 4 x 4 Lagrange (cubic) interpolation
@@ -178,6 +185,7 @@ class ShrmSynthesizer {
   };
   std::shared_ptr<BandTables> band_tables_ = std::make_shared<BandTables>();
   ReparamKind reparam_ = ReparamKind::kReflection;
+  ViewVariable view_ = ViewVariable::kView;
   // Complex lighting: light_[((m + F) * (F + 1) + l) * channels + c] (zero for l < |m|).
   std::vector<std::complex<double>> light_;
   // rho_lpq per channel (grey BRDFs expanded): rho_[((p * (P + 1) + q) * (F + 1) + l) * ch + c],

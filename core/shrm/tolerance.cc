@@ -61,7 +61,8 @@ void ChooseWindow(const BandTable& table, const ToleranceOptions& options, Toler
       c->truncation = windowed;
     }
   }
-  c->met = MeetsTargets(c->truncation, TargetsForTolerance(options.tolerance), kTruncationShare);
+  c->met = MeetsTargets(c->truncation, TargetsForTolerance(options.tolerance, table.view()),
+                        kTruncationShare);
 }
 
 }  // namespace
@@ -121,12 +122,14 @@ DirectionalError MeasureDirectionalError(std::span<const DirectionPair> pairs,
   return e;
 }
 
-ToleranceTargets TargetsForTolerance(double tolerance) {
-  return {tolerance, kMaxErrorFactor * tolerance, kGrazingFactor * tolerance};
+ToleranceTargets TargetsForTolerance(double tolerance, ViewVariable view) {
+  return {tolerance, kMaxErrorFactor * tolerance, kGrazingFactor * tolerance,
+          view == ViewVariable::kNormal};
 }
 
 bool MeetsTargets(const DirectionalError& e, const ToleranceTargets& t, double share) {
-  return e.front.rms <= share * t.rms && e.front.max <= share * t.max;
+  return e.front.rms <= share * t.rms && e.front.max <= share * t.max &&
+         (!t.grazing || e.grazing.count == 0 || e.grazing.rms <= share * t.grazing_rms);
 }
 
 const char* RingingWindowName(RingingWindow w) {
@@ -178,6 +181,7 @@ BandTable BandTable::Compute(const ShrmSynthesizer& reference, std::span<const D
   t.f_ = reference.lmax();
   t.p_ = reference.pmax();
   t.ch_ = std::min(reference.channels(), 3);
+  t.view_ = reference.view();
   t.pairs_.assign(pairs.begin(), pairs.end());
   const int ch = reference.channels();
   const size_t per_pair = static_cast<size_t>(t.f_ + 1) * (t.p_ + 1) * t.ch_;
@@ -250,8 +254,10 @@ DirectionalError EstimateInterpolation(const ShrmSynthesizer& synth,
   std::vector<Rgb> got(pairs.size()), exact(pairs.size());
   ParallelChunks(static_cast<int>(pairs.size()), threads, [&](int begin, int end) {
     std::vector<double> c(static_cast<size_t>(f + 1) * (p + 1) * ch);
-    auto value = [&](const Vec3& index_dir, const Vec3& view) {
-      synth.BandContributionsAt(index_dir, view, c);
+    // The argument of Y_pq (V, or N for kNormal) is held fixed across the texels, as ShrmEvalAt
+    // holds it.
+    auto value = [&](const Vec3& index_dir, const Vec3& argument) {
+      synth.BandContributionsAtArgument(index_dir, argument, c);
       Rgb v{0, 0, 0};
       for (size_t i = 0; i < c.size(); ++i) v[std::min<int>(i % ch, 2)] += c[i];
       if (ch == 1) v[1] = v[2] = v[0];
@@ -259,11 +265,12 @@ DirectionalError EstimateInterpolation(const ShrmSynthesizer& synth,
     };
     for (int k = begin; k < end; ++k) {
       const Vec3 r = IndexDirection(pairs[k], synth.reparam());
-      exact[k] = value(r, pairs[k].view);
+      const Vec3 argument = ShrmViewArgument(synth.view(), r, pairs[k].view);
+      exact[k] = value(r, argument);
       Rgb sum{0, 0, 0};
       for (const CubeTap& tap : ShrmBilinearTaps(face_size, r)) {
         if (tap.weight == 0) continue;
-        const Rgb v = value(CubeTexelDirection(tap.face, tap.x, tap.y, face_size), pairs[k].view);
+        const Rgb v = value(CubeTexelDirection(tap.face, tap.x, tap.y, face_size), argument);
         for (int cc = 0; cc < 3; ++cc) sum[cc] += tap.weight * v[cc];
       }
       got[k] = sum;
@@ -273,7 +280,7 @@ DirectionalError EstimateInterpolation(const ShrmSynthesizer& synth,
 }
 
 ToleranceChoice ChooseOrders(const BandTable& table, const ToleranceOptions& options) {
-  const ToleranceTargets targets = TargetsForTolerance(options.tolerance);
+  const ToleranceTargets targets = TargetsForTolerance(options.tolerance, table.view());
   ToleranceChoice best;
   best.f_ref = table.f_ref();
   best.p_ref = table.p_ref();
@@ -301,7 +308,7 @@ ToleranceChoice ChooseOrders(const BandTable& table, const ToleranceOptions& opt
 absl::StatusOr<ToleranceChoice> ChooseOrdersWithinBudget(const BandTable& table,
                                                          const ToleranceOptions& options,
                                                          int* max_face_size) {
-  const ToleranceTargets targets = TargetsForTolerance(options.tolerance);
+  const ToleranceTargets targets = TargetsForTolerance(options.tolerance, table.view());
   ToleranceChoice best;
   best.f_ref = table.f_ref();
   best.p_ref = table.p_ref();
@@ -344,7 +351,7 @@ absl::StatusOr<ToleranceChoice> ChooseOrdersWithinBudget(const BandTable& table,
 absl::Status ChooseFaceSize(std::span<const DirectionPair> pairs, int light_lmax, int channels,
                             std::span<const double> light, const BrdfCoefficients& brdf,
                             const ToleranceOptions& options, ToleranceChoice* choice) {
-  const ToleranceTargets targets = TargetsForTolerance(options.tolerance);
+  const ToleranceTargets targets = TargetsForTolerance(options.tolerance, brdf.view);
   ToleranceChoice& best = *choice;
 
   // S: first trial ~2 F, then scaled by the h^2 law, grown while it still misses its share.
@@ -393,7 +400,7 @@ absl::Status ChooseWithinBudget(const BandTable& table, std::span<const Directio
   }
   ToleranceOptions sized = options;
   sized.max_face_size = max_face_size;
-  const ToleranceTargets targets = TargetsForTolerance(options.tolerance);
+  const ToleranceTargets targets = TargetsForTolerance(options.tolerance, brdf.view);
   int f_top = table.SmallestF(within.p, targets, kTruncationShare, options.window);
   if (f_top < 0) f_top = table.f_ref();
   double best_rms = -1;

@@ -111,3 +111,21 @@ vec3 CubeFaceDirection(int face, vec2 st) {
 // addresses the texels of an SHRM with shrm:index "reflection". Tangent-indexed SHRMs
 // (shrm:index "tangent", Kajiya-Kay) are addressed by the unit tangent T instead.
 vec3 ShrmReflect(vec3 n, vec3 v) { return 2.0 * dot(n, v) * n - v; }
+
+// The argument of Y_pq of an SHRM with shrm:view_variable "normal": the normal N = (R + V) / |R + V| that
+// reflects V into R (R, V world, unit). For V = -R, where every N on R's equator does, the one
+// of azimuth 0 in R's frame (core/shrm/shrm_eval.h ShrmViewArgument). SHRMs with shrm:view_variable "view"
+// (or none) take V itself.
+vec3 ShrmViewNormal(vec3 r, vec3 v) {
+  vec3 h = r + v;
+  float len = length(h);
+  if (len > 1e-6) return h / len;
+  vec3 rs = ShFrame(r);
+  float sa = length(rs.xy), cb = 1.0, sb = 0.0;
+  if (sa > 0.0) {
+    cb = rs.x / sa;
+    sb = rs.y / sa;
+  }
+  vec3 es = vec3(rs.z * cb, rs.z * sb, -sa);  // Rz(beta) Ry(alpha) (1, 0, 0), SH frame
+  return vec3(es.x, es.z, -es.y);              // back to the world
+}

@@ -1,5 +1,7 @@
 // shrm shader library: a GLOBAL SHRM evaluated once per frame (Ramamoorthi & Hanrahan, eq. 5.35):
 //   B~(R) = sum_{p,q} B^_pq(R) Y_pq(V),   V = the frame's view direction (SH frame),
+// or, for an SHRM with shrm:view_variable "normal" (define SHRM_VIEW_NORMAL), Y_pq(N) with each texel's
+// own normal N = (R + V) / |R + V| (ShrmViewNormal),
 // i.e. an ordinary reflection cube map for this frame's view, which the shading then samples by
 // R (or T) with hardware filtering. Include after shrm_common.glsl. docs/shaders.md.
 //
@@ -25,7 +27,13 @@ uniform int shrm_face;
 out vec4 shrm_color;
 void main() {
   float y[SH_COUNT];
+#ifdef SHRM_VIEW_NORMAL
+  vec2 st = (floor(gl_FragCoord.xy) + 0.5) / float(textureSize(shrm_coeffs, 0).x);
+  vec3 r = normalize(CubeFaceDirection(shrm_face, st));
+  EvalSh(ShFrame(ShrmViewNormal(r, normalize(shrm_view))), y);
+#else
   EvalSh(ShFrame(normalize(shrm_view)), y);
+#endif
   shrm_color = vec4(ShrmGlobalTexel(shrm_face, ivec2(gl_FragCoord.xy), y), 1.0);
 }
 #endif

@@ -1,5 +1,7 @@
 // shrm shader library: a LOCAL SHRM evaluated per pixel (Ramamoorthi & Hanrahan, eq. 5.10):
 //   B(R, V) = sum_{p,q} B_pq(R) Y_pq(w), w = Rot(R)^T V,  Rot(R) = Rz(beta) Ry(alpha),
+// (shrm:view_variable "normal": w = Rot(R)^T N with the normal N = (R + V) / |R + V|: pass N, e.g. the
+// shading normal or ShrmViewNormal(R, V), where the functions below take `view`),
 // (alpha, beta) the SH angles of the texel's direction R (docs/conventions.md). Include after
 // shrm_common.glsl. docs/shaders.md.
 //

@@ -1,6 +1,7 @@
 // shrm shader library, WGSL (WebGPU): the GLSL library of shaders/glsl/ in one module.
 //   - eq. 5.35, a GLOBAL SHRM evaluated once per frame: the compute entry point shrm_global_pass
-//     writes this frame's reflection cube map (B~(R) = sum_pq B^_pq(R) Y_pq(V));
+//     writes this frame's reflection cube map (B~(R) = sum_pq B^_pq(R) Y_pq(V); for an SHRM with
+//     shrm:view_variable "normal", set the override SHRM_VIEW_NORMAL: Y_pq of each texel's normal);
 //   - eq. 5.10, a LOCAL SHRM per pixel: fn shrm_local(index, view) for the host's own shaders.
 // docs/shaders.md documents the bindings and the SHRM file (`shrm prefilter --ktx2`).
 //
@@ -128,6 +129,31 @@ fn shrm_reflect(n: vec3f, v: vec3f) -> vec3f {
   return 2.0 * dot(n, v) * n - v;
 }
 
+// SHRMs with shrm:view_variable "normal" take Y_pq of the normal N = (R + V) / |R + V| that reflects V
+// into R, not of V: set this pipeline-overridable constant to true for them (the global pass
+// then uses each texel's own N; shrm_local takes N where it takes `view`).
+override SHRM_VIEW_NORMAL: bool = false;
+
+// That normal (R, V world, unit); for V = -R, where every N on R's equator does, the one of
+// azimuth 0 in R's frame (core/shrm/shrm_eval.h ShrmViewArgument).
+fn shrm_view_normal(r: vec3f, v: vec3f) -> vec3f {
+  let h = r + v;
+  let len = length(h);
+  if (len > 1e-6) {
+    return h / len;
+  }
+  let rs = shrm_sh_frame(r);
+  let sa = length(rs.xy);
+  var cb = 1.0;
+  var sb = 0.0;
+  if (sa > 0.0) {
+    cb = rs.x / sa;
+    sb = rs.y / sa;
+  }
+  let es = vec3f(rs.z * cb, rs.z * sb, -sa);  // Rz(beta) Ry(alpha) (1, 0, 0), SH frame
+  return vec3f(es.x, es.z, -es.y);             // back to the world
+}
+
 // ---- eq. 5.35: a global SHRM, once per frame ----------------------------------------------------
 
 fn shrm_global_texel(face: i32, xy: vec2i, y: array<f32, SHRM_SH_COUNT>) -> vec3f {
@@ -145,8 +171,13 @@ fn shrm_global_pass(@builtin(global_invocation_id) id: vec3u) {
   if (id.x >= s || id.y >= s || id.z >= 6u) {
     return;
   }
-  let y = shrm_eval_sh(shrm_sh_frame(normalize(shrm.view)));
   let face = i32(id.z);
+  var d = normalize(shrm.view);
+  if (SHRM_VIEW_NORMAL) {
+    let r = normalize(shrm_cube_face_direction(face, (vec2f(id.xy) + 0.5) / f32(s)));
+    d = shrm_view_normal(r, d);
+  }
+  let y = shrm_eval_sh(shrm_sh_frame(d));
   let sum = shrm_global_texel(face, vec2i(id.xy), y);
   textureStore(shrm_out, vec2i(id.xy), face, vec4f(sum, 1.0));
 }

@@ -6,6 +6,11 @@
 // centre for a local one).
 //
 // Usage: node run_shaders.mjs SHRM_WGSL GLOBAL.ktx2 GLOBAL_REF.ktx2 LOCAL.ktx2 LOCAL_REF.ktx2
+//          [GLOBAL_N.ktx2 GLOBAL_N_REF.ktx2 LOCAL_N.ktx2 LOCAL_N_REF.ktx2]
+// (the optional four: SHRMs with shrm:view_variable "normal", docs/shaders.md, run with the override
+// SHRM_VIEW_NORMAL: the global pass against the CPU's map, whose texels each take Y_pq of their
+// own normal (R_texel + V)/|R_texel + V|, and shrm_local at every texel centre with the argument
+// shrm_view_normal(R_texel, V); a pass without the override must differ: negative control.)
 // Checks (PASS/FAIL lines, exit 1 on any FAIL):
 //   ktx2:    ktx-parse reads both SHRMs: cube-map array, layerCount (P + 1)^2 of shrm:pmax, one
 //            level, RGBA32F, the Data Format Descriptor, the conventions' keys;
@@ -20,7 +25,8 @@ import { read } from 'ktx-parse';
 import { checker, launchChromium, serve, openPage, requireChromium } from './harness.mjs';
 import { faceCoordinates, normalize, texelDirection } from './ktx_cube.mjs';
 
-const [wgslPath, globalPath, globalRefPath, localPath, localRefPath] = process.argv.slice(2).map((p) => resolve(p));
+const [wgslPath, globalPath, globalRefPath, localPath, localRefPath, globalNPath, globalNRefPath, localNPath,
+  localNRefPath] = process.argv.slice(2).map((p) => resolve(p));
 if (!localRefPath) {
   console.error('usage: node run_shaders.mjs SHRM_WGSL GLOBAL.ktx2 GLOBAL_REF.ktx2 LOCAL.ktx2 LOCAL_REF.ktx2');
   process.exit(2);
@@ -62,7 +68,8 @@ function loadShrm(path, name) {
   `ktx2 ${name}: shrm:format ${text(k.keyValue, 'shrm:format')}, shrm:kind ${text(k.keyValue, 'shrm:kind')}, shrm:layout, KTXorientation rd`);
   const level = k.levels[0].levelData;
   const layers = new Float32Array(level.buffer.slice(level.byteOffset, level.byteOffset + level.byteLength));
-  return { pmax, count, size: k.pixelWidth, layers, kind: text(k.keyValue, 'shrm:kind') };
+  return { pmax, count, size: k.pixelWidth, layers, kind: text(k.keyValue, 'shrm:kind'),
+    view: text(k.keyValue, 'shrm:view_variable') ?? 'view' };
 }
 
 function loadRef(path) {
@@ -184,6 +191,41 @@ try {
     check(over === 0, `local: shrm_local at ${dirs.length} random directions = bilinear of the CPU's texel ` +
       `values: worst error ${worst.toExponential(2)} of sum|c_k| (limit ${LOCAL_REL})`);
     check(r.errors.length === 0, `local: no WebGPU errors ${r.errors.join('; ')}`);
+  }
+  // SHRMs in the normal variable (shrm:view_variable "normal").
+  if (localNRefPath) {
+    const gN = loadShrm(globalNPath, 'global normal');
+    const lN = loadShrm(localNPath, 'local normal');
+    const gRef = loadRef(globalNRefPath);
+    const lRef = loadRef(localNRefPath);
+    check(gN.view === 'normal' && lN.view === 'normal' && gN.kind === 'global' && lN.kind === 'local',
+      `normal inputs: shrm:view_variable ${gN.view} (global), ${lN.view} (local)`);
+    r = await run({ ...common(gN), view: gRef.view, viewNormal: true });
+    if (r.error) {
+      fail(`global normal: ${r.error}`);
+    } else {
+      const [worst, over] = compareTexels(gN, r.global, gRef.data, LOCAL_REL);
+      check(over === 0, `global normal: shrm_global_pass with SHRM_VIEW_NORMAL = CPU eq. 5.35 (Y_pq of each ` +
+        `texel's normal), 6 x ${gN.size}^2 texels: worst error ${worst.toExponential(2)} of sum|c_k| (limit ${LOCAL_REL})`);
+      const plain = await run({ ...common(gN), view: gRef.view });
+      const [, overPlain] = compareTexels(gN, plain.global, gRef.data, LOCAL_REL);
+      check(overPlain > 0.1 * 6 * 3 * gN.size ** 2,
+        `global normal negative control: without SHRM_VIEW_NORMAL ${overPlain} channel values differ`);
+      check(r.errors.length === 0, `global normal: no WebGPU errors ${r.errors.join('; ')}`);
+    }
+    const centresN = [];
+    for (let f = 0; f < 6; ++f)
+      for (let y = 0; y < lN.size; ++y)
+        for (let x = 0; x < lN.size; ++x) centresN.push(texelDirection(f, x, y, lN.size));
+    r = await run({ ...common(lN), view: lRef.view, dirs: centresN, viewNormal: true });
+    if (r.error) {
+      fail(`local normal: ${r.error}`);
+    } else {
+      const [worst, over] = compareTexels(lN, r.local, lRef.data, LOCAL_REL);
+      check(over === 0, `local normal: shrm_local(R, shrm_view_normal(R, V)) at the ${centresN.length} texel ` +
+        `centres = CPU eq. 5.10 in the normal: worst error ${worst.toExponential(2)} of sum|c_k| (limit ${LOCAL_REL})`);
+      check(r.errors.length === 0, `local normal: no WebGPU errors ${r.errors.join('; ')}`);
+    }
   }
   const pageErrors = log.filter((l) => l.startsWith('pageerror') || l.startsWith('error'));
   check(pageErrors.length === 0, `page: no errors ${pageErrors.join('; ')}`);

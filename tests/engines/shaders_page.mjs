@@ -29,7 +29,8 @@ async function readTexture(dev, tex, size, layers) {
 }
 
 // args: { code (WGSL), pmax, size, layers (the KTX2 level as float RGBA, [k][face][y][x][4]),
-//         view [x, y, z], dirs (optional: index directions for shrm_local, [n][3]) }
+//         view [x, y, z], dirs (optional: index directions for shrm_local, [n][3]),
+//         viewNormal (optional: the SHRM's shrm:view_variable is "normal": the override SHRM_VIEW_NORMAL) }
 window.runShrm = async (args) => {
   const dev = await device();
   const errors = [];
@@ -45,7 +46,12 @@ fn test_local(@builtin(global_invocation_id) id: vec3u) {
   if (id.x >= arrayLength(&test_dirs)) {
     return;
   }
-  test_out[id.x] = vec4f(shrm_local(test_dirs[id.x].xyz, normalize(shrm.view)), 1.0);
+  let d = test_dirs[id.x].xyz;
+  var arg = normalize(shrm.view);
+  if (SHRM_VIEW_NORMAL) {
+    arg = shrm_view_normal(normalize(d), arg);  // shrm:view_variable "normal": the argument is N
+  }
+  test_out[id.x] = vec4f(shrm_local(d, arg), 1.0);
 }
 `;
   const module = dev.createShaderModule({ code: prelude + args.code + test });
@@ -63,12 +69,13 @@ fn test_local(@builtin(global_invocation_id) id: vec3u) {
   const uniform = dev.createBuffer({ size: 16, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
   dev.queue.writeBuffer(uniform, 0, params);
   const coeffView = coeffs.createView({ dimension: '2d-array' });
+  const constants = args.viewNormal ? { SHRM_VIEW_NORMAL: 1 } : {};
 
   if (!args.dirs) {
     // Eq. 5.35: the per-frame pass into an S x S x 6 storage texture.
     const out = dev.createTexture({ size: [size, size, 6], format: 'rgba32float',
       usage: GPUTextureUsage.STORAGE_BINDING | GPUTextureUsage.COPY_SRC });
-    const pipeline = dev.createComputePipeline({ layout: 'auto', compute: { module, entryPoint: 'shrm_global_pass' } });
+    const pipeline = dev.createComputePipeline({ layout: 'auto', compute: { module, entryPoint: 'shrm_global_pass', constants } });
     const group = dev.createBindGroup({ layout: pipeline.getBindGroupLayout(0), entries: [
       { binding: 0, resource: coeffView }, { binding: 1, resource: { buffer: uniform } },
       { binding: 2, resource: out.createView({ dimension: '2d-array' }) }] });
@@ -90,7 +97,7 @@ fn test_local(@builtin(global_invocation_id) id: vec3u) {
   dev.queue.writeBuffer(dirBuf, 0, dirs);
   const outBuf = dev.createBuffer({ size: dirs.byteLength, usage: GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_SRC });
   const readBuf = dev.createBuffer({ size: dirs.byteLength, usage: GPUBufferUsage.COPY_DST | GPUBufferUsage.MAP_READ });
-  const pipeline = dev.createComputePipeline({ layout: 'auto', compute: { module, entryPoint: 'test_local' } });
+  const pipeline = dev.createComputePipeline({ layout: 'auto', compute: { module, entryPoint: 'test_local', constants } });
   const group = dev.createBindGroup({ layout: pipeline.getBindGroupLayout(0), entries: [
     { binding: 0, resource: coeffView }, { binding: 1, resource: { buffer: uniform } },
     { binding: 3, resource: { buffer: dirBuf } }, { binding: 4, resource: { buffer: outBuf } }] });
