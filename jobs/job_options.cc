@@ -82,7 +82,8 @@ const std::array<JobOption, 11> kPrefilterJobOptions = {{
      [](PrefilterJob* j) { j->window = RingingWindow::kLanczos; }, ""},
     {"view_variable",
      "variable of the view expansion: normal (N = (R + V)/|R + V|: converges at grazing views), "
-     "view (the paper's V), or auto (normal with --tolerance, view with --epsilon or --orders)",
+     "view (the paper's V), or auto (--tolerance chooses, normal first; view with --epsilon or "
+     "--orders)",
      kEverywhere, "--view-variable normal", "\"normal\"",
      [](PrefilterJob* j) { j->view = ViewVariable::kNormal; }, ""},
     {"verify",

@@ -30,6 +30,10 @@ absl::StatusOr<std::optional<ViewVariable>> ParseViewChoice(absl::string_view na
       absl::StrCat("view-variable must be auto, view or normal, got '", name, "'"));
 }
 
+bool AutoViewVariable(const PrefilterJob& job) {
+  return !job.view && job.tolerance > 0 && !job.orders;
+}
+
 ViewVariable ResolvedViewVariable(const PrefilterJob& job) {
   if (job.view) return *job.view;
   return job.tolerance > 0 && !job.orders ? ViewVariable::kNormal : ViewVariable::kView;
@@ -138,6 +142,7 @@ PrefilterOptions CorePrefilterOptions(const PrefilterJob& job, int threads) {
   if (job.tolerance > 0) opt.size_budget_values = SizeBudgetValues(job);
   opt.window = job.window;
   opt.view = ResolvedViewVariable(job);
+  opt.try_other_view = AutoViewVariable(job);
   opt.verify = job.verify;
   opt.kind = job.kind;
   opt.face_size = job.face_size;
@@ -159,16 +164,14 @@ std::string EstimateText(const DirectionalError& e) {
 }
 
 // The estimate's total: truncation and interpolation in quadrature (RMS), summed (largest).
-DirectionalError TotalEstimate(const ToleranceChoice& c) {
-  DirectionalError e;
-  e.front.rms = std::hypot(c.truncation.front.rms, c.interpolation.front.rms);
-  e.front.max = c.truncation.front.max + c.interpolation.front.max;
-  e.grazing.rms = std::hypot(c.truncation.grazing.rms, c.interpolation.grazing.rms);
-  e.grazing.max = c.truncation.grazing.max + c.interpolation.grazing.max;
-  return e;
-}
-
 nlohmann::json StatsJson(const ErrorStats& s) { return {{"rms", s.rms}, {"max", s.max}}; }
+
+nlohmann::json ViewTrialsJson(const std::vector<std::pair<ViewVariable, double>>& trials) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& [view, score] : trials)
+    out.push_back({{"view_variable", ViewVariableName(view)}, {"rms_score", score}});
+  return out;
+}
 
 }  // namespace
 
@@ -241,6 +244,7 @@ nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProve
            {{"front", StatsJson(c.interpolation.front)},
             {"grazing", StatsJson(c.interpolation.grazing)}}}}},
         {"reference_orders", {c.f_ref, c.p_ref}},
+        {"view_trials", ViewTrialsJson(result.view_trials)},
         {"met", c.met},
         {"size_mb", CubeValues(result.cube.face_size, result.analysis.p_b) * bytes / 1e6},
         {"max_size_mb", job.max_size_mb},

@@ -78,8 +78,9 @@ struct PrefilterJob {
   // Ringing window on the lighting bands; kAuto = chosen by the tolerance rule (none otherwise).
   RingingWindow window = RingingWindow::kAuto;
   // The variable of the view expansion (core/brdf/brdf_coefficients.h, docs/shrm.md "The view
-  // variable"); nullopt = auto: the normal with the tolerance rule, the paper's view with the
-  // epsilon rule and explicit orders. The epsilon rule takes the view only.
+  // variable"); nullopt = auto: the tolerance rule chooses (the normal first, the view too when
+  // the normal misses the front RMS: AutoViewVariable), the paper's view with the epsilon rule
+  // and explicit orders. The epsilon rule takes the view only.
   std::optional<ViewVariable> view;
   // > 0: the job measures its cube at this many seeded pairs against the brute-force sum
   // (FastReference): the report's "measured", shrm:measured_error; 0 = no check.
@@ -114,6 +115,10 @@ const char* ViewChoiceName(const std::optional<ViewVariable>& view);
 absl::StatusOr<std::optional<ViewVariable>> ParseViewChoice(absl::string_view name);
 // The view variable the job asks the core pipeline for (auto resolved by the order rule).
 ViewVariable ResolvedViewVariable(const PrefilterJob& job);
+// Whether the job leaves the variable to the tolerance rule (auto with --tolerance): the normal
+// first, the view too when the normal's choice misses the front targets
+// (PrefilterOptions::try_other_view).
+bool AutoViewVariable(const PrefilterJob& job);
 
 // Every option within its range (names as in docs/cli.md without the dashes); the BRDF spec is
 // checked when it is parsed (ParseBrdfSpec).

@@ -218,6 +218,7 @@ TEST(PrefilterJob, DefaultIsTheToleranceRuleCheckedAndOneRuleAtATime) {
   EXPECT_FALSE(PrefilterJob{}.view.has_value());
   EXPECT_EQ(jobs::ResolvedViewVariable(PrefilterJob{}), ViewVariable::kNormal);
   EXPECT_EQ(jobs::CorePrefilterOptions(PrefilterJob{}, 1).view, ViewVariable::kNormal);
+  EXPECT_TRUE(jobs::CorePrefilterOptions(PrefilterJob{}, 1).try_other_view);
   PrefilterJob eps;
   jobs::UseEpsilonRule(&eps, 0.03);
   EXPECT_EQ(jobs::ResolvedViewVariable(eps), ViewVariable::kView);
@@ -226,9 +227,11 @@ TEST(PrefilterJob, DefaultIsTheToleranceRuleCheckedAndOneRuleAtATime) {
   EXPECT_EQ(jobs::ResolvedViewVariable(orders), ViewVariable::kView);
   orders.view = ViewVariable::kNormal;
   EXPECT_EQ(jobs::CorePrefilterOptions(orders, 1).view, ViewVariable::kNormal);
+  EXPECT_FALSE(jobs::CorePrefilterOptions(orders, 1).try_other_view);
   PrefilterJob viewed;
   viewed.view = ViewVariable::kView;
   EXPECT_EQ(jobs::ResolvedViewVariable(viewed), ViewVariable::kView);
+  EXPECT_FALSE(jobs::CorePrefilterOptions(viewed, 1).try_other_view);  // asked for: kept
   for (const char* name : {"auto", "view", "normal"})
     EXPECT_STREQ(jobs::ViewChoiceName(*jobs::ParseViewChoice(name)), name);
   EXPECT_EQ(jobs::ParseViewChoice("halfway").status().code(), absl::StatusCode::kInvalidArgument);

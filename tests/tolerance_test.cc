@@ -243,6 +243,42 @@ TEST(ToleranceTest, BudgetLimitedChoiceFitsAndBeatsTheObviousSplitsOfTheBudget) 
   }
 }
 
+// The job layer's auto view variable (PrefilterOptions::try_other_view): a choice in the normal
+// variable that misses the front RMS (here: a 4 MB budget) makes the rule choose in the view
+// variable too and keep the smaller RMS score (front and grazing); the cube, the coefficients and
+// the report's trials say which (RmsScore). Without try_other_view only the normal is tried.
+TEST(ToleranceTest, AutoViewTriesTheViewWhenTheNormalMissesAndKeepsTheBetterEstimate) {
+  const Image img = LoadBundledMap("courtyard.exr", kMapWidth);
+  const EnvMap env = EnvMap::FromLatLong(img);
+  auto brdf = ParseOrDie("microfacet:sigma=0.2");
+  ASSERT_NE(brdf, nullptr);
+  PrefilterOptions opt;
+  opt.tolerance = kTolerance;
+  opt.threads = 2;
+  opt.view = ViewVariable::kNormal;
+  opt.size_budget_values = 4e6 / 4;
+  auto only = Prefilter(env, *brdf, opt);
+  ASSERT_TRUE(only.ok()) << only.status();
+  EXPECT_TRUE(only->view_trials.empty());
+  EXPECT_EQ(only->brdf.view, ViewVariable::kNormal);
+  EXPECT_GT(FrontScore(only->choice, kTolerance), 1.0);
+  const double normal_score = RmsScore(only->choice, kTolerance);
+  opt.try_other_view = true;
+  auto r = Prefilter(env, *brdf, opt);
+  ASSERT_TRUE(r.ok()) << r.status();
+  ASSERT_EQ(r->view_trials.size(), 2u);
+  EXPECT_EQ(r->view_trials[0].first, ViewVariable::kNormal);
+  EXPECT_EQ(r->view_trials[0].second, normal_score);
+  EXPECT_EQ(r->view_trials[1].first, ViewVariable::kView);
+  const ViewVariable kept =
+      r->view_trials[1].second < normal_score ? ViewVariable::kView : ViewVariable::kNormal;
+  std::printf("4 MB: normal RMS score %.3f, view %.3f: kept %s\n", normal_score,
+              r->view_trials[1].second, ViewVariableName(kept));
+  EXPECT_EQ(r->brdf.view, kept);
+  EXPECT_EQ(r->cube.view, kept);
+  EXPECT_EQ(RmsScore(r->choice, kTolerance), std::min(normal_score, r->view_trials[1].second));
+}
+
 enum class Expect {
   kAll,  // front RMS, front largest, no negatives; and grazing RMS in the normal variable
   // The paper's view variable and a BRDF whose rho-hat jumps to 0 at the normal's horizon (the
@@ -268,8 +304,9 @@ struct RealCase {
   // A forced Lanczos window blurs too much for 1% (w_l = 0.64 at l = F / 2): the rule must say
   // so (met = false at the map's highest order) and its estimate still predict the measurement.
   RingingWindow window = RingingWindow::kAuto;
-  // The default of the job layer's tolerance rule (jobs::ResolvedViewVariable); radially
-  // symmetric models take the view whatever is asked (P = 0).
+  // kNormal: the default of the job layer's tolerance rule (auto: the normal first, the view
+  // too when the normal misses the front RMS; jobs::AutoViewVariable); kView: the view only.
+  // Radially symmetric models take the view whatever is asked (P = 0).
   ViewVariable view = ViewVariable::kNormal;
   // The size budget (PrefilterOptions::size_budget_values) in MB of float32 values; 0 = none.
   double budget_mb = 0;
@@ -290,6 +327,7 @@ TEST_P(ToleranceRealMapTest, ToleranceIsMetOrReportedAndTheEstimateHolds) {
   opt.threads = 2;
   opt.verify = kPairs;
   opt.view = rc.view;
+  opt.try_other_view = rc.view == ViewVariable::kNormal;  // the job layer's auto
   opt.size_budget_values = rc.budget_mb * 1e6 / 4;
   auto r = Prefilter(env, *brdf, opt);
   ASSERT_TRUE(r.ok()) << r.status();

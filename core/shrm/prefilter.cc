@@ -288,6 +288,26 @@ absl::StatusOr<PrefilterResult> Prefilter(const EnvMap& env, const Brdf& brdf,
     LightingStage l;
     SHRM_RETURN_IF_ERROR(ChooseOrdersForTolerance(env, brdf, options, clock, &b, &l, &r.choice));
     PrefilterOptions chosen = options;
+    const ViewVariable other =
+        options.view == ViewVariable::kNormal ? ViewVariable::kView : ViewVariable::kNormal;
+    if (options.try_other_view && EffectiveViewVariable(brdf, other) == other &&
+        FrontScore(r.choice, options.tolerance) > 1) {
+      PrefilterOptions alt = options;
+      alt.view = other;
+      BrdfStage b2;
+      LightingStage l2;
+      ToleranceChoice c2;
+      SHRM_RETURN_IF_ERROR(ChooseOrdersForTolerance(env, brdf, alt, clock, &b2, &l2, &c2));
+      const double first = RmsScore(r.choice, options.tolerance);
+      const double second = RmsScore(c2, options.tolerance);
+      r.view_trials = {{EffectiveViewVariable(brdf, options.view), first}, {other, second}};
+      if (second < first) {
+        b = std::move(b2);
+        l = std::move(l2);
+        r.choice = c2;
+        chosen.view = other;
+      }
+    }
     chosen.f = r.choice.f;
     chosen.p = r.choice.p;
     chosen.window = r.choice.window;

@@ -45,6 +45,13 @@ struct PrefilterOptions {
   // The view expansion's variable (brdf_coefficients.h) for the tolerance rule and explicit
   // orders; the epsilon rule (eqs. 5.15-5.19, Table 5.5) is the paper's and always takes kView.
   ViewVariable view = ViewVariable::kView;
+  // Tolerance rule only: when the choice in `view` misses the tolerance in front RMS (its
+  // estimate, FrontScore > 1), the choice in the other variable is made too, and taken when its
+  // RmsScore (front and grazing RMS against their targets) is the smaller (docs/shrm.md "The
+  // view variable": the normal variable
+  // converges at grazing views but halves the view expansion's angular room, so the sharpest and
+  // most Fresnel-driven lobes can need more P than the orders allow in it).
+  bool try_other_view = false;
   // Pairs of the tolerance rule's estimate (seeded: kSelectionSeed).
   int selection_pairs = 256;
   // Tolerance rule only, > 0: the size budget on CubeValues(S_B, P_B) (ToleranceOptions::
@@ -77,8 +84,11 @@ struct PrefilterResult {
   RingingWindow window = RingingWindow::kNone;  // applied to `light` before synthesis
   bool tolerance_rule = false;                  // orders from options.tolerance
   ToleranceChoice choice;                       // the tolerance rule's estimate (tolerance_rule)
-  int verified_pairs = 0;                       // options.verify when the cube was measured
-  DirectionalError measured;                    // the cube against FastReference
+  // try_other_view: the RmsScore of the choice in each variable tried, in the order tried (empty
+  // when only one was).
+  std::vector<std::pair<ViewVariable, double>> view_trials;
+  int verified_pairs = 0;     // options.verify when the cube was measured
+  DirectionalError measured;  // the cube against FastReference
 };
 
 // The measured error of `cube` (made from `env` rotated by `rotation` and `brdf`) at `pairs`

@@ -279,6 +279,24 @@ DirectionalError EstimateInterpolation(const ShrmSynthesizer& synth,
   return MeasureDirectionalError(pairs, got, exact);
 }
 
+DirectionalError TotalEstimate(const ToleranceChoice& c) {
+  DirectionalError e;
+  e.front.rms = std::hypot(c.truncation.front.rms, c.interpolation.front.rms);
+  e.front.max = c.truncation.front.max + c.interpolation.front.max;
+  e.grazing.rms = std::hypot(c.truncation.grazing.rms, c.interpolation.grazing.rms);
+  e.grazing.max = c.truncation.grazing.max + c.interpolation.grazing.max;
+  return e;
+}
+
+double FrontScore(const ToleranceChoice& c, double tolerance) {
+  return TotalEstimate(c).front.rms / tolerance;
+}
+
+double RmsScore(const ToleranceChoice& c, double tolerance) {
+  const DirectionalError e = TotalEstimate(c);
+  return std::max(e.front.rms / tolerance, e.grazing.rms / (kGrazingFactor * tolerance));
+}
+
 ToleranceChoice ChooseOrders(const BandTable& table, const ToleranceOptions& options) {
   const ToleranceTargets targets = TargetsForTolerance(options.tolerance, table.view());
   ToleranceChoice best;
