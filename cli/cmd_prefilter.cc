@@ -72,6 +72,11 @@ void PrintSummary(const jobs::PrefilterJob& job, const PrefilterRun& run,
         t["tolerance"].get<double>(), report["window"].get<std::string>().c_str(),
         e["front"]["rms"].get<double>(), e["front"]["max"].get<double>(),
         e["grazing"]["rms"].get<double>(), t["met"].get<bool>() ? "" : " (NOT MET)");
+    std::printf("  view variable %s", report.value("view_variable", "view").c_str());
+    for (const nlohmann::json& trial : t.value("view_trials", nlohmann::json::array()))
+      std::printf("%s %s %.3g", &trial == &t["view_trials"].front() ? " (RMS scores:" : ",",
+                  trial.value("view_variable", "").c_str(), trial.value("rms_score", 0.0));
+    std::printf("%s\n", t.value("view_trials", nlohmann::json::array()).empty() ? "" : ")");
   }
   std::printf("  time:");
   for (const auto& [k, v] : report["timings"].items())

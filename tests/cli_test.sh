@@ -203,6 +203,12 @@ expect_error epsilon_with_tolerance 1 '--epsilon, --tolerance and --orders exclu
 expect_error tolerance_out_of_range 2 'tolerance' \
   "$SHRM" "${PF[@]}" --env "$IN/ok.pfm" --tolerance 1.5
 expect_error unknown_window 2 'window' "$SHRM" "${PF[@]}" --env "$IN/ok.pfm" --window hann
+# The view variable (docs/shrm.md "The view variable"): the epsilon rule is the paper's (view).
+expect_error normal_with_epsilon 1 'view-variable normal needs the tolerance rule or explicit orders' \
+  "$SHRM" prefilter --brdf microfacet:sigma=0.3 --size 16 -o out.shrm.exr --env "$IN/ok.pfm" \
+  --epsilon 0.03 --view-variable normal
+expect_error unknown_view_variable 2 'view-variable' "$SHRM" "${PF[@]}" --env "$IN/ok.pfm" \
+  --view-variable halfway
 
 # NaN pixels accepted with --replace-non-finite (a warning, an output).
 CHECKS=$((CHECKS + 1))
@@ -331,6 +337,9 @@ if "$SHRM" prefilter --env "$MAP" --brdf phong:s=32 -o t.shrm.exr \
   --report t.json >t.stdout 2>t.stderr; then
   grep -Eq '^  tolerance 0\.01 \(window none\): estimated front RMS' t.stdout ||
     fail "tolerance: no estimate line: $(cat t.stdout)"
+  # Phong is radially symmetric: the view variable does not enter (P = 0), the file says view.
+  grep -Eq '^  view variable view$' t.stdout || fail "tolerance: no view variable line: $(cat t.stdout)"
+  grep -q '"view_variable": "view"' t.json || fail "default: the report has no view_variable"
   grep -q '"met": true' t.json || fail "tolerance: report without met: true"
   grep -q '"order_rule": "tolerance"' t.json || fail "default: order_rule is not tolerance"
   grep -q '"pairs": 64' t.json || fail "default: the report has no check at 64 pairs"
@@ -341,6 +350,17 @@ if "$SHRM" prefilter --env "$MAP" --brdf phong:s=32 -o t.shrm.exr \
   echo "ok: tolerance: $(head -n 1 t.stdout)"
 else
   fail "tolerance: prefilter failed: $(cat t.stderr)"
+fi
+# --view-variable normal with explicit orders: the file says so, and `shrm eval` reads it.
+CHECKS=$((CHECKS + 1))
+if "$SHRM" prefilter --env "$MAP" --brdf microfacet:sigma=0.3 --orders 8,3 --size 16 --verify 0 \
+  --view-variable normal -o vn.shrm.exr --report vn.json >vn.stdout 2>vn.stderr &&
+  "$SHRM" info vn.shrm.exr >vn-info.txt 2>&1 && grep -Eq 'shrm:view_variable +normal$' vn-info.txt &&
+  grep -q '"view_variable": "normal"' vn.json &&
+  "$SHRM" eval --shrm vn.shrm.exr --normal 0,1,0 --view 0.3,0.9,0.1 >vn-eval.txt 2>&1; then
+  echo "ok: view variable normal: $(grep shrm:view_variable vn-info.txt)"
+else
+  fail "view variable normal: $(cat vn.stderr vn-info.txt vn-eval.txt 2>&1 | head -c 600)"
 fi
 # shrm irradiance states the measured error of its coefficients (the l <= 2 truncation) against
 # the pixel sum at --verify normals; --verify 0 skips the check.
