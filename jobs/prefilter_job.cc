@@ -36,7 +36,7 @@ bool AutoViewVariable(const PrefilterJob& job) {
 
 ViewVariable ResolvedViewVariable(const PrefilterJob& job) {
   if (job.view) return *job.view;
-  return job.tolerance > 0 && !job.orders ? ViewVariable::kNormal : ViewVariable::kView;
+  return AutoViewVariable(job) ? ViewVariable::kNormal : ViewVariable::kView;
 }
 
 absl::StatusOr<ShrmKind> ParseShrmKind(absl::string_view name) {

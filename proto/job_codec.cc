@@ -1,6 +1,7 @@
 #include "proto/job_codec.h"
 
 #include <cmath>
+#include <optional>
 #include <string_view>
 #include <utility>
 
@@ -41,6 +42,11 @@ constexpr std::pair<jobs::IblShWindow, v1::IblShWindow> kIblShWindows[] = {
     {jobs::IblShWindow::kNone, v1::IBL_SH_WINDOW_NONE},
     {jobs::IblShWindow::kCmgen, v1::IBL_SH_WINDOW_CMGEN},
     {jobs::IblShWindow::kAuto, v1::IBL_SH_WINDOW_UNSPECIFIED}};
+// The job's view variable: nullopt = auto.
+constexpr std::pair<std::optional<ViewVariable>, v1::ViewVariable> kViewVariables[] = {
+    {std::nullopt, v1::VIEW_VARIABLE_AUTO},
+    {ViewVariable::kView, v1::VIEW_VARIABLE_VIEW},
+    {ViewVariable::kNormal, v1::VIEW_VARIABLE_NORMAL}};
 
 // The core value of a proto enum value (InvalidArgument naming `field` for unknown values).
 template <typename Core, typename Proto, size_t N>
@@ -160,9 +166,7 @@ v1::PrefilterRequest EncodePrefilterRequest(const jobs::PrefilterJob& job,
   req.set_window(job.window == RingingWindow::kNone      ? v1::RINGING_WINDOW_NONE
                  : job.window == RingingWindow::kLanczos ? v1::RINGING_WINDOW_LANCZOS
                                                          : v1::RINGING_WINDOW_AUTO);
-  req.set_view_variable(!job.view                          ? v1::VIEW_VARIABLE_AUTO
-                        : *job.view == ViewVariable::kView ? v1::VIEW_VARIABLE_VIEW
-                                                           : v1::VIEW_VARIABLE_NORMAL);
+  req.set_view_variable(ToProto(kViewVariables, job.view));
   req.set_kind(job.kind == ShrmKind::kLocal ? v1::SHRM_KIND_LOCAL : v1::SHRM_KIND_GLOBAL);
   req.set_face_size(job.face_size);
   req.set_half(job.half);
@@ -205,19 +209,8 @@ absl::StatusOr<WirePrefilter> DecodePrefilterRequest(const v1::PrefilterRequest&
     default:
       return absl::InvalidArgumentError("window: unknown value");
   }
-  switch (request.view_variable()) {
-    case v1::VIEW_VARIABLE_AUTO:
-      w.job.view.reset();
-      break;
-    case v1::VIEW_VARIABLE_VIEW:
-      w.job.view = ViewVariable::kView;
-      break;
-    case v1::VIEW_VARIABLE_NORMAL:
-      w.job.view = ViewVariable::kNormal;
-      break;
-    default:
-      return absl::InvalidArgumentError("view_variable: unknown value");
-  }
+  SHRM_ASSIGN_OR_RETURN(w.job.view,
+                        FromProto(kViewVariables, request.view_variable(), "view_variable"));
   switch (request.kind()) {
     case v1::SHRM_KIND_UNSPECIFIED:
     case v1::SHRM_KIND_GLOBAL:

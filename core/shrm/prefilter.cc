@@ -305,7 +305,6 @@ absl::StatusOr<PrefilterResult> Prefilter(const EnvMap& env, const Brdf& brdf,
         b = std::move(b2);
         l = std::move(l2);
         r.choice = c2;
-        chosen.view = other;
       }
     }
     chosen.f = r.choice.f;
