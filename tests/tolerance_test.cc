@@ -109,6 +109,65 @@ TEST(ToleranceTest, BandContributionsSumToTheDirectValueAtEveryTruncation) {
   }
 }
 
+// The batched evaluation (BandContributionsAtArguments: kWignerBlock points per Wigner pass, the
+// columns m and -m together) against the one-point path, band by band, and its band sums against
+// the direct value (RadianceAtArgument, the full Wigner table): every view variable, both
+// reparameterizations (Kajiya-Kay's tangent keeps q = 0 only), P above F (q <= F), and point
+// counts that fill no block, one block and part of a second.
+TEST(ToleranceTest, BatchedBandContributionsEqualThePointByPointOnes) {
+  const Image img = LoadBundledMap("city.exr", 64);
+  const EnvMap env = EnvMap::FromLatLong(img);
+  struct Case {
+    std::string spec;
+    int f, p;
+    ViewVariable view;
+  };
+  const std::vector<Case> cases = {
+      {"microfacet:sigma=0.2", 20, 6, ViewVariable::kView},
+      {"microfacet:sigma=0.2", 20, 6, ViewVariable::kNormal},
+      {"ggx:alpha=0.3,f0=0.04", 3, 5, ViewVariable::kNormal},
+      {"kajiya-kay:s=32", 12, 4, ViewVariable::kView},
+  };
+  for (const Case& cs : cases) {
+    auto brdf = ParseOrDie(cs.spec);
+    ASSERT_NE(brdf, nullptr);
+    PrefilterOptions opt;
+    opt.f = cs.f;
+    opt.p = cs.p;
+    opt.view = cs.view;
+    opt.synthesize = false;
+    auto r = Prefilter(env, *brdf, opt);
+    ASSERT_TRUE(r.ok()) << r.status();
+    auto synth = ShrmSynthesizer::Create(r->light_lmax, 3, r->light, r->brdf, cs.f, cs.p);
+    ASSERT_TRUE(synth.ok()) << synth.status();
+    for (const int count : {1, 8, 13}) {
+      const std::vector<DirectionPair> pairs = SeededDirectionPairs(11, count, brdf->reparam());
+      std::vector<Vec3> index, argument;
+      for (const DirectionPair& pair : pairs) {
+        index.push_back(IndexDirection(pair, brdf->reparam()));
+        argument.push_back(ShrmViewArgument(synth->view(), index.back(), pair.view));
+      }
+      const size_t n = synth->BandCount();
+      std::vector<double> batched(n * count), one(n);
+      synth->BandContributionsAtArguments(index, argument, batched);
+      for (int k = 0; k < count; ++k) {
+        synth->BandContributionsAtArgument(index[k], argument[k], one);
+        const Rgb direct = synth->RadianceAtArgument(ShrmKind::kLocal, index[k], argument[k]);
+        Rgb sum{0, 0, 0};
+        for (size_t i = 0; i < n; ++i) {
+          EXPECT_NEAR(batched[k * n + i], one[i], kBandSumTol * (1 + std::abs(one[i])))
+              << cs.spec << " " << ViewVariableName(cs.view) << " point " << k << " of " << count
+              << " term " << i;
+          sum[i % 3] += batched[k * n + i];
+        }
+        for (int c = 0; c < 3; ++c)
+          EXPECT_NEAR(sum[c], direct[c], kBandSumTol * (1 + std::abs(direct[c])))
+              << cs.spec << " point " << k << " channel " << c;
+      }
+    }
+  }
+}
+
 TEST(ToleranceTest, SeededPairsAreTheVisiblePointsOfASphere) {
   constexpr int kCount = 20000;
   const std::vector<DirectionPair> pairs =

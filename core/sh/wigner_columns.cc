@@ -4,6 +4,7 @@
 #include <cassert>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 
 namespace shrm {
 namespace {
@@ -91,58 +92,52 @@ void WignerColumnTables::Compute(double alpha, std::span<double> out) const {
   }
 }
 
+WignerColumnTables::BlockAngles WignerColumnTables::Angles(const double* alpha, int n) const {
+  BlockAngles a;
+  Lanes c, s;
+  for (int r = 0; r < kWignerBlock; ++r) {
+    const double t = alpha[std::min(r, n - 1)];
+    c[r] = std::cos(t / 2);
+    s[r] = std::sin(t / 2);
+    a.x[r] = std::cos(t);
+  }
+  a.cpow.resize(2 * lmax_ + 1);
+  a.spow.resize(2 * lmax_ + 1);
+  a.cpow[0] = a.spow[0] = Lanes{} + 1.0;
+  for (int k = 1; k <= 2 * lmax_; ++k) {
+    a.cpow[k] = a.cpow[k - 1] * c;
+    a.spow[k] = a.spow[k - 1] * s;
+  }
+  return a;
+}
+
+WignerColumnTables::Lanes WignerColumnTables::StartColumn(const BlockAngles& a, int m,
+                                                          int q) const {
+  // The closed forms of Compute(), with the powers from the block's tables.
+  const int l0 = std::max(std::abs(m), std::abs(q));
+  const double b = start_[static_cast<size_t>(q + qmax_) * (2 * lmax_ + 1) + (m + lmax_)];
+  if (std::abs(m) >= std::abs(q)) {
+    if (m >= 0) return ((m - q) & 1 ? -b : b) * a.cpow[l0 + q] * a.spow[l0 - q];
+    return b * a.cpow[l0 - q] * a.spow[l0 + q];
+  }
+  if (q > 0) return b * a.cpow[l0 + m] * a.spow[l0 - m];
+  return ((m + l0) & 1 ? -b : b) * a.cpow[l0 - m] * a.spow[l0 + m];
+}
+
 void WignerColumnTables::ComputeBlock(const double* alpha, int n, double* out,
                                       bool nonnegative_q) const {
   // The recurrence of Compute() run on kWignerBlock angles at once (lane r = alpha[r]; lanes
   // r >= n repeat alpha[n - 1]): the coefficients do not depend on alpha, so the recurrence
   // vectorizes across the lanes.
   constexpr int B = kWignerBlock;
-  const int lmax = lmax_, qmax = qmax_;
-  double c[B], sn[B], x[B];
-  for (int r = 0; r < B; ++r) {
-    const double a = alpha[std::min(r, n - 1)];
-    c[r] = std::cos(a / 2);
-    sn[r] = std::sin(a / 2);
-    x[r] = std::cos(a);
-  }
-  for (int q = nonnegative_q ? 0 : -qmax; q <= qmax; ++q) {
-    for (int m = -lmax; m <= lmax; ++m) {
-      double* col = out + WignerColumnIndex(lmax, qmax, 0, m, q) * B;
+  const BlockAngles angles = Angles(alpha, n);
+  for (int q = nonnegative_q ? 0 : -qmax_; q <= qmax_; ++q) {
+    for (int m = -lmax_; m <= lmax_; ++m) {
+      double* col = out + WignerColumnIndex(lmax_, qmax_, 0, m, q) * B;
       const int l0 = std::max(std::abs(m), std::abs(q));
-      for (int i = 0; i < std::min(l0, lmax + 1) * B; ++i) col[i] = 0.0;
-      if (l0 > lmax) continue;
-      const double b = start_[static_cast<size_t>(q + qmax) * (2 * lmax + 1) + (m + lmax)];
-      double prev[B], cur[B];
-      for (int r = 0; r < B; ++r) {
-        double d0;
-        if (std::abs(m) >= std::abs(q)) {
-          if (m >= 0) {
-            d0 = ((m - q) & 1 ? -1.0 : 1.0) * b * IntPow(c[r], l0 + q) * IntPow(sn[r], l0 - q);
-          } else {
-            d0 = b * IntPow(c[r], l0 - q) * IntPow(sn[r], l0 + q);
-          }
-        } else if (q > 0) {
-          d0 = b * IntPow(c[r], l0 + m) * IntPow(sn[r], l0 - m);
-        } else {
-          d0 = ((m + l0) & 1 ? -1.0 : 1.0) * b * IntPow(c[r], l0 - m) * IntPow(sn[r], l0 + m);
-        }
-        col[l0 * B + r] = d0;
-        prev[r] = 0;
-        cur[r] = d0;
-      }
-      const size_t base = WignerColumnIndex(lmax, qmax, 0, m, q);
-      const double* a = a_.data() + base;
-      const double* cl = c_.data() + base;
-      const double* sh = shift_.data() + base;
-      for (int l = l0; l < lmax; ++l) {
-        const double al = a[l], cll = cl[l], shl = sh[l];
-        double* next = col + (l + 1) * B;
-        for (int r = 0; r < B; ++r) {
-          next[r] = al * ((x[r] - shl) * cur[r] - cll * prev[r]);
-          prev[r] = cur[r];
-          cur[r] = next[r];
-        }
-      }
+      for (int i = 0; i < std::min(l0, lmax_ + 1) * B; ++i) col[i] = 0.0;
+      VisitColumn(angles, m, q,
+                  [&](int l, const Lanes& d) { std::memcpy(col + l * B, &d, sizeof d); });
     }
   }
 }

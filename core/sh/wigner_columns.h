@@ -13,6 +13,7 @@
 #ifndef SHRM_CORE_SH_WIGNER_COLUMNS_H_
 #define SHRM_CORE_SH_WIGNER_COLUMNS_H_
 
+#include <algorithm>
 #include <cstddef>
 #include <span>
 #include <vector>
@@ -44,7 +45,64 @@ class WignerColumnTables {
   static constexpr int kWignerBlock = 8;
   void ComputeBlock(const double* alpha, int n, double* out, bool nonnegative_q = false) const;
 
+  // kWignerBlock doubles, one per angle (a GCC/Clang vector: one AVX-512 register, or split by
+  // the compiler on narrower machines).
+  using Lanes = double __attribute__((vector_size(kWignerBlock * sizeof(double))));
+  // The terms of kWignerBlock angles the recurrences start from (lanes r >= n repeat
+  // alpha[n - 1]): cos(alpha), and the powers of cos(alpha / 2) and sin(alpha / 2) of the closed
+  // forms (exponents 0 .. 2 lmax).
+  struct BlockAngles {
+    Lanes x;
+    std::vector<Lanes> cpow, spow;
+  };
+  BlockAngles Angles(const double* alpha, int n) const;
+  // The recurrence of one column (m, q) for the block's angles without storing it:
+  // visit(l, d) for l = max(|m|, |q|) .. lmax in order, d[r] = d^l_mq(alpha_r) (a Lanes value).
+  // A caller that consumes each degree at once (a sum over l) needs no column storage.
+  template <class Visit>
+  void VisitColumn(const BlockAngles& a, int m, int q, Visit&& visit) const {
+    const int l0 = std::max(m < 0 ? -m : m, q < 0 ? -q : q);
+    if (l0 > lmax_) return;
+    Lanes prev = {}, cur = StartColumn(a, m, q);
+    visit(l0, cur);
+    const size_t base = WignerColumnIndex(lmax_, qmax_, 0, m, q);
+    const double* al = a_.data() + base;
+    const double* cl = c_.data() + base;
+    const double* sh = shift_.data() + base;
+    for (int l = l0; l < lmax_; ++l) {
+      const Lanes next = al[l] * ((a.x - sh[l]) * cur - cl[l] * prev);
+      prev = cur;
+      cur = next;
+      visit(l + 1, cur);
+    }
+  }
+  // The columns (m, q) and (-m, q), m > 0, together (they start at the same degree, and their
+  // recurrences differ only in the sign of the shift m q / (l (l + 1))): visit(l, d_plus,
+  // d_minus) for l = max(m, |q|) .. lmax.
+  template <class Visit>
+  void VisitColumnPair(const BlockAngles& a, int m, int q, Visit&& visit) const {
+    const int l0 = std::max(m, q < 0 ? -q : q);
+    if (l0 > lmax_) return;
+    Lanes prev_p = {}, prev_m = {}, cur_p = StartColumn(a, m, q), cur_m = StartColumn(a, -m, q);
+    visit(l0, cur_p, cur_m);
+    const size_t base = WignerColumnIndex(lmax_, qmax_, 0, m, q);
+    const double* al = a_.data() + base;
+    const double* cl = c_.data() + base;
+    const double* sh = shift_.data() + base;
+    for (int l = l0; l < lmax_; ++l) {
+      const Lanes next_p = al[l] * ((a.x - sh[l]) * cur_p - cl[l] * prev_p);
+      const Lanes next_m = al[l] * ((a.x + sh[l]) * cur_m - cl[l] * prev_m);
+      prev_p = cur_p;
+      prev_m = cur_m;
+      cur_p = next_p;
+      cur_m = next_m;
+      visit(l + 1, cur_p, cur_m);
+    }
+  }
+
  private:
+  // d^{l0}_mq(alpha_r) at l0 = max(|m|, |q|), the closed form (Wigner's sum has one term there).
+  Lanes StartColumn(const BlockAngles& a, int m, int q) const;
   int lmax_, qmax_;
   std::vector<double> a_, c_, shift_;  // per (q, m, l), WignerColumnIndex layout
   std::vector<double> start_;          // sqrt of the binomial of the closed-form start, per (q, m)

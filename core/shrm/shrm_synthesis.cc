@@ -197,12 +197,10 @@ void ShrmSynthesizer::BandContributionsAtArgument(const Vec3& index_dir, const V
   const int qmax = std::min(pm, f);
   double alpha, beta;
   ShrmAnglesFromWorld(index_dir, &alpha, &beta);
-  std::call_once(band_tables_->once,
-                 [&] { band_tables_->tables = std::make_unique<WignerColumnTables>(f, qmax); });
   // Per-thread columns (every entry read below, l >= max(|m|, q), is written by Compute).
   thread_local std::vector<double> d;
   d.resize(WignerColumnCount(f, qmax));
-  band_tables_->tables->Compute(alpha, d);
+  BandWignerTables().Compute(alpha, d);
   const Vec3 w = ShrmLocalFrame(alpha, beta).Transposed() * ShFrameFromWorld(argument);
   const std::vector<double> y = EvalSh(pm, w);
   // e^{i m beta} L_lm for every (m, l, c), then per l the sums over m
@@ -235,6 +233,118 @@ void ShrmSynthesizer::BandContributionsAtArgument(const Vec3& index_dir, const V
         }
         out[(static_cast<size_t>(l) * (pm + 1) + p) * ch + c] = v;
       }
+  }
+}
+
+const WignerColumnTables& ShrmSynthesizer::BandWignerTables() const {
+  std::call_once(band_tables_->once, [&] {
+    band_tables_->tables = std::make_unique<WignerColumnTables>(lmax_, std::min(pmax_, lmax_));
+  });
+  return *band_tables_->tables;
+}
+
+void ShrmSynthesizer::BandContributionsAtArguments(std::span<const Vec3> index_dirs,
+                                                   std::span<const Vec3> arguments,
+                                                   std::span<double> out) const {
+  const size_t n = std::min(index_dirs.size(), arguments.size());
+  for (size_t k = 0; k < n; k += kWignerBlock) {
+    const int nb = static_cast<int>(std::min<size_t>(kWignerBlock, n - k));
+    BandContributionsBlock(index_dirs.data() + k, arguments.data() + k, nb,
+                           out.data() + k * BandCount());
+  }
+}
+
+void ShrmSynthesizer::BandContributionsBlock(const Vec3* index_dirs, const Vec3* arguments, int n,
+                                             double* out) const {
+  // BandContributionsAtArgument for the block's points side by side (lane r = point r; lanes
+  // r >= n repeat point n - 1): per m, E[l][c][r] = e^{i m beta_r} L_lm, then for each q the
+  // Wigner column d^l_mq(alpha_r) from the recurrence, consumed degree by degree:
+  //   S[q][l][c][r] += d^l_mq(alpha_r) E[l][c][r],
+  // and per point, l and p the real SH combination of rho_lpq S_lq with Y_pq(w_r).
+  constexpr int B = kWignerBlock;
+  const int f = lmax_, pm = pmax_, ch = channels_;
+  const int qr = RhoQmax();
+  const WignerColumnTables& tables = BandWignerTables();
+  double alpha[B], beta[B];
+  for (int r = 0; r < B; ++r)
+    ShrmAnglesFromWorld(index_dirs[std::min(r, n - 1)], &alpha[r], &beta[r]);
+  using Lanes = WignerColumnTables::Lanes;
+  const WignerColumnTables::BlockAngles angles = tables.Angles(alpha, n);
+  // E[l][c] and S[q][l][c], each a Lanes value (lane r = point r), real and imaginary parts.
+  // Real lighting gives L_{l,-m} = (-1)^m conj(L_lm), so E_{-m} = (-1)^m conj(E_m): the columns
+  // (m, q) and (-m, q) are taken together, S_lq += (d_m + (-1)^m d_-m) Re E_m
+  //                                             + i (d_m - (-1)^m d_-m) Im E_m.
+  thread_local std::vector<Lanes> ere, eim, sre, sim;
+  const size_t row = ch;
+  ere.resize((f + 1) * row);
+  eim.resize((f + 1) * row);
+  sre.assign((qr + 1) * (f + 1) * row, Lanes{});
+  sim.assign((qr + 1) * (f + 1) * row, Lanes{});
+  for (int m = 0; m <= f; ++m) {
+    Lanes cm, sm;
+    for (int r = 0; r < B; ++r) {
+      cm[r] = std::cos(m * beta[r]);
+      sm[r] = std::sin(m * beta[r]);
+    }
+    const std::complex<double>* lm = light_.data() + static_cast<size_t>(m + f) * (f + 1) * ch;
+    for (int l = m; l <= f; ++l)
+      for (int c = 0; c < ch; ++c) {
+        const double lr = lm[l * ch + c].real(), li = lm[l * ch + c].imag();
+        ere[l * row + c] = cm * lr - sm * li;
+        eim[l * row + c] = cm * li + sm * lr;
+      }
+    const double sign = m % 2 ? -1.0 : 1.0;
+    for (int q = 0; q <= std::min(qr, f); ++q) {
+      Lanes* qre = sre.data() + static_cast<size_t>(q) * (f + 1) * row;
+      Lanes* qim = sim.data() + static_cast<size_t>(q) * (f + 1) * row;
+      auto add = [&](int l, const Lanes& dre, const Lanes& dim) {
+        const Lanes* er = ere.data() + l * row;
+        const Lanes* ei = eim.data() + l * row;
+        Lanes* tr = qre + l * row;
+        Lanes* ti = qim + l * row;
+        for (int c = 0; c < ch; ++c) {
+          tr[c] += dre * er[c];
+          ti[c] += dim * ei[c];
+        }
+      };
+      if (m == 0) {
+        tables.VisitColumn(angles, 0, q, [&](int l, const Lanes& d) { add(l, d, d); });
+      } else {
+        tables.VisitColumnPair(angles, m, q, [&](int l, const Lanes& dp, const Lanes& dm) {
+          add(l, dp + sign * dm, dp - sign * dm);
+        });
+      }
+    }
+  }
+  // Per l: T[p][c] = Re(rho_lp0 S_l0) Y_p0 + sqrt2 sum_{0 < q <= p} rho_lpq (Re S_lq Y_pq -
+  // Im S_lq Y_p,-q) (the real SH value of the complex expansion, ComplexToReal), all points at
+  // once, then each point's terms to its output.
+  std::vector<Lanes> y(ShCount(pm));
+  for (int r = 0; r < B; ++r) {
+    const int k = std::min(r, n - 1);
+    const std::vector<double> yr =
+        EvalSh(pm, ShrmLocalFrame(alpha[r], beta[r]).Transposed() * ShFrameFromWorld(arguments[k]));
+    for (int i = 0; i < ShCount(pm); ++i) y[i][r] = yr[i];
+  }
+  const size_t count = BandCount();
+  std::vector<Lanes> t((pm + 1) * row);
+  for (int l = 0; l <= f; ++l) {
+    std::fill(t.begin(), t.end(), Lanes{});
+    for (int q = 0; q <= std::min(l, qr); ++q) {
+      const Lanes* qre = sre.data() + (static_cast<size_t>(q) * (f + 1) + l) * row;
+      const Lanes* qim = sim.data() + (static_cast<size_t>(q) * (f + 1) + l) * row;
+      for (int p = q; p <= pm; ++p) {
+        const Lanes yp = y[ShIndex(p, q)], ym = y[ShIndex(p, -q)];
+        for (int c = 0; c < ch; ++c) {
+          const double w = q == 0 ? Rho(l, p, 0, c) : kSqrt2 * Rho(l, p, q, c);
+          t[p * row + c] += w * (q == 0 ? qre[c] * yp : qre[c] * yp - qim[c] * ym);
+        }
+      }
+    }
+    for (int r = 0; r < n; ++r) {
+      double* o = out + r * count + static_cast<size_t>(l) * (pm + 1) * ch;
+      for (size_t i = 0; i < (pm + 1) * row; ++i) o[i] = t[i][r];
+    }
   }
 }
 

@@ -127,6 +127,14 @@ class ShrmSynthesizer {
   // The same with the argument of Y_pq given (V or N, world, unit; ShrmViewArgument).
   void BandContributionsAtArgument(const Vec3& index_dir, const Vec3& argument,
                                    std::span<double> out) const;
+  // The same at n = index_dirs.size() points (arguments.size() == n): point k's terms at
+  // out[k * BandCount() ...]; out.size() >= n BandCount(). kWignerBlock points share one pass of
+  // the Wigner recurrence, each degree consumed as it is made (no column storage): the values of
+  // BandContributionsAtArgument up to rounding, many times faster for a set of points.
+  void BandContributionsAtArguments(std::span<const Vec3> index_dirs,
+                                    std::span<const Vec3> arguments, std::span<double> out) const;
+  // (lmax() + 1) (pmax() + 1) channels(): the terms of one point.
+  size_t BandCount() const { return static_cast<size_t>(lmax_ + 1) * (pmax_ + 1) * channels_; }
 
   // Fast path (sec. 5.6.2 step 3): the SHRM on the equiangular (alpha, beta) grid, then resampled
   // onto the texel centres of a cube map of face_size S_B by 4 x 4 Lagrange (cubic) interpolation
@@ -184,6 +192,10 @@ class ShrmSynthesizer {
     std::unique_ptr<WignerColumnTables> tables;
   };
   std::shared_ptr<BandTables> band_tables_ = std::make_shared<BandTables>();
+  const WignerColumnTables& BandWignerTables() const;
+  // BandContributionsAtArguments for n <= kWignerBlock points.
+  void BandContributionsBlock(const Vec3* index_dirs, const Vec3* arguments, int n,
+                              double* out) const;
   ReparamKind reparam_ = ReparamKind::kReflection;
   ViewVariable view_ = ViewVariable::kView;
   // Complex lighting: light_[((m + F) * (F + 1) + l) * channels + c] (zero for l < |m|).

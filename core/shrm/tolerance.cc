@@ -187,22 +187,36 @@ BandTable BandTable::Compute(const ShrmSynthesizer& reference, std::span<const D
   const size_t per_pair = static_cast<size_t>(t.f_ + 1) * (t.p_ + 1) * t.ch_;
   t.prefix_.assign(per_pair * pairs.size(), 0.0);
   t.ref_.assign(pairs.size(), Rgb{0, 0, 0});
-  ParallelChunks(static_cast<int>(pairs.size()), threads, [&](int begin, int end) {
-    std::vector<double> c(static_cast<size_t>(t.f_ + 1) * (t.p_ + 1) * ch);
-    for (int k = begin; k < end; ++k) {
-      reference.BandContributionsAt(IndexDirection(pairs[k], reference.reparam()), pairs[k].view,
-                                    c);
-      double* pre = t.prefix_.data() + per_pair * k;
-      for (int l = 0; l <= t.f_; ++l)
-        for (int cc = 0; cc < t.ch_; ++cc) {
-          double run = 0;
-          for (int p = 0; p <= t.p_; ++p) {
-            run += c[(static_cast<size_t>(l) * (t.p_ + 1) + p) * ch + cc];
-            pre[(static_cast<size_t>(l) * (t.p_ + 1) + p) * t.ch_ + cc] = run;
+  // Blocks of the synthesizer's batch width (its Wigner recurrence runs on that many points).
+  constexpr int kBlock = WignerColumnTables::kWignerBlock;
+  const int blocks = (static_cast<int>(pairs.size()) + kBlock - 1) / kBlock;
+  ParallelChunks(blocks, threads, [&](int begin, int end) {
+    std::vector<double> c(reference.BandCount() * kBlock);
+    std::vector<Vec3> index(kBlock), view(kBlock);
+    for (int b = begin; b < end; ++b) {
+      const int k0 = b * kBlock;
+      const int nb = std::min<int>(kBlock, static_cast<int>(pairs.size()) - k0);
+      for (int r = 0; r < nb; ++r) {
+        index[r] = IndexDirection(pairs[k0 + r], reference.reparam());
+        view[r] = ShrmViewArgument(reference.view(), index[r], pairs[k0 + r].view);
+      }
+      reference.BandContributionsAtArguments(std::span(index).first(nb), std::span(view).first(nb),
+                                             c);
+      for (int r = 0; r < nb; ++r) {
+        const int k = k0 + r;
+        const double* ck = c.data() + reference.BandCount() * r;
+        double* pre = t.prefix_.data() + per_pair * k;
+        for (int l = 0; l <= t.f_; ++l)
+          for (int cc = 0; cc < t.ch_; ++cc) {
+            double run = 0;
+            for (int p = 0; p <= t.p_; ++p) {
+              run += ck[(static_cast<size_t>(l) * (t.p_ + 1) + p) * ch + cc];
+              pre[(static_cast<size_t>(l) * (t.p_ + 1) + p) * t.ch_ + cc] = run;
+            }
+            t.ref_[k][cc] += run;
           }
-          t.ref_[k][cc] += run;
-        }
-      if (t.ch_ == 1) t.ref_[k][1] = t.ref_[k][2] = t.ref_[k][0];
+        if (t.ch_ == 1) t.ref_[k][1] = t.ref_[k][2] = t.ref_[k][0];
+      }
     }
   });
   return t;
@@ -250,32 +264,55 @@ int BandTable::SmallestF(int p, const ToleranceTargets& t, double share,
 DirectionalError EstimateInterpolation(const ShrmSynthesizer& synth,
                                        std::span<const DirectionPair> pairs, int face_size,
                                        int threads) {
-  const int f = synth.lmax(), p = synth.pmax(), ch = synth.channels();
-  std::vector<Rgb> got(pairs.size()), exact(pairs.size());
-  ParallelChunks(static_cast<int>(pairs.size()), threads, [&](int begin, int end) {
-    std::vector<double> c(static_cast<size_t>(f + 1) * (p + 1) * ch);
-    // The argument of Y_pq (V, or N for kNormal) is held fixed across the texels, as ShrmEvalAt
-    // holds it.
-    auto value = [&](const Vec3& index_dir, const Vec3& argument) {
-      synth.BandContributionsAtArgument(index_dir, argument, c);
-      Rgb v{0, 0, 0};
-      for (size_t i = 0; i < c.size(); ++i) v[std::min<int>(i % ch, 2)] += c[i];
-      if (ch == 1) v[1] = v[2] = v[0];
-      return v;
-    };
-    for (int k = begin; k < end; ++k) {
-      const Vec3 r = IndexDirection(pairs[k], synth.reparam());
-      const Vec3 argument = ShrmViewArgument(synth.view(), r, pairs[k].view);
-      exact[k] = value(r, argument);
-      Rgb sum{0, 0, 0};
-      for (const CubeTap& tap : ShrmBilinearTaps(face_size, r)) {
-        if (tap.weight == 0) continue;
-        const Rgb v = value(CubeTexelDirection(tap.face, tap.x, tap.y, face_size), argument);
-        for (int cc = 0; cc < 3; ++cc) sum[cc] += tap.weight * v[cc];
+  // The points: per pair its own (R, argument) and its texel centres with the argument (V, or N
+  // for kNormal) held fixed, as ShrmEvalAt holds it; evaluated in blocks of the synthesizer's
+  // batch width.
+  std::vector<Vec3> index, argument;
+  std::vector<double> weight;  // 0 for a pair's own point, the tap's weight for a texel centre
+  std::vector<int> owner;
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    const Vec3 r = IndexDirection(pairs[k], synth.reparam());
+    const Vec3 arg = ShrmViewArgument(synth.view(), r, pairs[k].view);
+    index.push_back(r);
+    argument.push_back(arg);
+    weight.push_back(0);
+    owner.push_back(static_cast<int>(k));
+    for (const CubeTap& tap : ShrmBilinearTaps(face_size, r)) {
+      if (tap.weight == 0) continue;
+      index.push_back(CubeTexelDirection(tap.face, tap.x, tap.y, face_size));
+      argument.push_back(arg);
+      weight.push_back(tap.weight);
+      owner.push_back(static_cast<int>(k));
+    }
+  }
+  const int ch = synth.channels();
+  const size_t count = synth.BandCount();
+  constexpr int kBlock = WignerColumnTables::kWignerBlock;
+  const int n = static_cast<int>(index.size());
+  std::vector<Rgb> values(n);
+  ParallelChunks((n + kBlock - 1) / kBlock, threads, [&](int begin, int end) {
+    std::vector<double> c(count * kBlock);
+    for (int b = begin; b < end; ++b) {
+      const int k0 = b * kBlock, nb = std::min(kBlock, n - k0);
+      synth.BandContributionsAtArguments(std::span(index).subspan(k0, nb),
+                                         std::span(argument).subspan(k0, nb), c);
+      for (int r = 0; r < nb; ++r) {
+        Rgb v{0, 0, 0};
+        const double* cr = c.data() + count * r;
+        for (size_t i = 0; i < count; ++i) v[std::min<int>(i % ch, 2)] += cr[i];
+        if (ch == 1) v[1] = v[2] = v[0];
+        values[k0 + r] = v;
       }
-      got[k] = sum;
     }
   });
+  std::vector<Rgb> got(pairs.size(), Rgb{0, 0, 0}), exact(pairs.size());
+  for (int i = 0; i < n; ++i) {
+    if (weight[i] == 0) {
+      exact[owner[i]] = values[i];
+      continue;
+    }
+    for (int cc = 0; cc < 3; ++cc) got[owner[i]][cc] += weight[i] * values[i][cc];
+  }
   return MeasureDirectionalError(pairs, got, exact);
 }
 
