@@ -27,8 +27,8 @@ enum class ReparamKind {
 //   kView:   w_o' = Rot(R)^T V, the paper's eqs. 5.10 and 5.22.
 //   kNormal: n' = Rot(R)^T N with N = (R + V) / |R + V| the normal that reflects V into R:
 //            n' has the azimuth of w_o' and theta_n' = theta_o' / 2, so the sphere of views maps
-//            onto the hemisphere theta_n' <= pi / 2; rho-hat is extended evenly across its
-//            equator, so rho_lpq = 0 unless p + q is even. V = -R (N.V = 0) is the whole equator
+//            onto the hemisphere theta_n' <= pi / 2; below its equator rho-hat takes a C^1
+//            extension (brdf_projection.cc AddViewNode). V = -R (N.V = 0) is the whole equator
 //            instead of one point where the limit depends on the side it is approached from:
 //            grazing views converge in P. Reflection models only (kTangent keeps kView).
 // The convolution B_lmpq = L_lm rho_lpq is the same for both: only rho_lpq and the argument of

@@ -52,7 +52,7 @@ Rule1D GaussOn(const RingQuadrature& gl, double a, double b) {
 // Composite Gauss-Legendre in theta over [0, pi] with the sin(theta) weight folded in:
 // sum w_j g(theta_j) ~ integral_0^pi g(theta) sin(theta) dtheta; half_angle: sin(theta / 2)
 // instead, the measure of the normal's sphere in theta_o' (ViewVariable::kNormal: theta_n' =
-// theta_o' / 2 over the hemisphere, times 2 for its even extension).
+// theta_o' / 2 over the hemisphere, times 2: the weights W of AddViewNode).
 Rule1D SinPanels(int panels, int order, bool half_angle = false) {
   const RingQuadrature gl = GaussLegendreRule(order);
   Rule1D r;
@@ -353,6 +353,51 @@ void RadialCoefficients(const Brdf& brdf, int lmax, const BrdfSampling& s, BrdfC
   }
 }
 
+// ViewVariable::kNormal: rho-hat is known on the hemisphere of n' (theta_n' <= pi/2); below the
+// equator the expansion takes the extension (docs/shrm.md "The view variable")
+//   g(pi - theta, phi) = f(theta, phi) (1 - 2 sin^2 theta) + 2 e(phi) sin^2 theta,
+// e(phi) = f(pi/2, phi) the values on the equator (V = -R). It is C^1 across the equator, where
+// the even extension g = f has a kink wherever f's theta derivative is not zero there (Schlick's
+// Fresnel, shadowing): coefficients decaying only algebraically in p. At the south pole it is f's
+// north pole value, like the even one. With Y_pq(pi - theta, phi) = (-1)^(p+q) Y_pq(theta, phi),
+// its coefficients are integrals over the upper hemisphere (W: the rule with the even
+// extension's doubled weights):
+//   p + q even: W[f cos^2 theta + e sin^2 theta],   p + q odd: W[sin^2 theta (f - e)].
+// e is taken at theta_o' just below pi: the limit N.V -> 0 (N.V = 0 itself is 0/0 for models
+// with 1/(N.V) factors).
+constexpr double kEquatorThetaO = kPi * (1 - 1e-9);
+
+// One theta_o' node's terms: out(l, p, q, c) += w lam[q * (P + 1) + p] x (acc, or for kNormal
+// the extension above of acc and acc_eq, the equator's), acc[(c * (P + 1) + q) * (F + 1) + l];
+// sin_n = sin theta_n' of the node (kNormal).
+void AddViewNode(double w, const double* lam, const std::vector<double>& acc,
+                 const std::vector<double>& acc_eq, double sin_n, BrdfCoefficients* out) {
+  const int lmax = out->lmax, pmax = out->pmax;
+  const int nl = lmax + 1, np = pmax + 1;
+  const bool normal = out->view == ViewVariable::kNormal;
+  const double s2 = sin_n * sin_n, c2 = 1 - s2;
+  for (int q = 0; q <= pmax; ++q) {
+    for (int p = q; p <= pmax; ++p) {
+      const double b = w * lam[static_cast<size_t>(q) * np + p];
+      // f's weight and e's: 1 and 0 (view), c2 and s2 (normal, p + q even), s2 and -s2 (odd).
+      const bool even = (p + q) % 2 == 0;
+      const double wf = !normal ? b : even ? b * c2 : b * s2;
+      const double we = !normal ? 0.0 : even ? b * s2 : -b * s2;
+      for (int c = 0; c < out->channels; ++c) {
+        const size_t base = static_cast<size_t>(c * np + q) * nl;
+        const double* src = &acc[base];
+        if (we == 0) {
+          for (int l = q; l <= lmax; ++l) out->values[out->Index(l, p, q, c)] += wf * src[l];
+          continue;
+        }
+        const double* eq = &acc_eq[base];
+        for (int l = q; l <= lmax; ++l)
+          out->values[out->Index(l, p, q, c)] += wf * src[l] + we * eq[l];
+      }
+    }
+  }
+}
+
 // Horizon-clipped models (the split rule, docs/brdf.md "Sampling"): for each theta_o' node the
 // theta_i' integral is split where the visible azimuth arc starts to shrink (a = pi/2 - t_o/2)
 // and where it closes (b = pi/2 + t_o/2; nothing is visible beyond). On [0, a] the integrand is
@@ -363,8 +408,8 @@ void RadialCoefficients(const Brdf& brdf, int lmax, const BrdfSampling& s, BrdfC
 // rho-hat^2, eq. 5.18), so the coefficients and their denominator come from one pass.
 // ViewVariable::kNormal: the theta_o' nodes are the same, each the normal n' at theta_o' / 2;
 // its Legendre values are taken there, the measure sin(theta_o' / 2) replaces sin(theta_o')
-// (the hemisphere's integral doubled by the even extension, d theta_n' = d theta_o' / 2), and
-// only p + q even are formed.
+// (the hemisphere's integral doubled, d theta_n' = d theta_o' / 2), and the extension of
+// AddViewNode takes the equator's integrals too.
 void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling& s,
                        BrdfCoefficients* out) {
   const bool normal = out->view == ViewVariable::kNormal;
@@ -380,7 +425,7 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
   const int n_phi = Or(s.phi, std::max(2 * pmax + 8, 16));
   const RingQuadrature& ro = CachedGaussLegendre(n_o);
   const RingQuadrature& g_full = CachedGaussLegendre(n_full);
-  const int nl = lmax + 1, np = pmax + 1, nq = qmax + 1;
+  const int nl = lmax + 1, nq = qmax + 1;
   const LegendreColumns legendre_i(lmax, qmax);
   LegendreColumns legendre_o(pmax, qmax);
   std::vector<double> lam_o(legendre_o.size());
@@ -430,18 +475,10 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
         lane_a[(c * nq + q) * kLanes + lanes] = w * cq[q * channels + c];
     if (++lanes == kLanes) flush();
   };
-  for (int k = 0; k < n_o; ++k) {
+  // acc (and energy_k) at one theta_o': the theta_i' integrals of the split rule.
+  auto accumulate = [&](double theta_o) {
     std::fill(lane_acc.begin(), lane_acc.end(), 0.0);
     std::fill(energy_k.begin(), energy_k.end(), 0.0);
-    // theta_o' = pi (3u^2 - 2u^3): at the grazing end (theta_o' -> pi, N.V = cos(theta_o'/2) -> 0)
-    // models with 1/(N.V) factors (GGX, Ward) have square-root and 1/x behaviour that this
-    // substitution turns smooth; the weight carries sin theta_o'.
-    const double u_o = 0.5 * (1.0 + ro.cos_theta[k]);
-    const double theta_o = kPi * u_o * u_o * (3.0 - 2.0 * u_o);
-    const double cos_o = std::cos(theta_o), sin_o = std::sin(theta_o);
-    const double half_c = std::cos(0.5 * theta_o), half_s = std::sin(0.5 * theta_o);
-    const double w_o =
-        0.5 * ro.weight[k] * kPi * 6.0 * u_o * (1.0 - u_o) * (normal ? half_s : sin_o);
     const double a = 0.5 * kPi - 0.5 * theta_o, b = 0.5 * kPi + 0.5 * theta_o;
     // [0, a] in x = cos theta_i' over [cos a, 1] (dx = sin theta dtheta).
     const double xa = std::cos(a);
@@ -470,21 +507,30 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
       for (int lane = 0; lane < kLanes; ++lane) sum += lane_acc[i * kLanes + lane];
       acc[i] = sum;
     }
+  };
+  std::vector<double> acc_eq;  // kNormal: e of AddViewNode, at the equator of n'
+  if (normal) {
+    accumulate(kEquatorThetaO);
+    acc_eq = acc;
+  }
+  for (int k = 0; k < n_o; ++k) {
+    // theta_o' = pi (3u^2 - 2u^3): at the grazing end (theta_o' -> pi, N.V = cos(theta_o'/2) -> 0)
+    // models with 1/(N.V) factors (GGX, Ward) have square-root and 1/x behaviour that this
+    // substitution turns smooth; the weight carries sin theta_o'.
+    const double u_o = 0.5 * (1.0 + ro.cos_theta[k]);
+    const double theta_o = kPi * u_o * u_o * (3.0 - 2.0 * u_o);
+    const double cos_o = std::cos(theta_o), sin_o = std::sin(theta_o);
+    const double half_c = std::cos(0.5 * theta_o), half_s = std::sin(0.5 * theta_o);
+    const double w_o =
+        0.5 * ro.weight[k] * kPi * 6.0 * u_o * (1.0 - u_o) * (normal ? half_s : sin_o);
+    accumulate(theta_o);
     for (int c = 0; c < channels; ++c) energy[c] += w_o * energy_k[c];
     if (normal) {
       legendre_o.Eval(half_c, half_s, lam_o.data());
     } else {
       legendre_o.Eval(cos_o, sin_o, lam_o.data());
     }
-    for (int q = 0; q <= qmax; ++q) {
-      for (int p = q; p <= pmax; p += normal ? 2 : 1) {
-        const double bq = scale * w_o * lam_o[static_cast<size_t>(q) * np + p];
-        for (int c = 0; c < channels; ++c) {
-          const double* src = &acc[(c * nq + q) * nl];
-          for (int l = q; l <= lmax; ++l) out->values[out->Index(l, p, q, c)] += bq * src[l];
-        }
-      }
-    }
+    AddViewNode(scale * w_o, lam_o.data(), acc, acc_eq, half_s, out);
   }
   // 2 pi (phi_o') * 2 (phi over [0, pi] only, rho-hat even) = 4 pi (eq. 5.18).
   out->total_energy.assign(channels, 0.0);
@@ -492,8 +538,8 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
 }
 
 // ViewVariable::kNormal: the theta_o' rule is Gauss-Legendre in cos theta_n' over [0, 1] (the
-// hemisphere; its weights doubled for the even extension are those of [-1, 1]), theta_o' =
-// 2 theta_n', and only p + q even are formed.
+// hemisphere; its weights doubled are those of [-1, 1]), theta_o' = 2 theta_n', and the
+// extension of AddViewNode takes the equator's integrals too.
 void SeparableCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling& s,
                            BrdfCoefficients* out) {
   const bool normal = out->view == ViewVariable::kNormal;
@@ -536,10 +582,11 @@ void SeparableCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampl
   std::vector<double> cq(nq * channels);
   std::vector<double> acc(static_cast<size_t>(channels) * nq * nl);  // [(c * nq + q) * nl + l]
   const double scale = 4.0 * kPi * kPi;
-  for (int k = 0; k < n_o; ++k) {
+  // acc at one theta_o': the theta_i' integrals.
+  auto accumulate = [&](double theta_o) {
     std::fill(acc.begin(), acc.end(), 0.0);
     for (int j = 0; j < n_i; ++j) {
-      azimuth.Cosines(ri.theta[j], ri.cos_theta[j], ri.sin_theta[j], ro.theta[k], cq.data());
+      azimuth.Cosines(ri.theta[j], ri.cos_theta[j], ri.sin_theta[j], theta_o, cq.data());
       for (int q = 0; q <= qmax; ++q) {
         const double* lam = &lam_i[(j * nq + q) * nl];
         for (int c = 0; c < channels; ++c) {
@@ -550,15 +597,17 @@ void SeparableCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampl
         }
       }
     }
-    for (int q = 0; q <= qmax; ++q) {
-      for (int p = q; p <= pmax; p += normal ? 2 : 1) {
-        const double b = scale * ro.weight[k] * lam_o[(k * nq + q) * np + p];
-        for (int c = 0; c < channels; ++c) {
-          const double* src = &acc[(c * nq + q) * nl];
-          for (int l = q; l <= lmax; ++l) out->values[out->Index(l, p, q, c)] += b * src[l];
-        }
-      }
-    }
+  };
+  std::vector<double> acc_eq;  // kNormal: e of AddViewNode, at the equator of n'
+  if (normal) {
+    accumulate(kEquatorThetaO);
+    acc_eq = acc;
+  }
+  for (int k = 0; k < n_o; ++k) {
+    accumulate(ro.theta[k]);
+    // kNormal: the rule's weights are those of [-1, 1] on [0, 1], W of AddViewNode.
+    AddViewNode(scale * ro.weight[k], &lam_o[static_cast<size_t>(k) * nq * np], acc, acc_eq,
+                ro.sin_theta[k], out);
   }
 }
 
@@ -679,15 +728,28 @@ absl::StatusOr<BrdfCoefficients> ComputeBrdfCoefficients(const Brdf& brdf, int l
   out.reparam = brdf.reparam();
   out.view = EffectiveViewVariable(brdf, view);
   out.values.assign(static_cast<size_t>(lmax + 1) * (pmax + 1) * (pmax + 1) * out.channels, 0.0);
-  if (brdf.radially_symmetric()) {
-    RadialCoefficients(brdf, lmax, sampling, &out);
-  } else if (UsesSplitRule(brdf, sampling)) {
-    SplitCoefficients(brdf, lmax, pmax, sampling, &out);
-    return out;  // the energy from the same evaluations
+  if (!brdf.radially_symmetric() && UsesSplitRule(brdf, sampling)) {
+    SplitCoefficients(brdf, lmax, pmax, sampling, &out);  // the energy from the same evaluations
   } else {
-    SeparableCoefficients(brdf, lmax, pmax, sampling, &out);
+    if (brdf.radially_symmetric()) {
+      RadialCoefficients(brdf, lmax, sampling, &out);
+    } else {
+      SeparableCoefficients(brdf, lmax, pmax, sampling, &out);
+    }
+    out.total_energy = BrdfEnergy(brdf, lmax, sampling, out.view);
   }
-  out.total_energy = BrdfEnergy(brdf, lmax, sampling, out.view);
+  if (out.view == ViewVariable::kNormal) {
+    // The extension's energy over the whole sphere has a cross term of f and its equator values
+    // that the angular rules do not give: the energy of the coefficients computed stands for it.
+    out.total_energy.assign(out.channels, 0.0);
+    for (int l = 0; l <= lmax; ++l)
+      for (int p = 0; p <= pmax; ++p)
+        for (int q = 0; q <= std::min(l, p); ++q)
+          for (int c = 0; c < out.channels; ++c) {
+            const double v = out.values[out.Index(l, p, q, c)];
+            out.total_energy[c] += (q == 0 ? 1.0 : 2.0) * v * v;
+          }
+  }
   return out;
 }
 

@@ -68,7 +68,9 @@ ViewVariable EffectiveViewVariable(const Brdf& brdf, ViewVariable requested);
 // Coefficients for l <= lmax, p <= pmax (0 <= lmax <= kMaxBrdfLmax, 0 <= pmax <= kMaxBrdfPmax),
 // all channels, in the view variable EffectiveViewVariable(brdf, view) (brdf_coefficients.h),
 // with total_energy filled by the independent angular-domain integral of rho-hat^2 over the same
-// variable. Errors: InvalidArgument for out-of-range orders or sampling sizes, and for an
+// variable (kNormal: the sum of the squares of the coefficients computed, since the energy of the
+// extension below n''s equator, brdf_projection.cc, has a cross term the angular rules do not
+// give). Errors: InvalidArgument for out-of-range orders or sampling sizes, and for an
 // anisotropic Ward (alpha_x != alpha_y: the reparameterization of sec. 5.3.1 needs isotropy).
 absl::StatusOr<BrdfCoefficients> ComputeBrdfCoefficients(const Brdf& brdf, int lmax, int pmax,
                                                          const BrdfSampling& sampling = {},

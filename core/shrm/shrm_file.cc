@@ -40,7 +40,7 @@ std::map<std::string, std::string> ShrmConventionAttributes(const ShrmCube& cube
     attrs["shrm:eval"] =
         "R = 2(N.V)N - V picks the texel; global: B = sum c_pq Y_pq(N_s); local: B = sum c_pq "
         "Y_pq(Rot^T N_s), Rot = Rz(beta) Ry(alpha), (alpha, beta) the SH angles of R; N_s = the "
-        "normal N = (R + V)/|R + V| in the SH frame (local c_pq with p + q odd are 0)";
+        "normal N = (R + V)/|R + V| in the SH frame (N.R >= 0 only)";
   }
   return attrs;
 }

@@ -6,8 +6,8 @@
 //                      Rot(R) = Rz(beta) Ry(alpha), (alpha, beta) the SH angles of R;
 //   global (eq. 5.11): B(R, V) = sum_{p,q} B^_pq(R) Y_pq(V), V in the SH frame.
 // With ViewVariable::kNormal (brdf_coefficients.h) the argument is the normal N = (R + V) / |R + V|
-// instead of V in both forms: Y_pq(Rot(R)^T N) and Y_pq(N); local coefficients with p + q odd
-// are zero.
+// instead of V in both forms: Y_pq(Rot(R)^T N) and Y_pq(N) (N.R >= 0: the upper hemisphere of
+// R's frame, the only part the coefficients fit).
 //
 // Coefficients are real SH (docs/conventions.md), converted from the paper's complex B_pq with
 // ComplexToReal (the view-dependent function is real). Texels follow core/base/cubemap.h.
