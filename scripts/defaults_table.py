@@ -16,6 +16,8 @@ defaults` and `scripts/plots.py table defaults`.
   scripts/defaults_table.py normal [--shrm build/cli/shrm] [--json docs/data/defaults_normal.json]
   scripts/defaults_table.py auto [--shrm build/cli/shrm] [--json docs/data/defaults_auto.json]
   scripts/defaults_table.py normal-table [--json docs/data/defaults_normal.json]
+  scripts/defaults_table.py default [--shrm build/cli/shrm] [--json docs/data/defaults_s22.json]
+  scripts/defaults_table.py default-table [--json docs/data/defaults_s22.json]
 
 The view variable (docs/shrm.md "The view variable"): the view-dependent BRDFs only, with the
 default rule as it is since session 21 (`--tolerance 0.01`, the normal variable, the grazing RMS
@@ -25,6 +27,10 @@ view variable (docs/data/defaults.json's "tolerance 0.01", session 13). `auto` r
 misses the tolerance in estimated front RMS (there auto also chooses in the view variable and
 keeps the smaller estimate; elsewhere it is the normal row itself), and the table takes its
 rows from it.
+
+`default` runs the default job on all 28 view-dependent rows (session 22: the normal variable's
+C^1 extension, the batched estimate), and `default-table` prints its table beside session 21's
+default of each row (its auto row where auto ran, else the normal row).
 """
 import argparse
 import json
@@ -139,6 +145,58 @@ def cmd_auto(args):
                 f.write("\n")
 
 
+def cmd_default(args):
+    """The default job (`--tolerance 0.01`, `--view-variable auto`) on every view-dependent row."""
+    sweep(args, dict([AUTO_RULE]), [b for b in BRDFS if not b.startswith("phong")])
+
+
+def session21_default(key):
+    """Session 21's default for a row: its auto row where auto ran, else the normal row."""
+    out = {}
+    for name in ("defaults_normal.json", "defaults_auto.json"):
+        path = os.path.join(ROOT, "docs", "data", name)
+        if os.path.exists(path):
+            with open(path) as f:
+                out.update({(r["map"], r["brdf"]): r for r in json.load(f)["rows"]})
+    return out.get(key)
+
+
+def meets(r):
+    m = (r or {}).get("measured") or {}
+    front, graze = m.get("front", {}), m.get("grazing", {})
+    return (front.get("rms", 1) <= TOLERANCE and front.get("max", 1) <= 5 * TOLERANCE and
+            graze.get("rms", 1) <= 5 * TOLERANCE)
+
+
+def cmd_default_table(args):
+    with open(args.json) as f:
+        rows = json.load(f)["rows"]
+
+    def cells(r):
+        if r is None or "F_B" not in r:
+            return ["-", "-", "-", "-", "-", "-"]
+        m = r.get("measured") or {}
+        front, graze = m.get("front", {}), m.get("grazing", {})
+        budget = " (budget)" if r.get("budget_limited") else ""
+        return [f"{r.get('view_variable', 'view')} ({r['F_B']}, {r['P_B']}), {r['face_size']}{budget}",
+                f"{r['file_mb']:.3g}", f"{r['wall_s']:.3g}",
+                f"{front.get('rms', 0):.3g} / {front.get('max', 0):.3g}",
+                f"{graze.get('rms', 0):.3g}", "yes" if meets(r) else "no"]
+
+    print("| map | BRDF | default: variable (F, P), S | MB | s | front RMS / largest | grazing RMS "
+          "| all met | session 21: variable (F, P), S | MB | s | front RMS / largest | grazing RMS "
+          "| all met |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    now = before = 0
+    for r in rows:
+        key = (r["map"], r["brdf"])
+        old = session21_default(key)
+        now += meets(r)
+        before += meets(old)
+        print("| " + " | ".join([r["map"], r["brdf"]] + cells(r) + cells(old)) + " |")
+    print(f"\nAll three targets met: {now} of {len(rows)} rows (session 21: {before}).")
+
+
 def cmd_normal_table(args):
     with open(args.json) as f:
         normal = json.load(f)["rows"]
@@ -187,11 +245,16 @@ def main(argv):
     a.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "defaults_auto.json"))
     a.add_argument("--normal-json",
                    default=os.path.join(ROOT, "docs", "data", "defaults_normal.json"))
+    d = sub.add_parser("default")
+    d.add_argument("--shrm", default=os.path.join(ROOT, "build", "cli", "shrm"))
+    d.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "defaults_s22.json"))
+    dt = sub.add_parser("default-table")
+    dt.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "defaults_s22.json"))
     t = sub.add_parser("normal-table")
     t.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "defaults_normal.json"))
     args = ap.parse_args(argv)
-    {"run": cmd_run, "normal": cmd_normal, "auto": cmd_auto,
-     "normal-table": cmd_normal_table}[args.cmd](args)
+    {"run": cmd_run, "normal": cmd_normal, "auto": cmd_auto, "default": cmd_default,
+     "default-table": cmd_default_table, "normal-table": cmd_normal_table}[args.cmd](args)
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
 #include "core/base/cubemap.h"
 #include "core/io/image.h"
 #include "core/sh/quadrature.h"
@@ -38,6 +39,8 @@ constexpr double kWignerTol = 1e-11;
 // Grid (4x4 Lagrange) + float storage at texel centres, F = 20 on >= 128 alpha rows:
 // (F h)^4 / 40 ~ 6e-5 for the top band, smaller for the energy-weighted error.
 constexpr double kTexelCentreTol = 2e-4;
+// The direct cube at its texel centres: float storage of O(1) values only.
+constexpr double kDirectCubeTol = 1e-6;
 // ShrmEval from N against ShrmEvalAt from R = 2 (N.V) N - V, whose argument (R + V)/|R + V| is N
 // again up to the rounding of the reflection and the normalization.
 constexpr double kSameArgumentTol = 1e-9;
@@ -350,6 +353,54 @@ TEST(ShrmSynthesisTest, TexelCentresEqualDirectEvaluationForEveryKernel) {
       }
     }
   }
+}
+
+// The direct cube (ShrmGridOptions::CubePath::kDirect: each texel centre by eq. 5.23, the l-sums
+// of eight texels per Wigner pass) against the one-point direct evaluation at the texel centres
+// (float storage only) and against the grid path (its interpolation error): global and local,
+// both view variables, the tangent reparameterization (q = 0 only), face sizes whose texel count
+// is not a multiple of the block; and a large-P configuration for which kAuto takes it.
+TEST(ShrmSynthesisTest, DirectCubeEqualsTheDirectEvaluationAtTexelCentres) {
+  std::mt19937 rng(31);
+  struct Case {
+    int pmax;
+    ReparamKind reparam;
+    ViewVariable view;
+    int face_size;
+  };
+  for (const Case& cs : {Case{4, ReparamKind::kReflection, ViewVariable::kView, 12},
+                         Case{6, ReparamKind::kReflection, ViewVariable::kNormal, 7},
+                         Case{5, ReparamKind::kTangent, ViewVariable::kView, 9}}) {
+    BrdfCoefficients brdf = TestBrdf(12, cs.pmax);
+    brdf.reparam = cs.reparam;
+    brdf.view = cs.view;
+    const ShrmSynthesizer synth = MakeSynth(brdf);
+    for (ShrmKind kind : {ShrmKind::kGlobal, ShrmKind::kLocal}) {
+      ShrmGridOptions direct, grid;
+      direct.path = ShrmGridOptions::CubePath::kDirect;
+      grid.path = ShrmGridOptions::CubePath::kGrid;
+      direct.threads = 2;
+      auto a = synth.BuildCube(kind, cs.face_size, direct);
+      auto b = synth.BuildCube(kind, cs.face_size, grid);
+      ASSERT_TRUE(a.ok() && b.ok());
+      const std::string what = absl::StrCat(
+          "P ", cs.pmax, kind == ShrmKind::kGlobal ? " global" : " local", " S ", cs.face_size);
+      EXPECT_LT(TexelCentreError(synth, *a, rng), kDirectCubeTol) << what;
+      std::vector<double> va(a->data.begin(), a->data.end()), vb(b->data.begin(), b->data.end());
+      EXPECT_LT(RelRms(va, vb), kTexelCentreTol) << what;
+      EXPECT_EQ(a->view, cs.view);
+      EXPECT_EQ(a->index, cs.reparam);
+    }
+  }
+  // (20, 14) on 16 x 16 faces: the grid has 4 (F + P + 1) = 140 rows (144 x 288 nodes), the cube
+  // 1,536 texels: kAuto's cost model takes the direct path (equal to kDirect's cube bit for bit).
+  const ShrmSynthesizer synth = MakeSynth(TestBrdf(20, 14));
+  ShrmGridOptions direct;
+  direct.path = ShrmGridOptions::CubePath::kDirect;
+  auto a = synth.BuildCube(ShrmKind::kGlobal, 16);
+  auto b = synth.BuildCube(ShrmKind::kGlobal, 16, direct);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(a->data, b->data);
 }
 
 // The tangent reparameterization (Kajiya-Kay): rho_lpq only for q = 0, whose l-sums alone the

@@ -6,8 +6,10 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <functional>
 #include <mutex>
+#include <string>
 
 #if defined(__AVX512F__)
 #include <immintrin.h>
@@ -16,6 +18,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/constants.h"
+#include "core/base/cubemap.h"
 #include "core/base/parallel.h"
 #include "core/sh/rotation.h"
 #include "core/sh/sh.h"
@@ -254,27 +257,20 @@ void ShrmSynthesizer::BandContributionsAtArguments(std::span<const Vec3> index_d
   }
 }
 
-void ShrmSynthesizer::BandContributionsBlock(const Vec3* index_dirs, const Vec3* arguments, int n,
-                                             double* out) const {
-  // BandContributionsAtArgument for the block's points side by side (lane r = point r; lanes
-  // r >= n repeat point n - 1): per m, E[l][c][r] = e^{i m beta_r} L_lm, then for each q the
-  // Wigner column d^l_mq(alpha_r) from the recurrence, consumed degree by degree:
-  //   S[q][l][c][r] += d^l_mq(alpha_r) E[l][c][r],
-  // and per point, l and p the real SH combination of rho_lpq S_lq with Y_pq(w_r).
-  constexpr int B = kWignerBlock;
-  const int f = lmax_, pm = pmax_, ch = channels_;
-  const int qr = RhoQmax();
-  const WignerColumnTables& tables = BandWignerTables();
-  double alpha[B], beta[B];
-  for (int r = 0; r < B; ++r)
-    ShrmAnglesFromWorld(index_dirs[std::min(r, n - 1)], &alpha[r], &beta[r]);
-  using Lanes = WignerColumnTables::Lanes;
-  const WignerColumnTables::BlockAngles angles = tables.Angles(alpha, n);
-  // E[l][c] and S[q][l][c], each a Lanes value (lane r = point r), real and imaginary parts.
+void ShrmSynthesizer::LSumsBlock(const double* alpha, const double* beta, int n,
+                                 std::vector<Lanes>& sre, std::vector<Lanes>& sim) const {
+  // For the block's angles side by side (lane r; lanes r >= n repeat angle n - 1): per m,
+  // E[l][c][r] = e^{i m beta_r} L_lm, then for each q the Wigner column d^l_mq(alpha_r) from the
+  // recurrence, consumed degree by degree: S[q][l][c][r] += d^l_mq(alpha_r) E[l][c][r].
   // Real lighting gives L_{l,-m} = (-1)^m conj(L_lm), so E_{-m} = (-1)^m conj(E_m): the columns
   // (m, q) and (-m, q) are taken together, S_lq += (d_m + (-1)^m d_-m) Re E_m
   //                                             + i (d_m - (-1)^m d_-m) Im E_m.
-  thread_local std::vector<Lanes> ere, eim, sre, sim;
+  constexpr int B = kWignerBlock;
+  const int f = lmax_, ch = channels_;
+  const int qr = RhoQmax();
+  const WignerColumnTables& tables = BandWignerTables();
+  const WignerColumnTables::BlockAngles angles = tables.Angles(alpha, n);
+  thread_local std::vector<Lanes> ere, eim;
   const size_t row = ch;
   ere.resize((f + 1) * row);
   eim.resize((f + 1) * row);
@@ -316,6 +312,22 @@ void ShrmSynthesizer::BandContributionsBlock(const Vec3* index_dirs, const Vec3*
       }
     }
   }
+}
+
+void ShrmSynthesizer::BandContributionsBlock(const Vec3* index_dirs, const Vec3* arguments, int n,
+                                             double* out) const {
+  // BandContributionsAtArgument for the block's points side by side (lane r = point r; lanes
+  // r >= n repeat point n - 1): the l-sums S_lq of LSumsBlock, then per point, l and p the real
+  // SH combination of rho_lpq S_lq with Y_pq(w_r).
+  constexpr int B = kWignerBlock;
+  const int f = lmax_, pm = pmax_, ch = channels_;
+  const int qr = RhoQmax();
+  double alpha[B], beta[B];
+  for (int r = 0; r < B; ++r)
+    ShrmAnglesFromWorld(index_dirs[std::min(r, n - 1)], &alpha[r], &beta[r]);
+  thread_local std::vector<Lanes> sre, sim;
+  LSumsBlock(alpha, beta, n, sre, sim);
+  const size_t row = ch;
   // Per l: T[p][c] = Re(rho_lp0 S_l0) Y_p0 + sqrt2 sum_{0 < q <= p} rho_lpq (Re S_lq Y_pq -
   // Im S_lq Y_p,-q) (the real SH value of the complex expansion, ComplexToReal), all points at
   // once, then each point's terms to its output.
@@ -648,6 +660,11 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCube(ShrmKind kind, int face_size
   if (pmax_ == 0 && options.p0_sht_path) {
     return BuildCubeP0(kind, face_size, na, options.threads, options.scratch);
   }
+  if (pmax_ > 0 && (options.path == ShrmGridOptions::CubePath::kDirect ||
+                    (options.path == ShrmGridOptions::CubePath::kAuto &&
+                     DirectCubeIsCheaper(kind, face_size, na)))) {
+    return BuildCubeDirect(kind, face_size, options.threads, options.scratch);
+  }
   if (absl::Status s = CheckGridRows(kind, na); !s.ok()) return s;
   ShrmCube cube;
   cube.kind = kind;
@@ -681,6 +698,88 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCube(ShrmKind kind, int face_size
   SynthesizeSlabs(kind, na, owned, options.threads, grid_stride, grid, [&](int first, int count) {
     internal::ResampleToCubeFromRows(grid, first, count, na, stride, grid_stride,
                                      internal::GridColumns::kShrm, options.threads, cube);
+  });
+  return cube;
+}
+
+bool ShrmSynthesizer::DirectCubeIsCheaper(ShrmKind kind, int face_size, int na) const {
+  // Estimated milliseconds on one core (least squares over 9 measured configurations, F 14-128,
+  // P 5-31, S 32-96, global and local; each path within about 30% of its measured time, the
+  // grid's underestimated up to 1.8x at P = 31; docs/shrm.md "Direct cubes"):
+  //   grid:   its l-sums, na (2F + 2) (F + 1) pairs(p, q) / 2, and the FFTs and resampling of
+  //           2 na^2 nodes of (P + 1)^3;
+  //   direct: the l-sums of the texel blocks, the rho contraction and the (global) rotation and
+  //           per-coefficient work of each of the 6 S^2 texels.
+  const double f = lmax_ + 1.0, p = pmax_ + 1.0, q = RhoQmax() + 1.0;
+  const double pairs = q == 1 ? p : p * (p + 1) / 2;
+  const double texels = 6.0 * face_size * face_size;
+  const double grid = 2.17e-6 * na * (2 * f) * f * pairs / 2 + 8.4e-7 * 2.0 * na * na * p * p * p;
+  const double direct =
+      1.3e-5 * texels / kWignerBlock * f * f * q / 2 + 8.7e-7 * texels * f * p * q / 2 +
+      (kind == ShrmKind::kGlobal ? 6.5e-7 * texels * p * p * p : 0.0) + 4.2e-5 * texels * p * p;
+  return direct < grid;
+}
+
+absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeDirect(ShrmKind kind, int face_size, int threads,
+                                                          SynthesisScratch* scratch) const {
+  ShrmCube cube;
+  cube.kind = kind;
+  cube.index = reparam_;
+  cube.view = view_;
+  cube.face_size = face_size;
+  cube.pmax = pmax_;
+  cube.channels = channels_;
+  AllocateCubeData(cube, scratch);
+  constexpr int B = kWignerBlock;
+  const int size = face_size, n = 6 * size * size;
+  const int f = lmax_, pm = pmax_, ch = channels_, qr = RhoQmax();
+  const int count = ShCount(pm);
+  const size_t row = ch;
+  ParallelChunks((n + B - 1) / B, threads, [&](int begin, int end) {
+    std::vector<Lanes> sre, sim;
+    std::vector<std::complex<double>> cplx(count);
+    std::vector<double> real(count), rotated(count);
+    for (int b = begin; b < end; ++b) {
+      const int t0 = b * B, nb = std::min(B, n - t0);
+      double alpha[B], beta[B];
+      for (int r = 0; r < B; ++r) {
+        const int t = t0 + std::min(r, nb - 1);
+        const int face = t / (size * size), rem = t % (size * size);
+        ShrmAnglesFromWorld(CubeTexelDirection(face, rem % size, rem / size, size), &alpha[r],
+                            &beta[r]);
+      }
+      LSumsBlock(alpha, beta, nb, sre, sim);
+      for (int r = 0; r < nb; ++r) {
+        const int t = t0 + r, face = t / (size * size), rem = t % (size * size);
+        const Mat3 rot = ShrmLocalFrame(alpha[r], beta[r]);
+        for (int c = 0; c < ch; ++c) {
+          // Eq. 5.23 at the texel: B_pq = sum_l rho_lpq S_lq for q >= 0 (all ComplexToReal reads:
+          // the real field has B_p,-q = (-1)^q conj(B_pq)), then real SH (and the global
+          // rotation).
+          std::fill(cplx.begin(), cplx.end(), std::complex<double>(0, 0));
+          for (int p = 0; p <= pm; ++p)
+            for (int q = 0; q <= std::min(p, qr); ++q) {
+              double re = 0, im = 0;
+              for (int l = q; l <= f; ++l) {
+                const size_t i = (static_cast<size_t>(q) * (f + 1) + l) * row + c;
+                const double w = Rho(l, p, q, c);
+                re += w * sre[i][r];
+                im += w * sim[i][r];
+              }
+              cplx[ShIndex(p, q)] = {re, im};
+            }
+          ComplexToReal(pm, cplx, real);
+          const std::vector<double>* src = &real;
+          if (kind == ShrmKind::kGlobal) {
+            RotateSh(pm, rot, real, rotated);
+            src = &rotated;
+          }
+          for (int k = 0; k < count; ++k)
+            cube.data[cube.Index(face, rem % size, rem / size, k, c)] =
+                static_cast<float>((*src)[k]);
+        }
+      }
+    }
   });
   return cube;
 }

@@ -67,6 +67,13 @@ struct ShrmGridOptions {
   // coefficients sqrt(4 pi / (2l + 1)) rho_l L_lm instead of the Wigner / FFT rows (same grid,
   // same interpolation; faster for every F). false = the general path (tests compare the two).
   bool p0_sht_path = true;
+  // P > 0: how the texels' coefficients are made. kGrid: the grid and the cubic resampling above.
+  // kDirect: each texel centre exactly (eq. 5.23, then the rotation of eq. 5.14 for the global
+  // kind; the l-sums of kWignerBlock texels per Wigner pass, as BandContributionsAtArguments),
+  // whose cost grows with the texels instead of the grid (F + P)^2: cheaper for a small S_B and
+  // a large P. kAuto: the cheaper by the cost model of DirectCubeIsCheaper.
+  enum class CubePath { kAuto, kGrid, kDirect };
+  CubePath path = CubePath::kAuto;
   // P > 0: when the whole padded grid ((na + 4) x 2 na nodes x (P + 1)^2 x channels floats) would
   // exceed this many bytes, BuildCube synthesizes it in slabs of rows within this size, each
   // resampled before the next is made (identical values; the grid depends on F + P, not on
@@ -168,6 +175,11 @@ class ShrmSynthesizer {
   void SynthesizeSlabs(ShrmKind kind, int na, int owned, int threads, int grid_stride, float* out,
                        const std::function<void(int first, int count)>& emit) const;
   // The P = 0 path of BuildCube (ShrmGridOptions::p0_sht_path).
+  // The kDirect path of BuildCube (ShrmGridOptions::path).
+  absl::StatusOr<ShrmCube> BuildCubeDirect(ShrmKind kind, int face_size, int threads,
+                                           SynthesisScratch* scratch) const;
+  // Whether kDirect is estimated cheaper than the grid of na rows for this face size.
+  bool DirectCubeIsCheaper(ShrmKind kind, int face_size, int na) const;
   absl::StatusOr<ShrmCube> BuildCubeP0(ShrmKind kind, int face_size, int na, int threads,
                                        SynthesisScratch* scratch) const;
   // Per-thread buffers of SynthesizeRows.
@@ -193,6 +205,12 @@ class ShrmSynthesizer {
   };
   std::shared_ptr<BandTables> band_tables_ = std::make_shared<BandTables>();
   const WignerColumnTables& BandWignerTables() const;
+  using Lanes = WignerColumnTables::Lanes;
+  // S[(q * (F + 1) + l) * channels + c][r] = sum_m e^{i m beta_r} L_lm d^l_mq(alpha_r), q = 0 ..
+  // RhoQmax() (real parts in sre, imaginary in sim), for n <= kWignerBlock angles (lanes r >= n
+  // repeat angle n - 1).
+  void LSumsBlock(const double* alpha, const double* beta, int n, std::vector<Lanes>& sre,
+                  std::vector<Lanes>& sim) const;
   // BandContributionsAtArguments for n <= kWignerBlock points.
   void BandContributionsBlock(const Vec3* index_dirs, const Vec3* arguments, int n,
                               double* out) const;
