@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The main job: installs what is missing, builds, and prefilters a bundled real HDR map with a
 # glossy BRDF with the defaults (a per-direction tolerance of 1%, checked at 64 seeded pairs
-# against the brute-force sum; half floats keep the file at about 100 MB): writes the SHRM, its JSON report, a PNG preview
+# against the brute-force sum; half floats keep the file at about 120 MB): writes the SHRM, its JSON report, a PNG preview
 # and the visual report (one HTML page: docs/cli.md "Visual report") into out/, then checks the
 # SHRM against brute-force integration at one (N, V).
 # Extra arguments replace the defaults of `shrm prefilter`, e.g.
