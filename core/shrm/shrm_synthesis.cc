@@ -629,6 +629,18 @@ void AllocateCubeData(ShrmCube& cube, SynthesisScratch* scratch) {
 
 }  // namespace
 
+ShrmCube ShrmSynthesizer::NewCube(ShrmKind kind, int face_size, SynthesisScratch* scratch) const {
+  ShrmCube cube;
+  cube.kind = kind;
+  cube.index = reparam_;
+  cube.view = view_;
+  cube.face_size = face_size;
+  cube.pmax = pmax_;
+  cube.channels = channels_;
+  AllocateCubeData(cube, scratch);
+  return cube;
+}
+
 int FftFriendlyRings(int na) {
   auto smooth = [](int v) {
     for (int p : {2, 3, 5, 7})
@@ -666,13 +678,6 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCube(ShrmKind kind, int face_size
     return BuildCubeDirect(kind, face_size, options.threads, options.scratch);
   }
   if (absl::Status s = CheckGridRows(kind, na); !s.ok()) return s;
-  ShrmCube cube;
-  cube.kind = kind;
-  cube.index = reparam_;
-  cube.view = view_;
-  cube.face_size = face_size;
-  cube.pmax = pmax_;
-  cube.channels = channels_;
   // Above the resampling's fixed-stride kernels (P <= 3 with 3 channels: up to 48 floats) the
   // grid's nodes are padded to whole 64-byte lines (16 floats) on a 64-byte aligned buffer, so
   // that its loads never straddle two lines (P = 5: 5.0 -> 4.4 ms for a 64 x 64 x 6 cube).
@@ -694,7 +699,7 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCube(ShrmKind kind, int face_size
   float* grid = storage.data();
   grid += (kLineFloats - (reinterpret_cast<uintptr_t>(grid) / sizeof(float)) % kLineFloats) %
           kLineFloats;
-  AllocateCubeData(cube, options.scratch);
+  ShrmCube cube = NewCube(kind, face_size, options.scratch);
   SynthesizeSlabs(kind, na, owned, options.threads, grid_stride, grid, [&](int first, int count) {
     internal::ResampleToCubeFromRows(grid, first, count, na, stride, grid_stride,
                                      internal::GridColumns::kShrm, options.threads, cube);
@@ -722,14 +727,7 @@ bool ShrmSynthesizer::DirectCubeIsCheaper(ShrmKind kind, int face_size, int na) 
 
 absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeDirect(ShrmKind kind, int face_size, int threads,
                                                           SynthesisScratch* scratch) const {
-  ShrmCube cube;
-  cube.kind = kind;
-  cube.index = reparam_;
-  cube.view = view_;
-  cube.face_size = face_size;
-  cube.pmax = pmax_;
-  cube.channels = channels_;
-  AllocateCubeData(cube, scratch);
+  ShrmCube cube = NewCube(kind, face_size, scratch);
   constexpr int B = kWignerBlock;
   const int size = face_size, n = 6 * size * size;
   const int f = lmax_, pm = pmax_, ch = channels_, qr = RhoQmax();
@@ -751,7 +749,6 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeDirect(ShrmKind kind, int fac
       LSumsBlock(alpha, beta, nb, sre, sim);
       for (int r = 0; r < nb; ++r) {
         const int t = t0 + r, face = t / (size * size), rem = t % (size * size);
-        const Mat3 rot = ShrmLocalFrame(alpha[r], beta[r]);
         for (int c = 0; c < ch; ++c) {
           // Eq. 5.23 at the texel: B_pq = sum_l rho_lpq S_lq for q >= 0 (all ComplexToReal reads:
           // the real field has B_p,-q = (-1)^q conj(B_pq)), then real SH (and the global
@@ -771,7 +768,7 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeDirect(ShrmKind kind, int fac
           ComplexToReal(pm, cplx, real);
           const std::vector<double>* src = &real;
           if (kind == ShrmKind::kGlobal) {
-            RotateSh(pm, rot, real, rotated);
+            RotateSh(pm, ShrmLocalFrame(alpha[r], beta[r]), real, rotated);
             src = &rotated;
           }
           for (int k = 0; k < count; ++k)
@@ -845,14 +842,7 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeP0(ShrmKind kind, int face_si
   mirror(-2, 1);
   mirror(na, na - 1);
   mirror(na + 1, na - 2);
-  ShrmCube cube;
-  cube.kind = kind;
-  cube.index = reparam_;
-  cube.view = view_;
-  cube.face_size = face_size;
-  cube.pmax = 0;
-  cube.channels = ch;
-  AllocateCubeData(cube, scratch);
+  ShrmCube cube = NewCube(kind, face_size, scratch);
   internal::ResampleToCube(values.data(), na, ch, internal::GridColumns::kSht, threads, cube);
   return cube;
 }

@@ -175,6 +175,9 @@ class ShrmSynthesizer {
   void SynthesizeSlabs(ShrmKind kind, int na, int owned, int threads, int grid_stride, float* out,
                        const std::function<void(int first, int count)>& emit) const;
   // The P = 0 path of BuildCube (ShrmGridOptions::p0_sht_path).
+  // A cube of this synthesizer's kind of coefficients, its storage from AllocateCubeData (the
+  // scratch's released buffer when large enough).
+  ShrmCube NewCube(ShrmKind kind, int face_size, SynthesisScratch* scratch) const;
   // The kDirect path of BuildCube (ShrmGridOptions::path).
   absl::StatusOr<ShrmCube> BuildCubeDirect(ShrmKind kind, int face_size, int threads,
                                            SynthesisScratch* scratch) const;
