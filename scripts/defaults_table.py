@@ -30,7 +30,9 @@ rows from it.
 
 `default` runs the default job on all 28 view-dependent rows (session 22: the normal variable's
 C^1 extension, the batched estimate), and `default-table` prints its table beside session 21's
-default of each row (its auto row where auto ran, else the normal row).
+default of each row (its auto row where auto ran, else the normal row), or with `--before
+OLD.json --before-label NAME` beside an earlier `default` run (session 23: `--json
+docs/data/defaults_s23.json --before docs/data/defaults_s22.json --before-label "session 22"`).
 """
 import argparse
 import json
@@ -171,6 +173,13 @@ def meets(r):
 def cmd_default_table(args):
     with open(args.json) as f:
         rows = json.load(f)["rows"]
+    earlier = session21_default
+    label = "session 21"
+    if args.before:
+        with open(args.before) as f:
+            before_rows = {(r["map"], r["brdf"]): r for r in json.load(f)["rows"]}
+        earlier = before_rows.get
+        label = args.before_label
 
     def cells(r):
         if r is None or "F_B" not in r:
@@ -184,17 +193,17 @@ def cmd_default_table(args):
                 f"{graze.get('rms', 0):.3g}", "yes" if meets(r) else "no"]
 
     print("| map | BRDF | default: variable (F, P), S | MB | s | front RMS / largest | grazing RMS "
-          "| all met | session 21: variable (F, P), S | MB | s | front RMS / largest | grazing RMS "
+          f"| all met | {label}: variable (F, P), S | MB | s | front RMS / largest | grazing RMS "
           "| all met |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     now = before = 0
     for r in rows:
         key = (r["map"], r["brdf"])
-        old = session21_default(key)
+        old = earlier(key)
         now += meets(r)
         before += meets(old)
         print("| " + " | ".join([r["map"], r["brdf"]] + cells(r) + cells(old)) + " |")
-    print(f"\nAll three targets met: {now} of {len(rows)} rows (session 21: {before}).")
+    print(f"\nAll three targets met: {now} of {len(rows)} rows ({label}: {before}).")
 
 
 def cmd_normal_table(args):
@@ -250,6 +259,9 @@ def main(argv):
     d.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "defaults_s22.json"))
     dt = sub.add_parser("default-table")
     dt.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "defaults_s22.json"))
+    dt.add_argument("--before", help="an earlier `default` JSON to compare with (default: "
+                    "session 21's rows)")
+    dt.add_argument("--before-label", default="before")
     t = sub.add_parser("normal-table")
     t.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "defaults_normal.json"))
     args = ap.parse_args(argv)

@@ -10,9 +10,11 @@
 #include <cmath>
 #include <complex>
 #include <cstdio>
+#include <functional>
 #include <map>
 #include <memory>
 #include <random>
+#include <span>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -32,6 +34,10 @@ constexpr double kSmoothBruteForceTol = 1e-9;
 // so the brute-force product rule converges only like O(h); measured 2e-4 of the largest
 // coefficient on the grid below, so 1e-3 leaves a margin.
 constexpr double kMicrofacetBruteForceTol = 1e-3;
+// The Fresnel table's Catmull-Rom interpolation between 129 float nodes uniform in N.R against
+// Schlick's closed form, a quintic in N.R: the cubic's error ~h^3 |F'''| / 20 with h = 1 / 128
+// and F''' <= 60 (1 - f0), 1.4e-6 of F >= f0 = 0.04 at most, plus float rounding (6e-8).
+constexpr double kFresnelTableTol = 1e-5;
 // Band-limited rho-hat: every rule is exact; rounding only (the brief's 1e-10).
 constexpr double kParsevalTol = 1e-10;
 // Parseval in the normal variable at (40, 24) for the smooth test BRDF: the tail beyond P = 24 of
@@ -128,8 +134,8 @@ struct Lpq {
 // function (and its extension) over both spheres.
 std::vector<double> BruteForceRho(const Brdf& brdf, const std::vector<Lpq>& which, int n_i, int m_i,
                                   int n_o, int m_o, uint64_t seed, double imag_tol,
-                                  ViewVariable view = ViewVariable::kView,
-                                  double* energy = nullptr) {
+                                  ViewVariable view = ViewVariable::kView, double* energy = nullptr,
+                                  const std::function<double(double)>& divisor = nullptr) {
   std::mt19937_64 rng(seed);
   const Mat3 q = RandomRotation(rng);
   const RingQuadrature gi = GaussLegendreRule(n_i), go = GaussLegendreRule(n_o);
@@ -161,10 +167,16 @@ std::vector<double> BruteForceRho(const Brdf& brdf, const std::vector<Lpq>& whic
       *v = *n * (2 * n->Dot(pole)) - pole;
     }
   };
+  // kNormal with a divisor (the Fresnel normalization, brdf_coefficients.h): f is rho-hat over
+  // divisor(N.V).
+  const auto scale_at = [&](const Vec3& n, const Vec3& v) {
+    return normal && divisor ? 1.0 / divisor(n.Dot(v)) : 1.0;
+  };
   const auto project = [&](const Vec3& n, const Vec3& v, std::vector<std::complex<double>>& in) {
     in.assign(which.size(), 0.0);
+    const double scale = scale_at(n, v);
     for (size_t d = 0; d < wi_dirs.size(); ++d) {
-      const double rho = brdf.Transfer(n, v, wi_dirs[d], 0) * wi_weights[d];
+      const double rho = brdf.Transfer(n, v, wi_dirs[d], 0) * wi_weights[d] * scale;
       if (rho == 0) continue;
       for (size_t t = 0; t < which.size(); ++t) in[t] += rho * yi[t][d];
     }
@@ -180,7 +192,8 @@ std::vector<double> BruteForceRho(const Brdf& brdf, const std::vector<Lpq>& whic
       point(0.5 * kPi - 1e-9, 2 * kPi * (k + 0.6) / m_o, &n, &v);
       project(n, v, equator[k]);
       if (energy == nullptr) continue;
-      for (const Vec3& wi : wi_dirs) equator_values[k].push_back(brdf.Transfer(n, v, wi, 0));
+      for (const Vec3& wi : wi_dirs)
+        equator_values[k].push_back(brdf.Transfer(n, v, wi, 0) * scale_at(n, v));
     }
   }
   if (energy != nullptr) *energy = 0;
@@ -199,7 +212,7 @@ std::vector<double> BruteForceRho(const Brdf& brdf, const std::vector<Lpq>& whic
       const double w_o = weight_o * 2 * kPi / m_o;
       // The integral of g^2 over both spheres (kNormal: the node and its mirror).
       for (size_t d = 0; energy != nullptr && d < wi_dirs.size(); ++d) {
-        const double f = brdf.Transfer(n, v, wi_dirs[d], 0);
+        const double f = brdf.Transfer(n, v, wi_dirs[d], 0) * scale_at(n, v);
         const double mirror = normal ? f * (1 - 2 * s2) + 2 * s2 * equator_values[k][d] : 0.0;
         *energy += w_o * wi_weights[d] * (f * f + mirror * mirror);
       }
@@ -273,12 +286,14 @@ TEST(BrdfCoefficientsTest, NormalVariableMatchesBruteForce) {
   // tol x the largest; returns the largest difference over the largest, and the brute-force
   // values in *brute.
   auto check = [&](const Brdf& brdf, const char* label, int pmax, int n_i, int m_i, double tol,
-                   std::vector<double>* brute) {
+                   std::vector<double>* brute,
+                   const std::function<double(double)>& divisor = nullptr) {
     auto coeffs = ComputeBrdfCoefficients(brdf, 12, pmax, {}, ViewVariable::kNormal);
     EXPECT_TRUE(coeffs.ok()) << coeffs.status();
     if (!coeffs.ok()) return 0.0;
     EXPECT_EQ(coeffs->view, ViewVariable::kNormal);
-    *brute = BruteForceRho(brdf, triples, n_i, m_i, 32, 48, pmax, tol, ViewVariable::kNormal);
+    *brute = BruteForceRho(brdf, triples, n_i, m_i, 32, 48, pmax, tol, ViewVariable::kNormal,
+                           nullptr, divisor);
     double scale = 0, worst = 0;
     for (double b : *brute) scale = std::max(scale, std::abs(b));
     for (size_t t = 0; t < triples.size(); ++t) {
@@ -294,10 +309,40 @@ TEST(BrdfCoefficientsTest, NormalVariableMatchesBruteForce) {
   std::vector<double> brute;
   check(SmoothTestBrdf(), "smooth", 4, 40, 64, kSmoothBruteForceTol, &brute);
   check(MicrofacetBrdf(0.3), "microfacet sigma=0.3", 4, 96, 192, kMicrofacetBruteForceTol, &brute);
+  // GGX: rho-hat over Schlick's F(N.V) (the Fresnel normalization), the test's own closed form.
+  const auto schlick = [](double f0) {
+    return [f0](double cos_nv) { return f0 + (1 - f0) * std::pow(1 - cos_nv, 5); };
+  };
   const double scale = check(GgxBrdf(0.4, 0.04), "ggx alpha=0.4 f0=0.04", 5, 96, 192,
-                             kMicrofacetBruteForceTol, &brute);
-  // The odd terms carry the extension's slope (Schlick's rise towards grazing): not zero.
+                             kMicrofacetBruteForceTol, &brute, schlick(0.04));
+  // The odd terms carry the extension's slope (the shadowing's fall towards grazing): not zero.
   EXPECT_GT(std::abs(brute[10]), 1e-3 * scale);
+}
+
+// The Fresnel table (brdf_coefficients.h): GGX's interpolated table against Schlick's closed form
+// at random N.V; none for models without a Fresnel factor (f0 = 1, microfacet) or in the view
+// variable.
+TEST(BrdfCoefficientsTest, FresnelTableIsSchlicksFactor) {
+  const GgxBrdf ggx(0.2, 0.04);
+  auto coeffs = ComputeBrdfCoefficients(ggx, 8, 4, {}, ViewVariable::kNormal);
+  ASSERT_TRUE(coeffs.ok()) << coeffs.status();
+  ASSERT_EQ(coeffs->fresnel.size(), static_cast<size_t>(kFresnelIntervals + 1));
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(0, 1);
+  double worst = 0;
+  for (int k = 0; k < 2000; ++k) {
+    const double x = k < 2 ? k : u(rng);  // both ends, then random
+    const double want = 0.04 + 0.96 * std::pow(1 - x, 5);
+    worst = std::max(worst, std::abs(FresnelAt(coeffs->fresnel, 1, x, 0) / want - 1));
+  }
+  std::printf("Fresnel table vs Schlick: largest relative difference %.3g\n", worst);
+  EXPECT_LT(worst, kFresnelTableTol);
+  EXPECT_TRUE(
+      ComputeBrdfCoefficients(GgxBrdf(0.2, 1.0), 8, 4, {}, ViewVariable::kNormal)->fresnel.empty());
+  EXPECT_TRUE(ComputeBrdfCoefficients(MicrofacetBrdf(0.2), 8, 4, {}, ViewVariable::kNormal)
+                  ->fresnel.empty());
+  EXPECT_TRUE(ComputeBrdfCoefficients(ggx, 8, 4)->fresnel.empty());
+  EXPECT_EQ(FresnelAt(std::span<const double>(), 1, 0.5, 0), 1.0);
 }
 
 // Parseval in the normal variable: sum rho_lpq^2 (q != 0 twice) at orders beyond the BRDF's

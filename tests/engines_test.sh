@@ -205,17 +205,19 @@ echo "(Filament done: $(($(date +%s) - START)) s)"
 before=$FAILURES
 SHRMS="$TMP/shrms"
 mkdir -p "$SHRMS"
-# The "-n" pair: the same in the normal variable (shrm:view_variable "normal", docs/shaders.md).
+# The "-n" pair: in the normal variable (shrm:view_variable "normal", docs/shaders.md) with GGX
+# f0 0.04, whose SHRMs carry the Fresnel table (shrm:fresnel) the shaders multiply by.
 for name in global local global-n local-n; do
   kind=${name%-n}
   variable=view
-  [ "$kind" = "$name" ] || variable=normal
-  if "$SHRM" prefilter --env "$COURTYARD" --brdf microfacet:sigma=0.3 --orders 8,3 --size 16 \
+  brdf=microfacet:sigma=0.3
+  [ "$kind" = "$name" ] || { variable=normal; brdf=ggx:alpha=0.3,f0=0.04; }
+  if "$SHRM" prefilter --env "$COURTYARD" --brdf "$brdf" --orders 8,3 --size 16 \
     --kind "$kind" --view-variable "$variable" -o "$SHRMS/$name.shrm.exr" \
     --ktx2 "$SHRMS/$name.shrm.ktx2" --threads 2 >"$TMP/shrm-$name.log" 2>&1 &&
     "$SHRM" render --shrm "$SHRMS/$name.shrm.ktx2" --view 0.3,0.5,0.8 -o "$SHRMS/$name-ref.ktx2" \
       >>"$TMP/shrm-$name.log" 2>&1; then
-    echo "PASS: shrm prefilter --kind $kind --view-variable $variable --ktx2, shrm render --view 0.3,0.5,0.8 (courtyard)"
+    echo "PASS: shrm prefilter --brdf $brdf --kind $kind --view-variable $variable --ktx2, shrm render --view 0.3,0.5,0.8 (courtyard)"
   else
     echo "FAIL: shrm prefilter/render ($name):"
     cat "$TMP/shrm-$name.log"

@@ -4,7 +4,12 @@
 
 #include <cmath>
 #include <filesystem>
+#include <functional>
+#include <map>
+#include <string>
+#include <utility>
 
+#include "absl/strings/str_cat.h"
 #include "core/io/cube_exr.h"
 #include "gtest/gtest.h"
 #include "tests/test_paths.h"
@@ -24,6 +29,21 @@ ShrmCube MakeCube(int pmax) {
   c.data.resize(c.size());
   for (size_t i = 0; i < c.data.size(); ++i) c.data[i] = std::cos(0.11 * i) * (i % 5 + 1);
   return c;
+}
+
+// Writes `c` as an SHRM file whose convention attributes `edit` changes first, and reads it back.
+absl::StatusOr<ShrmFile> WriteEdited(
+    const std::string& path, const ShrmCube& c,
+    const std::function<void(std::map<std::string, std::string>&)>& edit) {
+  CubeExr exr;
+  exr.face_size = c.face_size;
+  for (int p = 0; p <= c.pmax; ++p)
+    for (int q = -p; q <= p; ++q) exr.group_names.push_back(ShrmChannelGroup(p, q));
+  exr.attributes = ShrmConventionAttributes(c);
+  edit(exr.attributes);
+  exr.data = c.data;
+  EXPECT_TRUE(WriteCubeExr(path, exr).ok());
+  return ReadShrmFile(path);
 }
 
 TEST(ShrmFileTest, RoundTripKeepsEveryCoefficientInPlace) {
@@ -59,20 +79,14 @@ TEST(ShrmFileTest, ViewVariableRoundTripsAndOldFilesAreInTheView) {
   fs::remove(path);
 
   auto write_with = [&](const char* value, const char* index) {
-    CubeExr exr;
-    exr.face_size = c.face_size;
-    for (int p = 0; p <= c.pmax; ++p)
-      for (int q = -p; q <= p; ++q) exr.group_names.push_back(ShrmChannelGroup(p, q));
-    exr.attributes = ShrmConventionAttributes(c);
-    exr.attributes["shrm:index"] = index;
-    if (value == nullptr) {
-      exr.attributes.erase("shrm:view_variable");
-    } else {
-      exr.attributes["shrm:view_variable"] = value;
-    }
-    exr.data = c.data;
-    EXPECT_TRUE(WriteCubeExr(path, exr).ok());
-    return ReadShrmFile(path);
+    return WriteEdited(path, c, [&](std::map<std::string, std::string>& a) {
+      a["shrm:index"] = index;
+      if (value == nullptr) {
+        a.erase("shrm:view_variable");
+      } else {
+        a["shrm:view_variable"] = value;
+      }
+    });
   };
   auto old = write_with(nullptr, "reflection");
   ASSERT_TRUE(old.ok()) << old.status();
@@ -82,6 +96,47 @@ TEST(ShrmFileTest, ViewVariableRoundTripsAndOldFilesAreInTheView) {
     auto bad = write_with(value, index);
     EXPECT_EQ(bad.status().code(), absl::StatusCode::kInvalidArgument) << value << " " << index;
     EXPECT_NE(bad.status().message().find("shrm:view_variable"), std::string::npos) << bad.status();
+  }
+  fs::remove(path);
+}
+
+// The Fresnel table (brdf_coefficients.h) of a normal-variable cube: bit for bit through the
+// file (its values are floats printed with 9 digits), the evaluation's factor with it; a table
+// of the wrong size, a non-positive value or a table on a view-variable cube is refused by name.
+TEST(ShrmFileTest, FresnelTableRoundTripsAndBadTablesAreRefused) {
+  ShrmCube c = MakeCube(2);
+  c.view = ViewVariable::kNormal;
+  for (int k = 0; k <= kFresnelIntervals; ++k)
+    c.fresnel.push_back(static_cast<float>(0.04 + 0.96 * std::pow(k / 128.0, 5)));
+  const std::string path = Temp("fresnel.shrm.exr");
+  ASSERT_TRUE(WriteShrmFile(path, c, {}).ok());
+  auto back = ReadShrmFile(path);
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->cube.fresnel, c.fresnel);
+  EXPECT_NE(back->attributes.at("shrm:eval").find("shrm:fresnel"), std::string::npos);
+  EXPECT_EQ(ShrmFresnel(back->cube, 1.0, 2), c.fresnel[0]);
+  EXPECT_EQ(ShrmFresnel(back->cube, 0.0, 0), c.fresnel[kFresnelIntervals]);
+  ShrmCube plain = MakeCube(2);
+  EXPECT_EQ(ShrmFresnel(plain, 0.3, 0), 1.0);
+
+  auto write_with = [&](const std::string& table, const char* view) {
+    return WriteEdited(path, c, [&](std::map<std::string, std::string>& a) {
+      a["shrm:fresnel"] = table;
+      a["shrm:view_variable"] = view;
+    });
+  };
+  std::string ones = absl::StrCat(kFresnelIntervals, " 1");
+  for (int k = 0; k <= kFresnelIntervals; ++k) ones += " 1";
+  ASSERT_TRUE(write_with(ones, "normal").ok());
+  for (const auto& [table, view] :
+       {std::pair{ones, "view"}, std::pair{ones + " 1", "normal"},
+        std::pair{absl::StrCat(kFresnelIntervals, " 2", ones.substr(5)), "normal"},
+        std::pair{absl::StrCat(ones.substr(0, ones.size() - 1), "0"), "normal"},
+        std::pair{absl::StrCat(ones.substr(0, ones.size() - 1), "x"), "normal"},
+        std::pair{std::string("64 1 1 1"), "normal"}}) {
+    auto bad = write_with(table, view);
+    EXPECT_EQ(bad.status().code(), absl::StatusCode::kInvalidArgument) << table;
+    EXPECT_NE(bad.status().message().find("shrm:fresnel"), std::string::npos) << bad.status();
   }
   fs::remove(path);
 }

@@ -117,6 +117,7 @@ class GlobalShrmMode final : public RenderMode {
     }
     size_ = s;
     tangent_index_ = cube.index == ReparamKind::kTangent;
+    fresnel_ = cube.fresnel;
     ready_ = true;
     return absl::OkStatus();
   }
@@ -140,6 +141,7 @@ class GlobalShrmMode final : public RenderMode {
       glActiveTexture(GL_TEXTURE0);
       glBindTexture(GL_TEXTURE_2D_ARRAY, coeffs_.get());
       SetUniform(pass, "shrm_coeffs", 0);
+      SetShrmFresnel(pass, fresnel_);
       for (int f = 0; f < 6; ++f) {
         glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0,
                                GL_TEXTURE_CUBE_MAP_POSITIVE_X + f, map_.get(), 0);
@@ -176,6 +178,7 @@ class GlobalShrmMode final : public RenderMode {
   GlVertexArray vao_;
   int pmax_ = -1, size_ = 0;
   bool tangent_index_ = false, view_normal_ = false, ready_ = false;
+  std::vector<float> fresnel_;  // the SHRM's Fresnel table (shrm_common.glsl ShrmFresnel)
 };
 
 }  // namespace

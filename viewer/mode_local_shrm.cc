@@ -98,6 +98,7 @@ class LocalShrmMode final : public RenderMode {
     size_ = s;
     tangent_index_ = cube.index == ReparamKind::kTangent;
     view_normal_ = cube.view == ViewVariable::kNormal;
+    fresnel_ = cube.fresnel;
     ready_ = true;
     return absl::OkStatus();
   }
@@ -130,6 +131,7 @@ class LocalShrmMode final : public RenderMode {
     SetUniform(program, "shrm_size", size_);
     SetUniform(program, "u_tangent_index", tangent_index_ ? 1 : 0);
     SetUniform(program, "u_view_normal", view_normal_ ? 1 : 0);
+    SetShrmFresnel(program, fresnel_);
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_2D_ARRAY, texture_.get());
     SetUniform(program, "shrm_coeffs", 0);
@@ -147,6 +149,7 @@ class LocalShrmMode final : public RenderMode {
   // Destroyed in reverse order: the textures, then the programs.
   GlProgram filtered_program_, taps_program_;
   GlTexture filtered_, texture_;
+  std::vector<float> fresnel_;  // the SHRM's Fresnel table (shrm_common.glsl ShrmFresnel)
   int pmax_ = -1, size_ = 0;
   bool tangent_index_ = false, view_normal_ = false, ready_ = false, fast_path_ = false;
 };

@@ -1,5 +1,7 @@
 #include "viewer/shrm_textures.h"
 
+#include <algorithm>
+
 #include "absl/strings/str_cat.h"
 #include "core/export/shrm_ktx2.h"
 
@@ -24,6 +26,21 @@ absl::Status UploadShrmCoefficients(const ShrmCube& cube, GlTexture* texture,
   glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
   glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
   return absl::OkStatus();
+}
+
+void SetShrmFresnel(GLuint program, std::span<const float> fresnel) {
+  constexpr int kNodes = kFresnelIntervals + 1;
+  if (fresnel.size() < kNodes) {
+    glUniform1i(glGetUniformLocation(program, "shrm_fresnel_count"), 0);
+    return;
+  }
+  const int ch = static_cast<int>(fresnel.size() / kNodes);
+  std::vector<float> rgb(static_cast<size_t>(kNodes) * 3);
+  for (int k = 0; k < kNodes; ++k)
+    for (int c = 0; c < 3; ++c)
+      rgb[k * 3 + c] = fresnel[static_cast<size_t>(k) * ch + std::min(c, ch - 1)];
+  glUniform3fv(glGetUniformLocation(program, "shrm_fresnel"), kNodes, rgb.data());
+  glUniform1i(glGetUniformLocation(program, "shrm_fresnel_count"), kNodes);
 }
 
 }  // namespace shrm::viewer

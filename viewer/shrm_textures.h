@@ -4,6 +4,7 @@
 #ifndef SHRM_VIEWER_SHRM_TEXTURES_H_
 #define SHRM_VIEWER_SHRM_TEXTURES_H_
 
+#include <span>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -17,6 +18,11 @@ namespace shrm::viewer {
 // when 6 (P + 1)^2 exceeds GL_MAX_ARRAY_TEXTURE_LAYERS.
 [[nodiscard]] absl::Status UploadShrmCoefficients(const ShrmCube& cube, GlTexture* texture,
                                                   std::vector<float>* layers);
+
+// Sets the shaders' Fresnel table (shrm_common.glsl: shrm_fresnel_count, shrm_fresnel) of the
+// bound `program` from an SHRM's ShrmCube::fresnel (a 1-channel table in all three components),
+// or count 0 for an empty one.
+void SetShrmFresnel(GLuint program, std::span<const float> fresnel);
 
 }  // namespace shrm::viewer
 

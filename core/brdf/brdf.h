@@ -75,6 +75,11 @@ class Brdf {
   // A closed-form model (smooth in its angles away from the horizon), not a table of samples:
   // the coefficient quadrature may then take its faster rule for smooth integrands.
   virtual bool analytic() const { return true; }
+  // A Fresnel factor the model multiplies by, and its value at the mirror configuration
+  // (V.H = N.V = cos_nv, channel c): the view dependence the normal variable's expansion divides
+  // out (brdf_coefficients.h "Fresnel normalization"). Default: none (1).
+  virtual bool has_fresnel() const { return false; }
+  virtual double MirrorFresnel(double cos_nv, int c) const { return 1.0; }
 
  protected:
   // ReparamTransferArc through Transfer on MakeReparamGeometry's frame.

@@ -13,6 +13,7 @@
 
 #include <cstddef>
 #include <cstdlib>
+#include <span>
 #include <vector>
 
 namespace shrm {
@@ -36,6 +37,27 @@ enum class ReparamKind {
 enum class ViewVariable { kView, kNormal };
 const char* ViewVariableName(ViewVariable v);  // "view", "normal"
 
+// Fresnel normalization (docs/shrm.md "Fresnel normalization"): kNormal coefficients of a model
+// with a Fresnel factor expand rho-hat / w(theta_n') instead of rho-hat, w the model's Fresnel
+// factor at the mirror configuration, V.H = N.V = cos theta_n' (Brdf::MirrorFresnel; Schlick's
+// f0 + (1 - f0)(1 - N.V)^5 for GGX), tabulated here; an evaluation multiplies the expansion by
+// w(N.R) (N.R = N.V). Dividing by w takes out the rise to grazing (25-fold for f0 = 0.04) that a
+// truncated expansion in n' would otherwise ring with into the front, where the values are 25
+// times smaller: what remains is the lobe's shape, the shadowing and the horizon's cut.
+//   Table: kFresnelIntervals + 1 nodes at N.R = 1 - k / K per channel (values[k * channels + c]),
+//   uniform in N.R as Schlick's polynomial is (no inverse trigonometry in a shader), each a
+//   float (the files' precision, so that the projection and every evaluation divide and
+//   multiply by the same numbers), floored at kFresnelFloor of the channel's largest; between
+//   nodes the Catmull-Rom cubic of FresnelAt (C^1, so rho-hat / w stays C^1; ghost nodes beyond
+//   both ends on the quadratic through the three nearest: v_-1 = 3 (v_0 - v_1) + v_2). An empty
+//   table is w = 1 (kView, models without a Fresnel factor, files written before it).
+inline constexpr int kFresnelIntervals = 128;
+inline constexpr double kFresnelFloor = 1e-4;
+// w at cos theta_n' (clamped to [0, 1]) for channel c of a table with `channels` channels; 1 for
+// an empty table.
+double FresnelAt(std::span<const double> table, int channels, double cos_theta_n, int c);
+double FresnelAt(std::span<const float> table, int channels, double cos_theta_n, int c);
+
 struct BrdfCoefficients {
   int lmax = 0;      // F_rho: l <= lmax
   int pmax = 0;      // P_rho: p <= pmax
@@ -48,6 +70,8 @@ struct BrdfCoefficients {
   // of eqs. 5.17/5.18 without the (1 - epsilon)), computed in the angular domain so that the
   // captured fraction sum |rho_lpq|^2 / total_energy measures the truncation error.
   std::vector<double> total_energy;
+  // kNormal: the Fresnel table above (empty: no normalization).
+  std::vector<double> fresnel;
 
   size_t Index(int l, int p, int q, int c) const {
     return ((static_cast<size_t>(l) * (pmax + 1) + p) * (pmax + 1) + q) * channels + c;

@@ -322,6 +322,11 @@ std::string GgxBrdf::spec() const {
 
 BrdfBandwidthHint GgxBrdf::bandwidth_hint() const { return {CeilInt(5.0 / alpha_) + 8, 6}; }
 
+double GgxBrdf::MirrorFresnel(double cos_nv, int /*c*/) const {
+  const double x = 1.0 - std::clamp(cos_nv, 0.0, 1.0), x2 = x * x;
+  return f0_ + (1.0 - f0_) * (x2 * x2 * x);
+}
+
 double GgxBrdf::Evaluate(const Vec3& n, const Vec3& v, const Vec3& w) const {
   const double nw = n.Dot(w), nv = n.Dot(v);
   if (nw <= 0 || nv <= 0) return 0.0;

@@ -142,6 +142,9 @@ class GgxBrdf final : public Brdf {
   double Evaluate(const Vec3& n, const Vec3& v, const Vec3& w) const;
   double alpha() const { return alpha_; }
   double f0() const { return f0_; }
+  // Schlick's F at V.H = N.V (f0 < 1: F = 1 everywhere for f0 = 1).
+  bool has_fresnel() const override { return f0_ < 1; }
+  double MirrorFresnel(double cos_nv, int c) const override;
 
  private:
   double alpha_, f0_;

@@ -370,8 +370,11 @@ constexpr double kEquatorThetaO = kPi * (1 - 1e-9);
 // One theta_o' node's terms: out(l, p, q, c) += w lam[q * (P + 1) + p] x (acc, or for kNormal
 // the extension above of acc and acc_eq, the equator's), acc[(c * (P + 1) + q) * (F + 1) + l];
 // sin_n = sin theta_n' of the node (kNormal).
+// kNormal divides f by the Fresnel table at the node and e by it at the equator
+// (brdf_coefficients.h): inv_f[c] and inv_e[c], their inverses per channel.
 void AddViewNode(double w, const double* lam, const std::vector<double>& acc,
-                 const std::vector<double>& acc_eq, double sin_n, BrdfCoefficients* out) {
+                 const std::vector<double>& acc_eq, double sin_n, const double* inv_f,
+                 const double* inv_e, BrdfCoefficients* out) {
   const int lmax = out->lmax, pmax = out->pmax;
   const int nl = lmax + 1, np = pmax + 1;
   const bool normal = out->view == ViewVariable::kNormal;
@@ -391,12 +394,44 @@ void AddViewNode(double w, const double* lam, const std::vector<double>& acc,
           continue;
         }
         const double* eq = &acc_eq[base];
+        const double wfc = wf * inv_f[c], wec = we * inv_e[c];
         for (int l = q; l <= lmax; ++l)
-          out->values[out->Index(l, p, q, c)] += wf * src[l] + we * eq[l];
+          out->values[out->Index(l, p, q, c)] += wfc * src[l] + wec * eq[l];
       }
     }
   }
 }
+
+// 1 / w(cos theta_n') per channel of the coefficients' Fresnel table.
+void InverseFresnel(const BrdfCoefficients& c, double cos_n, double* inv) {
+  for (int ch = 0; ch < c.channels; ++ch)
+    inv[ch] = 1.0 / FresnelAt(c.fresnel, c.channels, cos_n, ch);
+}
+
+}  // namespace
+
+std::vector<double> FresnelTable(const Brdf& brdf) {
+  constexpr int K = kFresnelIntervals;
+  if (!brdf.has_fresnel() || brdf.reparam() != ReparamKind::kReflection) return {};
+  const int channels = brdf.channels();
+  std::vector<double> table(static_cast<size_t>(K + 1) * channels);
+  for (int k = 0; k <= K; ++k)
+    for (int c = 0; c < channels; ++c)
+      table[static_cast<size_t>(k) * channels + c] =
+          brdf.MirrorFresnel(1.0 - static_cast<double>(k) / K, c);
+  for (int c = 0; c < channels; ++c) {
+    double top = 0;
+    for (int k = 0; k <= K; ++k) top = std::max(top, table[static_cast<size_t>(k) * channels + c]);
+    for (int k = 0; k <= K; ++k) {
+      double& v = table[static_cast<size_t>(k) * channels + c];
+      v = top > 0 ? std::max(v, kFresnelFloor * top) : 1.0;
+      v = static_cast<double>(static_cast<float>(v));
+    }
+  }
+  return table;
+}
+
+namespace {
 
 // Horizon-clipped models (the split rule, docs/brdf.md "Sampling"): for each theta_o' node the
 // theta_i' integral is split where the visible azimuth arc starts to shrink (a = pi/2 - t_o/2)
@@ -509,7 +544,10 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
     }
   };
   std::vector<double> acc_eq;  // kNormal: e of AddViewNode, at the equator of n'
+  std::vector<double> inv_f(channels, 1.0), inv_e(channels, 1.0);
   if (normal) {
+    out->fresnel = FresnelTable(brdf);
+    InverseFresnel(*out, std::cos(0.5 * kEquatorThetaO), inv_e.data());
     accumulate(kEquatorThetaO);
     acc_eq = acc;
   }
@@ -530,7 +568,8 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
     } else {
       legendre_o.Eval(cos_o, sin_o, lam_o.data());
     }
-    AddViewNode(scale * w_o, lam_o.data(), acc, acc_eq, half_s, out);
+    if (normal) InverseFresnel(*out, half_c, inv_f.data());
+    AddViewNode(scale * w_o, lam_o.data(), acc, acc_eq, half_s, inv_f.data(), inv_e.data(), out);
   }
   // 2 pi (phi_o') * 2 (phi over [0, pi] only, rho-hat even) = 4 pi (eq. 5.18).
   out->total_energy.assign(channels, 0.0);
@@ -599,15 +638,19 @@ void SeparableCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampl
     }
   };
   std::vector<double> acc_eq;  // kNormal: e of AddViewNode, at the equator of n'
+  std::vector<double> inv_f(channels, 1.0), inv_e(channels, 1.0);
   if (normal) {
+    out->fresnel = FresnelTable(brdf);
+    InverseFresnel(*out, std::cos(0.5 * kEquatorThetaO), inv_e.data());
     accumulate(kEquatorThetaO);
     acc_eq = acc;
   }
   for (int k = 0; k < n_o; ++k) {
     accumulate(ro.theta[k]);
+    if (normal) InverseFresnel(*out, ro.cos_theta[k], inv_f.data());
     // kNormal: the rule's weights are those of [-1, 1] on [0, 1], W of AddViewNode.
     AddViewNode(scale * ro.weight[k], &lam_o[static_cast<size_t>(k) * nq * np], acc, acc_eq,
-                ro.sin_theta[k], out);
+                ro.sin_theta[k], inv_f.data(), inv_e.data(), out);
   }
 }
 

@@ -66,6 +66,14 @@ void TexelValue(const ShrmCube& cube, int face, int x, int y, const Vec3& view_s
     out[c] += weight * DotSh(ys, coeffs, n, cube.channels, c);
 }
 
+// kNormal cubes with a Fresnel table: the expansion times w(N.R) (brdf_coefficients.h).
+void ScaleByFresnel(const ShrmCube& cube, const Vec3& index_dir, const Vec3& argument,
+                    std::array<double, 3>& out) {
+  if (cube.fresnel.empty()) return;
+  for (int c = 0; c < std::min(cube.channels, 3); ++c)
+    out[c] *= ShrmFresnel(cube, index_dir.Dot(argument), c);
+}
+
 // Texel of `face` at integer coordinates that may lie one step outside the face: the texel of the
 // adjacent face containing the extrapolated centre direction.
 void ResolveTexel(int face, int x, int y, int size, int* of, int* ox, int* oy) {
@@ -117,6 +125,7 @@ std::array<double, 3> ShrmEvalArgument(const ShrmCube& cube, const Vec3& index_d
     if (tap.weight == 0) continue;
     TexelValue(cube, tap.face, tap.x, tap.y, view_sh, y_global, tap.weight, out);
   }
+  ScaleByFresnel(cube, index_dir, argument, out);
   return out;
 }
 
@@ -130,11 +139,13 @@ std::array<double, 3> ShrmEval(const ShrmCube& cube, const Vec3& n, const Vec3& 
 std::array<double, 3> ShrmTexelRadiance(const ShrmCube& cube, int face, int x, int y,
                                         const Vec3& view) {
   std::array<double, 3> out{0, 0, 0};
-  const Vec3 view_sh = ShFrameFromWorld(
-      ShrmViewArgument(cube.view, CubeTexelDirection(face, x, y, cube.face_size), view));
+  const Vec3 texel = CubeTexelDirection(face, x, y, cube.face_size);
+  const Vec3 argument = ShrmViewArgument(cube.view, texel, view);
+  const Vec3 view_sh = ShFrameFromWorld(argument);
   std::vector<double> y_global;
   if (cube.kind == ShrmKind::kGlobal) y_global = EvalSh(cube.pmax, view_sh);
   TexelValue(cube, face, x, y, view_sh, y_global, 1.0, out);
+  ScaleByFresnel(cube, texel, argument, out);
   return out;
 }
 

@@ -243,6 +243,8 @@ absl::StatusOr<std::vector<RadianceCube>> KautzMcCoolSlices(const ShrmCube& loca
             for (int p = 0; p <= pm; ++p)
               s += lambda[LegendreIndex(p, 0)] *
                    local_cube.data[local_cube.Index(f, x, y, ShIndex(p, 0), c)];
+            // kNormal: times the Fresnel factor at N.R = cos theta_n' (shrm_map.h).
+            s *= ShrmFresnel(local_cube, std::cos(theta), c);
             slices[k].data[slices[k].Index(f, x, y, c)] = static_cast<float>(s);
           }
   }

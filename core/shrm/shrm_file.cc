@@ -1,8 +1,14 @@
 #include "core/shrm/shrm_file.h"
 
+#include <cmath>
+#include <string_view>
+#include <vector>
+
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_split.h"
 #include "core/base/status_macros.h"
 #include "core/io/atomic_file.h"
 #include "core/io/cube_exr.h"
@@ -41,6 +47,16 @@ std::map<std::string, std::string> ShrmConventionAttributes(const ShrmCube& cube
         "R = 2(N.V)N - V picks the texel; global: B = sum c_pq Y_pq(N_s); local: B = sum c_pq "
         "Y_pq(Rot^T N_s), Rot = Rz(beta) Ry(alpha), (alpha, beta) the SH angles of R; N_s = the "
         "normal N = (R + V)/|R + V| in the SH frame (N.R >= 0 only)";
+  }
+  if (cube.view == ViewVariable::kNormal && !cube.fresnel.empty()) {
+    const int ch = static_cast<int>(cube.fresnel.size() / (kFresnelIntervals + 1));
+    absl::StrAppend(&attrs["shrm:eval"],
+                    "; times w(N.R) of shrm:fresnel: 'K C v_0 .. v_K' (C channels per node, "
+                    "node k at N.R = 1 - k / K; Catmull-Rom in N.R, ghost nodes "
+                    "v_-1 = 3 (v_0 - v_1) + v_2, v_K+1 = 3 (v_K - v_K-1) + v_K-2)");
+    std::string table = absl::StrCat(kFresnelIntervals, " ", ch);
+    for (float v : cube.fresnel) absl::StrAppend(&table, " ", absl::StrFormat("%.9g", v));
+    attrs["shrm:fresnel"] = table;
   }
   return attrs;
 }
@@ -85,6 +101,31 @@ absl::Status ParseShrmConventionAttributes(const std::string& label,
       return absl::InvalidArgumentError(absl::StrCat(label, ": bad shrm:view_variable '",
                                                      it->second,
                                                      "' (view, or normal with index reflection)"));
+    }
+  }
+  // shrm:fresnel: absent for the view variable, models without a Fresnel factor and files
+  // written before the normalization (w = 1).
+  cube->fresnel.clear();
+  if (auto it = attributes.find("shrm:fresnel"); it != attributes.end()) {
+    const std::vector<std::string> words = absl::StrSplit(it->second, ' ', absl::SkipEmpty());
+    int k = 0, ch = 0;
+    const bool header = words.size() >= 2 && absl::SimpleAtoi(words[0], &k) &&
+                        absl::SimpleAtoi(words[1], &ch) && k == kFresnelIntervals &&
+                        (ch == 1 || ch == 3) && words.size() == 2 + static_cast<size_t>(k + 1) * ch;
+    if (!header || cube->view != ViewVariable::kNormal) {
+      return absl::InvalidArgumentError(absl::StrCat(label, ": bad shrm:fresnel (expected '",
+                                                     kFresnelIntervals, " C' and (",
+                                                     kFresnelIntervals,
+                                                     " + 1) x C positive values, C = 1 or 3, with "
+                                                     "shrm:view_variable normal)"));
+    }
+    for (size_t i = 2; i < words.size(); ++i) {
+      float v = 0;
+      if (!absl::SimpleAtof(words[i], &v) || !(v > 0) || !std::isfinite(v)) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(label, ": bad shrm:fresnel value '", words[i], "' (must be positive)"));
+      }
+      cube->fresnel.push_back(v);
     }
   }
   cube->kind = kind == "local" ? ShrmKind::kLocal : ShrmKind::kGlobal;

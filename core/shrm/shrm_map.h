@@ -14,6 +14,7 @@
 #ifndef SHRM_CORE_SHRM_SHRM_MAP_H_
 #define SHRM_CORE_SHRM_SHRM_MAP_H_
 
+#include <algorithm>
 #include <cstddef>
 #include <vector>
 
@@ -33,6 +34,9 @@ struct ShrmCube {
   int channels = 3;
   // data[Index(face, x, y, k, c)], k = ShIndex(p, q).
   std::vector<float> data;
+  // kNormal: the Fresnel table (brdf_coefficients.h) the expansion is multiplied by at
+  // cos theta_n' = N.R, (kFresnelIntervals + 1) x 1 or x channels values; empty: no factor.
+  std::vector<float> fresnel;
 
   int coeff_count() const { return ShCount(pmax); }
   size_t Index(int face, int x, int y, int k, int c) const {
@@ -44,6 +48,13 @@ struct ShrmCube {
     return static_cast<size_t>(6) * face_size * face_size * coeff_count() * channels;
   }
 };
+
+// The Fresnel factor of `cube` at N.R = cos_n for channel c (1 without a table).
+inline double ShrmFresnel(const ShrmCube& cube, double cos_n, int c) {
+  if (cube.fresnel.empty()) return 1.0;
+  const int ch = static_cast<int>(cube.fresnel.size() / (kFresnelIntervals + 1));
+  return FresnelAt(cube.fresnel, ch, cos_n, std::min(c, ch - 1));
+}
 
 }  // namespace shrm
 

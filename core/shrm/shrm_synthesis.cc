@@ -77,6 +77,14 @@ absl::StatusOr<ShrmSynthesizer> ShrmSynthesizer::Create(int light_lmax, int chan
   s.channels_ = channels;
   s.reparam_ = brdf.reparam;
   s.view_ = brdf.view;
+  if (brdf.view == ViewVariable::kNormal && !brdf.fresnel.empty()) {
+    if (brdf.fresnel.size() != static_cast<size_t>(kFresnelIntervals + 1) * brdf.channels) {
+      return absl::InvalidArgumentError(absl::StrCat("SHRM: BRDF Fresnel table has ",
+                                                     brdf.fresnel.size(), " values, expected ",
+                                                     (kFresnelIntervals + 1) * brdf.channels));
+    }
+    s.fresnel_.assign(brdf.fresnel.begin(), brdf.fresnel.end());
+  }
   s.light_.assign(static_cast<size_t>(2 * f + 1) * (f + 1) * channels, {0.0, 0.0});
   // Degrees up to f only: the lighting is in degree-major order, so its first (f + 1)^2 values are
   // those (the lighting can go much higher: degree 511 for a split-sum level of degree 241).
@@ -99,6 +107,12 @@ absl::StatusOr<ShrmSynthesizer> ShrmSynthesizer::Create(int light_lmax, int chan
               brdf.at(l, pp, q, brdf.channels == 1 ? 0 : c);
     }
   return s;
+}
+
+double ShrmSynthesizer::Fresnel(double cos_n, int c) const {
+  if (fresnel_.empty()) return 1.0;
+  const int ch = static_cast<int>(fresnel_.size() / (kFresnelIntervals + 1));
+  return FresnelAt(fresnel_, ch, cos_n, std::min(c, ch - 1));
 }
 
 std::complex<double> ShrmSynthesizer::Blmpq(int l, int m, int p, int q, int c) const {
@@ -184,8 +198,10 @@ std::array<double, 3> ShrmSynthesizer::RadianceAtArgument(ShrmKind kind, const V
   if (kind == ShrmKind::kLocal) w = ShrmLocalFrame(alpha, beta).Transposed() * w;
   const std::vector<double> y = EvalSh(pmax_, w);
   std::array<double, 3> out{0, 0, 0};
-  for (int c = 0; c < std::min(channels_, 3); ++c)
+  for (int c = 0; c < std::min(channels_, 3); ++c) {
     for (int k = 0; k < n; ++k) out[c] += y[k] * coeffs[static_cast<size_t>(k) * channels_ + c];
+    out[c] *= Fresnel(index_dir.Dot(argument), c);
+  }
   return out;
 }
 
@@ -237,6 +253,17 @@ void ShrmSynthesizer::BandContributionsAtArgument(const Vec3& index_dir, const V
         out[(static_cast<size_t>(l) * (pm + 1) + p) * ch + c] = v;
       }
   }
+  ScaleByFresnel(index_dir, argument, out.data());
+}
+
+void ShrmSynthesizer::ScaleByFresnel(const Vec3& index_dir, const Vec3& argument,
+                                     double* bands) const {
+  if (fresnel_.empty()) return;
+  const size_t per_channel = static_cast<size_t>(lmax_ + 1) * (pmax_ + 1);
+  for (int c = 0; c < channels_; ++c) {
+    const double a = Fresnel(index_dir.Dot(argument), c);
+    for (size_t i = 0; i < per_channel; ++i) bands[i * channels_ + c] *= a;
+  }
 }
 
 const WignerColumnTables& ShrmSynthesizer::BandWignerTables() const {
@@ -254,6 +281,8 @@ void ShrmSynthesizer::BandContributionsAtArguments(std::span<const Vec3> index_d
     const int nb = static_cast<int>(std::min<size_t>(kWignerBlock, n - k));
     BandContributionsBlock(index_dirs.data() + k, arguments.data() + k, nb,
                            out.data() + k * BandCount());
+    for (int r = 0; r < nb; ++r)
+      ScaleByFresnel(index_dirs[k + r], arguments[k + r], out.data() + (k + r) * BandCount());
   }
 }
 
@@ -634,6 +663,7 @@ ShrmCube ShrmSynthesizer::NewCube(ShrmKind kind, int face_size, SynthesisScratch
   cube.kind = kind;
   cube.index = reparam_;
   cube.view = view_;
+  cube.fresnel = fresnel_;
   cube.face_size = face_size;
   cube.pmax = pmax_;
   cube.channels = channels_;

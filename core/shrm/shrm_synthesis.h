@@ -103,6 +103,8 @@ class ShrmSynthesizer {
   int channels() const { return channels_; }
   ReparamKind reparam() const { return reparam_; }
   ViewVariable view() const { return view_; }
+  // The Fresnel factor of kNormal values at N.R = cos_n (1 without a table; brdf_coefficients.h).
+  double Fresnel(double cos_n, int c) const;
   // The largest order |q| whose rho_lpq can be nonzero: min(P, F), or 0 for the tangent
   // reparameterization (whose coefficients Create keeps for q = 0 only).
   int RhoQmax() const { return reparam_ == ReparamKind::kTangent ? 0 : std::min(pmax_, lmax_); }
@@ -215,10 +217,13 @@ class ShrmSynthesizer {
   void LSumsBlock(const double* alpha, const double* beta, int n, std::vector<Lanes>& sre,
                   std::vector<Lanes>& sim) const;
   // BandContributionsAtArguments for n <= kWignerBlock points.
+  // bands (BandCount() values of one point) times the Fresnel factor at (R, N) (kNormal).
+  void ScaleByFresnel(const Vec3& index_dir, const Vec3& argument, double* bands) const;
   void BandContributionsBlock(const Vec3* index_dirs, const Vec3* arguments, int n,
                               double* out) const;
   ReparamKind reparam_ = ReparamKind::kReflection;
   ViewVariable view_ = ViewVariable::kView;
+  std::vector<float> fresnel_;  // kNormal: the coefficients' Fresnel table (ShrmCube::fresnel)
   // Complex lighting: light_[((m + F) * (F + 1) + l) * channels + c] (zero for l < |m|).
   std::vector<std::complex<double>> light_;
   // rho_lpq per channel (grey BRDFs expanded): rho_[((p * (P + 1) + q) * (F + 1) + l) * ch + c],

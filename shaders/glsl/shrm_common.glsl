@@ -21,6 +21,32 @@ vec3 ShrmCoefficient(int face, ivec2 xy, int k) {
   return texelFetch(shrm_coeffs, ivec3(xy, k * 6 + face), 0).rgb;
 }
 
+// The Fresnel table of an SHRM with the KTX2 key "shrm:fresnel" (shrm:view_variable "normal",
+// docs/shaders.md "Fresnel normalization"): the expansion is of rho-hat / w(N.R), so the value is
+// the sum times w(N.R), N.R = N.V = cos theta. The key's text is "K C v_0 .. v_K" (K = 128
+// intervals, C channels per node): upload node k as shrm_fresnel[k] (C = 1: the value in all three
+// components) and set shrm_fresnel_count = K + 1; without the key shrm_fresnel_count = 0 (w = 1).
+// Node k is at N.R = 1 - k / K; between nodes the Catmull-Rom cubic in N.R of the writer
+// (core/brdf/brdf_coefficients.h FresnelAt), ghost nodes beyond both ends on the quadratic
+// through the three nearest.
+#define SHRM_FRESNEL_NODES 129
+uniform int shrm_fresnel_count;
+uniform vec3 shrm_fresnel[SHRM_FRESNEL_NODES];
+
+vec3 ShrmFresnel(float cos_nr) {
+  if (shrm_fresnel_count != SHRM_FRESNEL_NODES) return vec3(1.0);
+  const int K = SHRM_FRESNEL_NODES - 1;
+  float t = (1.0 - clamp(cos_nr, 0.0, 1.0)) * float(K);
+  int k = clamp(int(t), 0, K - 1);
+  float u = clamp(t - float(k), 0.0, 1.0);
+  vec3 p1 = shrm_fresnel[k], p2 = shrm_fresnel[k + 1];
+  vec3 p0 = k == 0 ? 3.0 * (p1 - p2) + shrm_fresnel[2] : shrm_fresnel[max(k - 1, 0)];
+  vec3 p3 = k + 2 <= K ? shrm_fresnel[min(k + 2, K)] : 3.0 * (p2 - p1) + shrm_fresnel[K - 2];
+  vec3 v = p1 + 0.5 * u * (p2 - p0 + u * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 +
+                                          u * (3.0 * (p1 - p2) + p3 - p0)));
+  return max(v, 0.5 * min(p1, p2));
+}
+
 // The SH frame of a world direction (pole +Y): ShFrame(w) = (w.x, -w.z, w.y).
 vec3 ShFrame(vec3 w) { return vec3(w.x, -w.z, w.y); }
 

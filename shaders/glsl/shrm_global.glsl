@@ -1,7 +1,8 @@
 // shrm shader library: a GLOBAL SHRM evaluated once per frame (Ramamoorthi & Hanrahan, eq. 5.35):
 //   B~(R) = sum_{p,q} B^_pq(R) Y_pq(V),   V = the frame's view direction (SH frame),
 // or, for an SHRM with shrm:view_variable "normal" (define SHRM_VIEW_NORMAL), Y_pq(N) with each texel's
-// own normal N = (R + V) / |R + V| (ShrmViewNormal),
+// own normal N = (R + V) / |R + V| (ShrmViewNormal), times the Fresnel table's w(N.R) where the SHRM
+// has one (shrm_common.glsl ShrmFresnel),
 // i.e. an ordinary reflection cube map for this frame's view, which the shading then samples by
 // R (or T) with hardware filtering. Include after shrm_common.glsl. docs/shaders.md.
 //
@@ -30,10 +31,16 @@ void main() {
 #ifdef SHRM_VIEW_NORMAL
   vec2 st = (floor(gl_FragCoord.xy) + 0.5) / float(textureSize(shrm_coeffs, 0).x);
   vec3 r = normalize(CubeFaceDirection(shrm_face, st));
-  EvalSh(ShFrame(ShrmViewNormal(r, normalize(shrm_view))), y);
+  vec3 v = normalize(shrm_view);
+  EvalSh(ShFrame(ShrmViewNormal(r, v)), y);
+  // The Fresnel table's factor at the texel's N.R = |R + V| / 2 (1 without a table; exact, and
+  // without the cancellation of dot(N, R) near V = -R).
+  shrm_color = vec4(ShrmGlobalTexel(shrm_face, ivec2(gl_FragCoord.xy), y) *
+                        ShrmFresnel(0.5 * length(r + v)),
+                    1.0);
 #else
   EvalSh(ShFrame(normalize(shrm_view)), y);
-#endif
   shrm_color = vec4(ShrmGlobalTexel(shrm_face, ivec2(gl_FragCoord.xy), y), 1.0);
+#endif
 }
 #endif

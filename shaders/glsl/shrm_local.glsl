@@ -1,7 +1,8 @@
 // shrm shader library: a LOCAL SHRM evaluated per pixel (Ramamoorthi & Hanrahan, eq. 5.10):
 //   B(R, V) = sum_{p,q} B_pq(R) Y_pq(w), w = Rot(R)^T V,  Rot(R) = Rz(beta) Ry(alpha),
 // (shrm:view_variable "normal": w = Rot(R)^T N with the normal N = (R + V) / |R + V|: pass N, e.g. the
-// shading normal or ShrmViewNormal(R, V), where the functions below take `view`),
+// shading normal or ShrmViewNormal(R, V), where the functions below take `view`; the value is then
+// times the Fresnel table's w(N.R), shrm_common.glsl ShrmFresnel, 1 without a table),
 // (alpha, beta) the SH angles of the texel's direction R (docs/conventions.md). Include after
 // shrm_common.glsl. docs/shaders.md.
 //
@@ -75,10 +76,11 @@ vec3 ShrmLocal(vec3 index, vec3 view) {
   ShrmResolveTexel(face, p0 + ivec2(1, 0), f10, t10);
   ShrmResolveTexel(face, p0 + ivec2(0, 1), f01, t01);
   ShrmResolveTexel(face, p0 + ivec2(1, 1), f11, t11);
-  return (1.0 - f.x) * (1.0 - f.y) * ShrmLocalTexel(f00, t00, v_sh) +
-         f.x * (1.0 - f.y) * ShrmLocalTexel(f10, t10, v_sh) +
-         (1.0 - f.x) * f.y * ShrmLocalTexel(f01, t01, v_sh) +
-         f.x * f.y * ShrmLocalTexel(f11, t11, v_sh);
+  return ((1.0 - f.x) * (1.0 - f.y) * ShrmLocalTexel(f00, t00, v_sh) +
+          f.x * (1.0 - f.y) * ShrmLocalTexel(f10, t10, v_sh) +
+          (1.0 - f.x) * f.y * ShrmLocalTexel(f01, t01, v_sh) +
+          f.x * f.y * ShrmLocalTexel(f11, t11, v_sh)) *
+         ShrmFresnel(dot(normalize(index), view));
 }
 
 #ifdef SHRM_FILTERED
@@ -93,6 +95,6 @@ vec3 ShrmLocalFiltered(vec3 index, vec3 view) {
   EvalSh(ShrmToLocalFrame(ShFrame(normalize(index)), ShFrame(view)), y);
   vec3 sum = vec3(0.0);
   for (int k = 0; k < SH_COUNT; ++k) sum += y[k] * texture(shrm_filtered, vec4(index, float(k))).rgb;
-  return sum;
+  return sum * ShrmFresnel(dot(normalize(index), view));
 }
 #endif

@@ -18,6 +18,10 @@
 //   2 shrm_out: texture_storage_2d_array<rgba32float, write>, S x S x 6 (used by shrm_global_pass
 //     only): face f of this frame's reflection map in layer f, texel (x, y) = the cube texel (x, y).
 //     A cube view of the same texture (dimension "cube") samples it by R in the shading pass.
+//   3 shrm_fresnel: ShrmFresnelTable (uniform buffer, 2080 bytes): the SHRM's Fresnel table (KTX2
+//     key "shrm:fresnel", text "K C v_0 .. v_K" with K = 128 and C channels per node): count =
+//     K + 1 and node k in nodes[k].rgb (C = 1: the value in all three), or count = 0 without the
+//     key (w = 1). Normal-variable SHRMs are the sum times w(N.R) (docs/shaders.md).
 
 const SHRM_SH_COUNT: i32 = (SHRM_PMAX + 1) * (SHRM_PMAX + 1);
 
@@ -29,6 +33,39 @@ struct ShrmParams {
 @group(0) @binding(0) var shrm_coeffs: texture_2d_array<f32>;
 @group(0) @binding(1) var<uniform> shrm: ShrmParams;
 @group(0) @binding(2) var shrm_out: texture_storage_2d_array<rgba32float, write>;
+
+const SHRM_FRESNEL_NODES: i32 = 129;
+struct ShrmFresnelTable {
+  count: i32,
+  nodes: array<vec4f, SHRM_FRESNEL_NODES>,
+}
+@group(0) @binding(3) var<uniform> shrm_fresnel: ShrmFresnelTable;
+
+// w(N.R) of the Fresnel table (1 without one): node k at N.R = 1 - k / K, the Catmull-Rom cubic
+// in N.R between them, ghost nodes beyond both ends on the quadratic through the three nearest
+// (core/brdf/brdf_coefficients.h FresnelAt).
+fn shrm_fresnel_at(cos_nr: f32) -> vec3f {
+  if (shrm_fresnel.count != SHRM_FRESNEL_NODES) {
+    return vec3f(1.0);
+  }
+  let kk = SHRM_FRESNEL_NODES - 1;
+  let t = (1.0 - clamp(cos_nr, 0.0, 1.0)) * f32(kk);
+  let k = clamp(i32(t), 0, kk - 1);
+  let u = clamp(t - f32(k), 0.0, 1.0);
+  let p1 = shrm_fresnel.nodes[k].rgb;
+  let p2 = shrm_fresnel.nodes[k + 1].rgb;
+  var p0 = 3.0 * (p1 - p2) + shrm_fresnel.nodes[2].rgb;  // the quadratic beyond both ends
+  if (k > 0) {
+    p0 = shrm_fresnel.nodes[k - 1].rgb;
+  }
+  var p3 = 3.0 * (p2 - p1) + shrm_fresnel.nodes[kk - 2].rgb;
+  if (k + 2 <= kk) {
+    p3 = shrm_fresnel.nodes[k + 2].rgb;
+  }
+  let v = p1 + 0.5 * u * (p2 - p0 + u * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 +
+                                        u * (3.0 * (p1 - p2) + p3 - p0)));
+  return max(v, 0.5 * min(p1, p2));
+}
 
 // Coefficient k (RGB) of texel xy of cube face `face`.
 fn shrm_coefficient(face: i32, xy: vec2i, k: i32) -> vec3f {
@@ -173,12 +210,16 @@ fn shrm_global_pass(@builtin(global_invocation_id) id: vec3u) {
   }
   let face = i32(id.z);
   var d = normalize(shrm.view);
+  var w = vec3f(1.0);
   if (SHRM_VIEW_NORMAL) {
     let r = normalize(shrm_cube_face_direction(face, (vec2f(id.xy) + 0.5) / f32(s)));
+    // The Fresnel table's factor at the texel's N.R = |R + V| / 2 (exact, and without the
+    // cancellation of dot(N, R) near V = -R).
+    w = shrm_fresnel_at(0.5 * length(r + d));
     d = shrm_view_normal(r, d);
   }
   let y = shrm_eval_sh(shrm_sh_frame(d));
-  let sum = shrm_global_texel(face, vec2i(id.xy), y);
+  let sum = shrm_global_texel(face, vec2i(id.xy), y) * w;
   textureStore(shrm_out, vec2i(id.xy), face, vec4f(sum, 1.0));
 }
 
@@ -235,8 +276,11 @@ fn shrm_local(index: vec3f, view: vec3f) -> vec3f {
   let p = c.st * f32(shrm.size) - 0.5;
   let p0 = vec2i(floor(p));
   let f = p - vec2f(p0);
-  return (1.0 - f.x) * (1.0 - f.y) * shrm_local_texel(shrm_resolve_texel(c.face, p0), v_sh) +
-         f.x * (1.0 - f.y) * shrm_local_texel(shrm_resolve_texel(c.face, p0 + vec2i(1, 0)), v_sh) +
-         (1.0 - f.x) * f.y * shrm_local_texel(shrm_resolve_texel(c.face, p0 + vec2i(0, 1)), v_sh) +
-         f.x * f.y * shrm_local_texel(shrm_resolve_texel(c.face, p0 + vec2i(1, 1)), v_sh);
+  let sum =
+      (1.0 - f.x) * (1.0 - f.y) * shrm_local_texel(shrm_resolve_texel(c.face, p0), v_sh) +
+      f.x * (1.0 - f.y) * shrm_local_texel(shrm_resolve_texel(c.face, p0 + vec2i(1, 0)), v_sh) +
+      (1.0 - f.x) * f.y * shrm_local_texel(shrm_resolve_texel(c.face, p0 + vec2i(0, 1)), v_sh) +
+      f.x * f.y * shrm_local_texel(shrm_resolve_texel(c.face, p0 + vec2i(1, 1)), v_sh);
+  // Normal-variable SHRMs with a Fresnel table (`view` is N there): times w(N.R).
+  return sum * shrm_fresnel_at(dot(normalize(index), view));
 }

@@ -7,7 +7,8 @@
 //
 // Usage: node run_shaders.mjs SHRM_WGSL GLOBAL.ktx2 GLOBAL_REF.ktx2 LOCAL.ktx2 LOCAL_REF.ktx2
 //          [GLOBAL_N.ktx2 GLOBAL_N_REF.ktx2 LOCAL_N.ktx2 LOCAL_N_REF.ktx2]
-// (the optional four: SHRMs with shrm:view_variable "normal", docs/shaders.md, run with the override
+// (the optional four: SHRMs with shrm:view_variable "normal" and a Fresnel table, GGX f0 0.04,
+// docs/shaders.md, run with the override
 // SHRM_VIEW_NORMAL: the global pass against the CPU's map, whose texels each take Y_pq of their
 // own normal (R_texel + V)/|R_texel + V|, and shrm_local at every texel centre with the argument
 // shrm_view_normal(R_texel, V); a pass without the override must differ: negative control.)
@@ -68,8 +69,20 @@ function loadShrm(path, name) {
   `ktx2 ${name}: shrm:format ${text(k.keyValue, 'shrm:format')}, shrm:kind ${text(k.keyValue, 'shrm:kind')}, shrm:layout, KTXorientation rd`);
   const level = k.levels[0].levelData;
   const layers = new Float32Array(level.buffer.slice(level.byteOffset, level.byteOffset + level.byteLength));
+  // shrm:fresnel: "K C v_0 .. v_K" (C values per node), as [K + 1][3], or null.
+  let fresnel = null;
+  const ft = text(k.keyValue, 'shrm:fresnel');
+  if (ft !== undefined) {
+    const w = ft.trim().split(/\s+/).map(Number);
+    const nodes = w[0] + 1, ch = w[1];
+    check(w.length === 2 + nodes * ch && (ch === 1 || ch === 3) && w.slice(2).every((v) => v > 0),
+      `ktx2 ${name}: shrm:fresnel ${nodes} nodes of ${ch} channel(s), all positive`);
+    fresnel = [];
+    for (let i = 0; i < nodes; ++i)
+      fresnel.push([0, 1, 2].map((c) => w[2 + i * ch + Math.min(c, ch - 1)]));
+  }
   return { pmax, count, size: k.pixelWidth, layers, kind: text(k.keyValue, 'shrm:kind'),
-    view: text(k.keyValue, 'shrm:view_variable') ?? 'view' };
+    view: text(k.keyValue, 'shrm:view_variable') ?? 'view', fresnel };
 }
 
 function loadRef(path) {
@@ -119,7 +132,8 @@ const browser = await launchChromium(['--enable-unsafe-webgpu']);
 try {
   const { page, log } = await openPage(browser, `${server.base}/engines/shaders_page.html`, 64, 64);
   const run = (args) => page.evaluate((a) => window.runShrm(a), args);
-  const common = (shrm) => ({ code, pmax: shrm.pmax, size: shrm.size, layers: Array.from(shrm.layers) });
+  const common = (shrm) => ({ code, pmax: shrm.pmax, size: shrm.size, layers: Array.from(shrm.layers),
+    fresnel: shrm.fresnel });
 
   // Eq. 5.35.
   let r = await run({ ...common(shrmGlobal), view: refGlobal.view });
@@ -200,6 +214,8 @@ try {
     const lRef = loadRef(localNRefPath);
     check(gN.view === 'normal' && lN.view === 'normal' && gN.kind === 'global' && lN.kind === 'local',
       `normal inputs: shrm:view_variable ${gN.view} (global), ${lN.view} (local)`);
+    check(gN.fresnel?.length === 129 && lN.fresnel?.length === 129,
+      `normal inputs: GGX f0 0.04 SHRMs carry the Fresnel table (shrm:fresnel, 129 nodes)`);
     r = await run({ ...common(gN), view: gRef.view, viewNormal: true });
     if (r.error) {
       fail(`global normal: ${r.error}`);
@@ -224,6 +240,10 @@ try {
       const [worst, over] = compareTexels(lN, r.local, lRef.data, LOCAL_REL);
       check(over === 0, `local normal: shrm_local(R, shrm_view_normal(R, V)) at the ${centresN.length} texel ` +
         `centres = CPU eq. 5.10 in the normal: worst error ${worst.toExponential(2)} of sum|c_k| (limit ${LOCAL_REL})`);
+      const bare = await run({ ...common(lN), fresnel: null, view: lRef.view, dirs: centresN, viewNormal: true });
+      const [, overBare] = compareTexels(lN, bare.local, lRef.data, LOCAL_REL);
+      check(overBare > 0.1 * 6 * 3 * lN.size ** 2,
+        `local normal negative control: without the Fresnel table ${overBare} channel values differ`);
       check(r.errors.length === 0, `local normal: no WebGPU errors ${r.errors.join('; ')}`);
     }
   }

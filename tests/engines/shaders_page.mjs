@@ -30,7 +30,8 @@ async function readTexture(dev, tex, size, layers) {
 
 // args: { code (WGSL), pmax, size, layers (the KTX2 level as float RGBA, [k][face][y][x][4]),
 //         view [x, y, z], dirs (optional: index directions for shrm_local, [n][3]),
-//         viewNormal (optional: the SHRM's shrm:view_variable is "normal": the override SHRM_VIEW_NORMAL) }
+//         viewNormal (optional: the SHRM's shrm:view_variable is "normal": the override SHRM_VIEW_NORMAL),
+//         fresnel (optional: the SHRM's Fresnel table, [K + 1][3]) }
 window.runShrm = async (args) => {
   const dev = await device();
   const errors = [];
@@ -39,8 +40,8 @@ window.runShrm = async (args) => {
   const count = (pmax + 1) * (pmax + 1);
   const prelude = `const SHRM_PMAX: i32 = ${pmax};\n`;
   const test = `
-@group(0) @binding(3) var<storage, read> test_dirs: array<vec4f>;
-@group(0) @binding(4) var<storage, read_write> test_out: array<vec4f>;
+@group(0) @binding(4) var<storage, read> test_dirs: array<vec4f>;
+@group(0) @binding(5) var<storage, read_write> test_out: array<vec4f>;
 @compute @workgroup_size(64)
 fn test_local(@builtin(global_invocation_id) id: vec3u) {
   if (id.x >= arrayLength(&test_dirs)) {
@@ -68,6 +69,15 @@ fn test_local(@builtin(global_invocation_id) id: vec3u) {
   new Int32Array(params, 12, 1)[0] = size;
   const uniform = dev.createBuffer({ size: 16, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
   dev.queue.writeBuffer(uniform, 0, params);
+  // The Fresnel table (binding 3): count and nodes, or count 0 (args.fresnel: [K + 1][3] or null).
+  const table = new ArrayBuffer(16 + 129 * 16);
+  if (args.fresnel) {
+    new Int32Array(table, 0, 1)[0] = args.fresnel.length;
+    const nodes = new Float32Array(table, 16, 129 * 4);
+    args.fresnel.forEach((rgb, k) => nodes.set([rgb[0], rgb[1], rgb[2], 0], k * 4));
+  }
+  const fresnel = dev.createBuffer({ size: table.byteLength, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
+  dev.queue.writeBuffer(fresnel, 0, table);
   const coeffView = coeffs.createView({ dimension: '2d-array' });
   const constants = args.viewNormal ? { SHRM_VIEW_NORMAL: 1 } : {};
 
@@ -78,7 +88,8 @@ fn test_local(@builtin(global_invocation_id) id: vec3u) {
     const pipeline = dev.createComputePipeline({ layout: 'auto', compute: { module, entryPoint: 'shrm_global_pass', constants } });
     const group = dev.createBindGroup({ layout: pipeline.getBindGroupLayout(0), entries: [
       { binding: 0, resource: coeffView }, { binding: 1, resource: { buffer: uniform } },
-      { binding: 2, resource: out.createView({ dimension: '2d-array' }) }] });
+      { binding: 2, resource: out.createView({ dimension: '2d-array' }) },
+      { binding: 3, resource: { buffer: fresnel } }] });
     const enc = dev.createCommandEncoder();
     const pass = enc.beginComputePass();
     pass.setPipeline(pipeline);
@@ -100,7 +111,8 @@ fn test_local(@builtin(global_invocation_id) id: vec3u) {
   const pipeline = dev.createComputePipeline({ layout: 'auto', compute: { module, entryPoint: 'test_local', constants } });
   const group = dev.createBindGroup({ layout: pipeline.getBindGroupLayout(0), entries: [
     { binding: 0, resource: coeffView }, { binding: 1, resource: { buffer: uniform } },
-    { binding: 3, resource: { buffer: dirBuf } }, { binding: 4, resource: { buffer: outBuf } }] });
+    { binding: 3, resource: { buffer: fresnel } },
+    { binding: 4, resource: { buffer: dirBuf } }, { binding: 5, resource: { buffer: outBuf } }] });
   const enc = dev.createCommandEncoder();
   const pass = enc.beginComputePass();
   pass.setPipeline(pipeline);
