@@ -155,7 +155,9 @@ nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProve
 // The tolerance rule's estimate and, when checked, the measured error against the job's targets,
 // from the report (PrefilterReportJson, embedded or from a server): FailedPrecondition naming the
 // figures when one misses them (the outputs are written all the same: the most accurate orders
-// within the limits), OK when both meet them or the job has no tolerance.
+// within the limits), OK when both meet them or the job has no tolerance. Where the job checked
+// itself (--verify), the measurement is the verdict: an estimate that missed (within a size
+// budget, or at the reference orders) with every measured target met is OK (session 23).
 absl::Status ToleranceOutcome(const PrefilterJob& job, const nlohmann::json& report);
 
 // Why an existing SHRM file was not made by `job` from a source with `source_sha256` and a BRDF

@@ -390,7 +390,9 @@ else
   fail "size budget: exit $rc, stderr $(head -c 300 tb.stderr), report $(grep -E 'size_mb|budget' tb.json)"
 fi
 CHECKS=$((CHECKS + 1))
-"$SHRM" prefilter --env "$MAP" --brdf phong:s=128 --tolerance 0.01 --window lanczos \
+# Without the job's own check (--verify 0) the estimate is the verdict; with it, the measurement
+# (jobs::ToleranceOutcome): here the forced window's estimate misses 1%.
+"$SHRM" prefilter --env "$MAP" --brdf phong:s=128 --tolerance 0.01 --window lanczos --verify 0 \
   -o tl.shrm.exr >tl.stdout 2>tl.stderr
 rc=$?
 if [ "$rc" -eq 1 ] && grep -q 'tolerance 0.01 not met: estimated front RMS' tl.stderr &&

@@ -34,7 +34,6 @@ int RoundUp8(double s) { return 8 * static_cast<int>(std::ceil(s / 8 - 1e-9)); }
 constexpr int kMinFaceSize = 16;
 constexpr double kFirstFaceSizePerOrder = 2.0;
 // The F tried under a size budget, as multiples of ChooseOrdersWithinBudget's (S_max / 2 - 1).
-constexpr std::array<double, 4> kBudgetFGrowth = {1.0, 1.4, 2.0, 2.8};
 // Growth of S when the scaled size still misses its share (the h^2 law is asymptotic).
 constexpr double kFaceSizeGrowth = 1.25;
 constexpr int kFaceSizeRounds = 4;
@@ -439,6 +438,18 @@ absl::Status ChooseFaceSize(std::span<const DirectionPair> pairs, int light_lmax
   return absl::OkStatus();
 }
 
+namespace {
+
+// How far a whole estimate is from the targets: the largest of front RMS, front largest and
+// (where it is a target) grazing RMS, each over its target. <= 1: all within them.
+double BudgetScore(const DirectionalError& e, const ToleranceTargets& t) {
+  double score = std::max(e.front.rms / t.rms, e.front.max / t.max);
+  if (t.grazing && e.grazing.count > 0) score = std::max(score, e.grazing.rms / t.grazing_rms);
+  return score;
+}
+
+}  // namespace
+
 absl::Status ChooseWithinBudget(const BandTable& table, std::span<const DirectionPair> pairs,
                                 int light_lmax, int channels, std::span<const double> light,
                                 const BrdfCoefficients& brdf, const ToleranceOptions& options,
@@ -453,27 +464,61 @@ absl::Status ChooseWithinBudget(const BandTable& table, std::span<const Directio
     *choice = within;
     return absl::OkStatus();
   }
-  ToleranceOptions sized = options;
-  sized.max_face_size = max_face_size;
   const ToleranceTargets targets = TargetsForTolerance(options.tolerance, brdf.view);
-  int f_top = table.SmallestF(within.p, targets, kTruncationShare, options.window);
-  if (f_top < 0) f_top = table.f_ref();
-  double best_rms = -1;
-  for (const double growth : kBudgetFGrowth) {
-    const int f = std::min(f_top, static_cast<int>(std::lround(within.f * growth)));
-    if (growth > 1 && f <= within.f) break;
-    ToleranceChoice trial = within;
-    trial.f = f;
-    trial.truncation = table.Estimate(f, trial.p, trial.window);
-    trial.met = MeetsTargets(trial.truncation, targets, kTruncationShare);
-    SHRM_RETURN_IF_ERROR(ChooseFaceSize(pairs, light_lmax, channels, light, brdf, sized, &trial));
-    const double rms = std::hypot(trial.truncation.front.rms, trial.interpolation.front.rms);
-    if (best_rms < 0 || rms < best_rms) {
-      best_rms = rms;
-      *choice = trial;
-    }
-    if (f == f_top) break;
+  // Per view order P: S_max(P), the largest face size the budget allows, and F the smallest that
+  // meets the targets at P (else the reference's). Texel interpolation at S_max is estimated for
+  // the candidates in the order of their truncation scores until the next one's truncation
+  // alone is worse than the best total (each total is at least its truncation).
+  struct Candidate {
+    ToleranceChoice c;
+    int s_max = 0;
+    double score = 0;
+  };
+  std::vector<Candidate> candidates;
+  for (int p = 0; p <= table.p_ref(); ++p) {
+    int s = 8 * static_cast<int>(
+                    std::floor(std::sqrt(options.max_cube_values / CubeValues(1, p)) / 8 + 1e-9));
+    s = std::min(s, std::max(kMinFaceSize, options.max_face_size));
+    if (s < kMinFaceSize) break;  // larger p only shrinks it
+    Candidate k;
+    k.c = within;
+    k.c.p = p;
+    k.c.f = table.SmallestF(p, targets, kTruncationShare, options.window);
+    if (k.c.f < 0) k.c.f = table.f_ref();
+    ChooseWindow(table, options, &k.c);
+    k.s_max = s;
+    k.score = BudgetScore(k.c.truncation, targets);
+    candidates.push_back(k);
   }
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const Candidate& a, const Candidate& b) { return a.score < b.score; });
+  const Candidate* best = nullptr;
+  double best_score = 0;
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    const Candidate& k = candidates[i];
+    if (best != nullptr && k.score >= best_score) break;
+    ToleranceChoice trial = k.c;
+    const std::vector<double> windowed =
+        ApplyWindow(trial.window, trial.f, light_lmax, channels, light);
+    SHRM_ASSIGN_OR_RETURN(
+        ShrmSynthesizer synth,
+        ShrmSynthesizer::Create(light_lmax, channels, windowed, brdf, trial.f, trial.p));
+    trial.face_size = k.s_max;
+    trial.interpolation = EstimateInterpolation(synth, pairs, k.s_max, options.threads);
+    const double score = BudgetScore(TotalEstimate(trial), targets);
+    if (best == nullptr || score < best_score) {
+      best = &k;
+      best_score = score;
+    }
+  }
+  // The winner's S: ChooseFaceSize up to S_max (smaller where interpolation allows).
+  ToleranceChoice chosen = best->c;
+  ToleranceOptions sized = options;
+  sized.max_face_size = best->s_max;
+  SHRM_RETURN_IF_ERROR(ChooseFaceSize(pairs, light_lmax, channels, light, brdf, sized, &chosen));
+  chosen.budget_limited = true;
+  chosen.unlimited_values = needed;
+  *choice = chosen;
   return absl::OkStatus();
 }
 

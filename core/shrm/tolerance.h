@@ -149,7 +149,7 @@ struct ToleranceChoice {
   bool met = false;                // both estimates within their shares of the targets
   int f_ref = 0, p_ref = 0;
   // The size budget (ToleranceOptions::max_cube_values): when the choice above the budget needs
-  // more values, the most accurate (F, P, S) within it (ChooseOrdersWithinBudget) replaces it;
+  // more values, the most accurate (F, P, S) within it (ChooseWithinBudget) replaces it;
   // unlimited_values is then what the unconstrained choice needed (0 when the budget did not bind).
   bool budget_limited = false;
   double unlimited_values = 0;
@@ -195,12 +195,17 @@ absl::StatusOr<ToleranceChoice> ChooseOrdersWithinBudget(const BandTable& table,
                                                          const ToleranceOptions& options,
                                                          int* max_face_size);
 
-// The whole budget step, for a choice (orders and S) whose cube exceeds options.max_cube_values:
-// ChooseOrdersWithinBudget, then (unless options.face_size fixes S) F at 1, 1.4, 2 and 2.8 times
-// its cap (up to what the tolerance needs at that P), each with ChooseFaceSize up to S_max(P);
-// the smallest estimated front RMS of truncation and interpolation together replaces *choice
-// (a sharp lobe in a small budget is better served by F ~ S), with unlimited_values = the
-// values the old choice needed. Errors: those of ChooseOrdersWithinBudget and ChooseFaceSize.
+// The whole budget step, for a choice (orders and S) whose cube exceeds options.max_cube_values.
+// With options.face_size given: ChooseOrdersWithinBudget at that S. Otherwise per view order P
+// the largest face size S_max(P) the budget allows and F the smallest meeting the targets at P
+// (else the reference's F); the texel interpolation at S_max is estimated for the candidates in
+// the order of their truncation scores, and the smallest total score wins: the largest of front
+// RMS, front largest and grazing RMS (a target in the normal variable) over their targets, with
+// truncation and interpolation together (TotalEstimate). Its S is then ChooseFaceSize's up to
+// S_max. Session 23: the cap F <= S_max / 2 - 1 that the P scan used before ranked P by
+// truncation at a capped F and lost the sharp lobes (GGX alpha 0.1: F ~ 96 at S 88 has the
+// smaller total error). unlimited_values = the values the old choice needed. Errors: those of
+// ChooseOrdersWithinBudget and ChooseFaceSize.
 absl::Status ChooseWithinBudget(const BandTable& table, std::span<const DirectionPair> pairs,
                                 int light_lmax, int channels, std::span<const double> light,
                                 const BrdfCoefficients& brdf, const ToleranceOptions& options,
