@@ -135,7 +135,14 @@ absl::Status RunInfo(const std::string& path, bool json) {
               c.index == ReparamKind::kTangent ? "the tangent" : "the reflection vector",
               c.face_size, c.face_size, c.pmax, c.coeff_count());
   std::printf("  c_00 range [%.6g, %.6g]\n", lo, hi);
-  for (const auto& [k, v] : file.attributes) std::printf("  %-20s %s\n", k.c_str(), v.c_str());
+  for (const auto& [k, v] : file.attributes) {
+    if (k == "shrm:fresnel" && !c.fresnel.empty()) {  // 129 numbers: their summary (--json: all)
+      std::printf("  %-20s %zu values: w(N.R) = %.6g at N.R = 1 .. %.6g at N.R = 0\n", k.c_str(),
+                  c.fresnel.size(), ShrmFresnel(c, 1.0, 0), ShrmFresnel(c, 0.0, 0));
+      continue;
+    }
+    std::printf("  %-20s %s\n", k.c_str(), v.c_str());
+  }
   return absl::OkStatus();
 }
 
