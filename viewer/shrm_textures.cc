@@ -34,7 +34,7 @@ void SetShrmFresnel(GLuint program, std::span<const float> fresnel) {
     glUniform1i(glGetUniformLocation(program, "shrm_fresnel_count"), 0);
     return;
   }
-  const int ch = static_cast<int>(fresnel.size() / kNodes);
+  const int ch = FresnelChannels(fresnel.size());
   std::vector<float> rgb(static_cast<size_t>(kNodes) * 3);
   for (int k = 0; k < kNodes; ++k)
     for (int c = 0; c < 3; ++c)

@@ -42,6 +42,12 @@ double FresnelAt(std::span<const float> table, int channels, double cos_theta_n,
   return FresnelAtImpl(table, channels, cos_theta_n, c);
 }
 
+double FresnelFactor(std::span<const float> table, double cos_theta_n, int c) {
+  const int ch = FresnelChannels(table.size());
+  if (ch < 1) return 1.0;
+  return FresnelAtImpl(table, ch, cos_theta_n, std::min(c, ch - 1));
+}
+
 double CapturedFraction(const BrdfCoefficients& coeffs, int F, int P, int channel) {
   F = std::min(F, coeffs.lmax);
   P = std::min(P, coeffs.pmax);

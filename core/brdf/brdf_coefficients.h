@@ -57,6 +57,11 @@ inline constexpr double kFresnelFloor = 1e-4;
 // an empty table.
 double FresnelAt(std::span<const double> table, int channels, double cos_theta_n, int c);
 double FresnelAt(std::span<const float> table, int channels, double cos_theta_n, int c);
+// Channels per node of a table of `size` values (0 for an empty one).
+inline int FresnelChannels(size_t size) { return static_cast<int>(size / (kFresnelIntervals + 1)); }
+// w for channel c of a stored table (ShrmCube::fresnel), its channels inferred from its size and
+// c clamped to them (a 1-channel table serves every channel); 1 for an empty table.
+double FresnelFactor(std::span<const float> table, double cos_theta_n, int c);
 
 struct BrdfCoefficients {
   int lmax = 0;      // F_rho: l <= lmax

@@ -49,7 +49,7 @@ std::map<std::string, std::string> ShrmConventionAttributes(const ShrmCube& cube
         "normal N = (R + V)/|R + V| in the SH frame (N.R >= 0 only)";
   }
   if (cube.view == ViewVariable::kNormal && !cube.fresnel.empty()) {
-    const int ch = static_cast<int>(cube.fresnel.size() / (kFresnelIntervals + 1));
+    const int ch = FresnelChannels(cube.fresnel.size());
     absl::StrAppend(&attrs["shrm:eval"],
                     "; times w(N.R) of shrm:fresnel: 'K C v_0 .. v_K' (C channels per node, "
                     "node k at N.R = 1 - k / K; Catmull-Rom in N.R, ghost nodes "

@@ -14,7 +14,6 @@
 #ifndef SHRM_CORE_SHRM_SHRM_MAP_H_
 #define SHRM_CORE_SHRM_SHRM_MAP_H_
 
-#include <algorithm>
 #include <cstddef>
 #include <vector>
 
@@ -51,9 +50,7 @@ struct ShrmCube {
 
 // The Fresnel factor of `cube` at N.R = cos_n for channel c (1 without a table).
 inline double ShrmFresnel(const ShrmCube& cube, double cos_n, int c) {
-  if (cube.fresnel.empty()) return 1.0;
-  const int ch = static_cast<int>(cube.fresnel.size() / (kFresnelIntervals + 1));
-  return FresnelAt(cube.fresnel, ch, cos_n, std::min(c, ch - 1));
+  return FresnelFactor(cube.fresnel, cos_n, c);
 }
 
 }  // namespace shrm

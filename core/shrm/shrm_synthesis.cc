@@ -110,9 +110,7 @@ absl::StatusOr<ShrmSynthesizer> ShrmSynthesizer::Create(int light_lmax, int chan
 }
 
 double ShrmSynthesizer::Fresnel(double cos_n, int c) const {
-  if (fresnel_.empty()) return 1.0;
-  const int ch = static_cast<int>(fresnel_.size() / (kFresnelIntervals + 1));
-  return FresnelAt(fresnel_, ch, cos_n, std::min(c, ch - 1));
+  return FresnelFactor(fresnel_, cos_n, c);
 }
 
 std::complex<double> ShrmSynthesizer::Blmpq(int l, int m, int p, int q, int c) const {
