@@ -38,6 +38,10 @@ constexpr double kMicrofacetBruteForceTol = 1e-3;
 // Schlick's closed form, a quintic in N.R: the cubic's error ~h^3 |F'''| / 20 with h = 1 / 128
 // and F''' <= 60 (1 - f0), 1.4e-6 of F >= f0 = 0.04 at most, plus float rounding (6e-8).
 constexpr double kFresnelTableTol = 1e-5;
+// GGX alpha 0.4 f0 0.04's energy over Schlick's factor in the view variable against the 4D
+// product rule (48 x 64 view nodes, 96 x 192 incoming): the rule's own error near grazing, where
+// rho-hat / w has GGX's 1 / (N.V) rise: 1.05e-5 measured.
+constexpr double kViewFresnelEnergyTol = 1e-4;
 // Band-limited rho-hat: every rule is exact; rounding only (the brief's 1e-10).
 constexpr double kParsevalTol = 1e-10;
 // Parseval in the normal variable at (40, 24) for the smooth test BRDF: the tail beyond P = 24 of
@@ -167,10 +171,10 @@ std::vector<double> BruteForceRho(const Brdf& brdf, const std::vector<Lpq>& whic
       *v = *n * (2 * n->Dot(pole)) - pole;
     }
   };
-  // kNormal with a divisor (the Fresnel normalization, brdf_coefficients.h): f is rho-hat over
-  // divisor(N.V).
+  // With a divisor (the Fresnel normalization, brdf_coefficients.h; either variable): f is
+  // rho-hat over divisor(N.V).
   const auto scale_at = [&](const Vec3& n, const Vec3& v) {
-    return normal && divisor ? 1.0 / divisor(n.Dot(v)) : 1.0;
+    return divisor ? 1.0 / divisor(n.Dot(v)) : 1.0;
   };
   const auto project = [&](const Vec3& n, const Vec3& v, std::vector<std::complex<double>>& in) {
     in.assign(which.size(), 0.0);
@@ -319,9 +323,46 @@ TEST(BrdfCoefficientsTest, NormalVariableMatchesBruteForce) {
   EXPECT_GT(std::abs(brute[10]), 1e-3 * scale);
 }
 
+// The view variable with the Fresnel normalization (session 24): GGX f0 = 0.04's coefficients and
+// their energy (eq. 5.18, what the epsilon rule divides by) against the 4D quadrature of
+// rho-hat / Schlick's F(N.V), N = (R + V) / |R + V|, with the test's own closed form; negative
+// control: the quadrature of rho-hat itself is far from them.
+TEST(BrdfCoefficientsTest, ViewVariableFresnelMatchesBruteForce) {
+  const GgxBrdf ggx(0.4, 0.04);
+  const std::vector<Lpq> triples = {{0, 0, 0}, {2, 0, 0}, {3, 1, 1}, {2, 2, 0},  {4, 2, 2},
+                                    {5, 3, 1}, {6, 4, 2}, {3, 3, 3}, {10, 4, 0}, {1, 2, 1}};
+  auto coeffs = ComputeBrdfCoefficients(ggx, 12, 5);
+  ASSERT_TRUE(coeffs.ok()) << coeffs.status();
+  ASSERT_EQ(coeffs->view, ViewVariable::kView);
+  ASSERT_EQ(coeffs->fresnel.size(), static_cast<size_t>(kFresnelIntervals + 1));
+  const auto schlick = [](double cos_nv) { return 0.04 + 0.96 * std::pow(1 - cos_nv, 5); };
+  double energy = 0;
+  const std::vector<double> brute =
+      BruteForceRho(ggx, triples, 96, 192, 48, 64, 5, kMicrofacetBruteForceTol, ViewVariable::kView,
+                    &energy, schlick);
+  const std::vector<double> plain =
+      BruteForceRho(ggx, triples, 96, 192, 48, 64, 5, kMicrofacetBruteForceTol);
+  double scale = 0, worst = 0, worst_plain = 0;
+  for (double b : brute) scale = std::max(scale, std::abs(b));
+  for (size_t t = 0; t < triples.size(); ++t) {
+    const auto [l, p, q] = triples[t];
+    worst = std::max(worst, std::abs(coeffs->at(l, p, q) - brute[t]) / scale);
+    worst_plain = std::max(worst_plain, std::abs(coeffs->at(l, p, q) - plain[t]) / scale);
+    EXPECT_NEAR(coeffs->at(l, p, q), brute[t], kMicrofacetBruteForceTol * scale)
+        << "l=" << l << " p=" << p << " q=" << q;
+  }
+  const double energy_diff = coeffs->total_energy[0] / energy - 1;
+  std::printf(
+      "ggx alpha=0.4 f0=0.04, view variable over Schlick: max |coefficient - brute force| / "
+      "max|rho| = %.3g (%.3g against rho-hat undivided); energy / quadrature - 1 = %.3g\n",
+      worst, worst_plain, energy_diff);
+  EXPECT_GT(worst_plain, 100 * kMicrofacetBruteForceTol);
+  EXPECT_LT(std::abs(energy_diff), kViewFresnelEnergyTol);
+}
+
 // The Fresnel table (brdf_coefficients.h): GGX's interpolated table against Schlick's closed form
-// at random N.V; none for models without a Fresnel factor (f0 = 1, microfacet) or in the view
-// variable.
+// at random N.V, in both view variables; none for models without a Fresnel factor (f0 = 1,
+// microfacet).
 TEST(BrdfCoefficientsTest, FresnelTableIsSchlicksFactor) {
   const GgxBrdf ggx(0.2, 0.04);
   auto coeffs = ComputeBrdfCoefficients(ggx, 8, 4, {}, ViewVariable::kNormal);
@@ -341,7 +382,7 @@ TEST(BrdfCoefficientsTest, FresnelTableIsSchlicksFactor) {
       ComputeBrdfCoefficients(GgxBrdf(0.2, 1.0), 8, 4, {}, ViewVariable::kNormal)->fresnel.empty());
   EXPECT_TRUE(ComputeBrdfCoefficients(MicrofacetBrdf(0.2), 8, 4, {}, ViewVariable::kNormal)
                   ->fresnel.empty());
-  EXPECT_TRUE(ComputeBrdfCoefficients(ggx, 8, 4)->fresnel.empty());
+  EXPECT_EQ(ComputeBrdfCoefficients(ggx, 8, 4)->fresnel, coeffs->fresnel);
   EXPECT_EQ(FresnelAt(std::span<const double>(), 1, 0.5, 0), 1.0);
 }
 

@@ -206,12 +206,16 @@ before=$FAILURES
 SHRMS="$TMP/shrms"
 mkdir -p "$SHRMS"
 # The "-n" pair: in the normal variable (shrm:view_variable "normal", docs/shaders.md) with GGX
-# f0 0.04, whose SHRMs carry the Fresnel table (shrm:fresnel) the shaders multiply by.
-for name in global local global-n local-n; do
-  kind=${name%-n}
+# f0 0.04, whose SHRMs carry the Fresnel table (shrm:fresnel) the shaders multiply by; the "-v"
+# pair: the same BRDF in the view variable, which carries the table too (conventions 4).
+for name in global local global-n local-n global-v local-v; do
+  kind=${name%-[nv]}
   variable=view
   brdf=microfacet:sigma=0.3
-  [ "$kind" = "$name" ] || { variable=normal; brdf=ggx:alpha=0.3,f0=0.04; }
+  case "$name" in
+  *-n) variable=normal brdf=ggx:alpha=0.3,f0=0.04 ;;
+  *-v) brdf=ggx:alpha=0.3,f0=0.04 ;;
+  esac
   if "$SHRM" prefilter --env "$COURTYARD" --brdf "$brdf" --orders 8,3 --size 16 \
     --kind "$kind" --view-variable "$variable" -o "$SHRMS/$name.shrm.exr" \
     --ktx2 "$SHRMS/$name.shrm.ktx2" --threads 2 >"$TMP/shrm-$name.log" 2>&1 &&
@@ -227,7 +231,8 @@ done
 if [ "$FAILURES" -eq "$before" ]; then
   CHROMIUM="$CHROMIUM" run_node shaders run_shaders.mjs "$ROOT/shaders/wgsl/shrm.wgsl" \
     "$SHRMS/global.shrm.ktx2" "$SHRMS/global-ref.ktx2" "$SHRMS/local.shrm.ktx2" "$SHRMS/local-ref.ktx2" \
-    "$SHRMS/global-n.shrm.ktx2" "$SHRMS/global-n-ref.ktx2" "$SHRMS/local-n.shrm.ktx2" "$SHRMS/local-n-ref.ktx2"
+    "$SHRMS/global-n.shrm.ktx2" "$SHRMS/global-n-ref.ktx2" "$SHRMS/local-n.shrm.ktx2" "$SHRMS/local-n-ref.ktx2" \
+    "$SHRMS/global-v.shrm.ktx2" "$SHRMS/global-v-ref.ktx2" "$SHRMS/local-v.shrm.ktx2" "$SHRMS/local-v-ref.ktx2"
 fi
 echo "(shaders done: $(($(date +%s) - START)) s)"
 

@@ -119,17 +119,33 @@ TEST(ShrmFileTest, FresnelTableRoundTripsAndBadTablesAreRefused) {
   ShrmCube plain = MakeCube(2);
   EXPECT_EQ(ShrmFresnel(plain, 0.3, 0), 1.0);
 
-  auto write_with = [&](const std::string& table, const char* view) {
+  // Conventions 4: the view variable carries the table too (its argument N.V = |R + V| / 2).
+  ShrmCube v = c;
+  v.view = ViewVariable::kView;
+  ASSERT_TRUE(WriteShrmFile(path, v, {}).ok());
+  back = ReadShrmFile(path);
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->cube.view, ViewVariable::kView);
+  EXPECT_EQ(back->cube.fresnel, c.fresnel);
+  EXPECT_NE(back->attributes.at("shrm:eval").find("|R + V| / 2 (view)"), std::string::npos);
+
+  auto write_with = [&](const std::string& table, const char* view, bool tangent = false) {
     return WriteEdited(path, c, [&](std::map<std::string, std::string>& a) {
       a["shrm:fresnel"] = table;
       a["shrm:view_variable"] = view;
+      if (tangent) a["shrm:index"] = "tangent";
     });
   };
   std::string ones = absl::StrCat(kFresnelIntervals, " 1");
   for (int k = 0; k <= kFresnelIntervals; ++k) ones += " 1";
   ASSERT_TRUE(write_with(ones, "normal").ok());
+  ASSERT_TRUE(write_with(ones, "view").ok());
+  // A tangent-indexed SHRM (Kajiya-Kay) has no mirror configuration: no table.
+  auto tangent = write_with(ones, "view", true);
+  EXPECT_EQ(tangent.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(tangent.status().message().find("shrm:fresnel"), std::string::npos) << tangent.status();
   for (const auto& [table, view] :
-       {std::pair{ones, "view"}, std::pair{ones + " 1", "normal"},
+       {std::pair{ones + " 1", "normal"},
         std::pair{absl::StrCat(kFresnelIntervals, " 2", ones.substr(5)), "normal"},
         std::pair{absl::StrCat(ones.substr(0, ones.size() - 1), "0"), "normal"},
         std::pair{absl::StrCat(ones.substr(0, ones.size() - 1), "x"), "normal"},

@@ -101,30 +101,36 @@ TEST(ShrmExplicitTest, OneViewMapsEqualShrmEvalAtTexelCentres) {
   auto synth = ShrmSynthesizer::Create(kLmax, 3, GetScene().light, ViewDependent(16, 2), 16, 2);
   ASSERT_TRUE(synth.ok()) << synth.status();
   std::mt19937 rng(1);
-  for (ShrmKind kind : {ShrmKind::kGlobal, ShrmKind::kLocal}) {
-    auto cube = synth->BuildCube(kind, 12);
-    ASSERT_TRUE(cube.ok());
-    const Vec3 view = RandomUnit(rng);
-    auto map = ReflectionMapForView(*cube, view, 2);
-    auto cabral = CabralMaps(*cube);
-    ASSERT_TRUE(map.ok() && cabral.ok());
-    ASSERT_EQ(cabral->size(), 12u);
-    const auto ico = IcosahedronVertices();
-    double worst = 0, scale = 0;
-    for (int f = 0; f < 6; ++f)
-      for (int y = 0; y < 12; ++y)
-        for (int x = 0; x < 12; ++x) {
-          const Vec3 r = CubeTexelDirection(f, x, y, 12);
-          const auto e = ShrmEvalAt(*cube, r, view);
-          const auto e5 = ShrmEvalAt(*cube, r, ico[5]);
-          for (int c = 0; c < 3; ++c) {
-            worst = std::max(worst, std::abs(map->data[map->Index(f, x, y, c)] - e[c]));
-            worst = std::max(worst, std::abs((*cabral)[5].data[map->Index(f, x, y, c)] - e5[c]));
-            scale = std::max(scale, std::abs(e[c]));
+  // Both kinds, without and with a Fresnel table (conventions 4: the view variable's sum times
+  // w(|R + V| / 2); ShrmEvalAt applies it per point, the maps per texel).
+  for (const bool table : {false, true})
+    for (ShrmKind kind : {ShrmKind::kGlobal, ShrmKind::kLocal}) {
+      auto cube = synth->BuildCube(kind, 12);
+      ASSERT_TRUE(cube.ok());
+      if (table)
+        for (int k = 0; k <= kFresnelIntervals; ++k)
+          cube->fresnel.push_back(static_cast<float>(0.04 + 0.96 * std::pow(k / 128.0, 5)));
+      const Vec3 view = RandomUnit(rng);
+      auto map = ReflectionMapForView(*cube, view, 2);
+      auto cabral = CabralMaps(*cube);
+      ASSERT_TRUE(map.ok() && cabral.ok());
+      ASSERT_EQ(cabral->size(), 12u);
+      const auto ico = IcosahedronVertices();
+      double worst = 0, scale = 0;
+      for (int f = 0; f < 6; ++f)
+        for (int y = 0; y < 12; ++y)
+          for (int x = 0; x < 12; ++x) {
+            const Vec3 r = CubeTexelDirection(f, x, y, 12);
+            const auto e = ShrmEvalAt(*cube, r, view);
+            const auto e5 = ShrmEvalAt(*cube, r, ico[5]);
+            for (int c = 0; c < 3; ++c) {
+              worst = std::max(worst, std::abs(map->data[map->Index(f, x, y, c)] - e[c]));
+              worst = std::max(worst, std::abs((*cabral)[5].data[map->Index(f, x, y, c)] - e5[c]));
+              scale = std::max(scale, std::abs(e[c]));
+            }
           }
-        }
-    EXPECT_LT(worst, kExplicitTol * scale);
-  }
+      EXPECT_LT(worst, kExplicitTol * scale) << (table ? "with a Fresnel table" : "");
+    }
   for (const Vec3& v : IcosahedronVertices()) EXPECT_NEAR(v.Norm(), 1.0, 1e-15);
 }
 

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <complex>
+#include <functional>
 #include <random>
 #include <string>
 #include <vector>
@@ -39,6 +40,8 @@ constexpr double kWignerTol = 1e-11;
 // Grid (4x4 Lagrange) + float storage at texel centres, F = 20 on >= 128 alpha rows:
 // (F h)^4 / 40 ~ 6e-5 for the top band, smaller for the energy-weighted error.
 constexpr double kTexelCentreTol = 2e-4;
+// A quadratic Fresnel table against its closed form: the table's nodes are floats (6e-8 of w).
+constexpr double kFresnelQuadraticTol = 1e-6;
 // The direct cube at its texel centres: float storage of O(1) values only.
 constexpr double kDirectCubeTol = 1e-6;
 // ShrmEval from N against ShrmEvalAt from R = 2 (N.V) N - V, whose argument (R + V)/|R + V| is N
@@ -101,13 +104,16 @@ class TestTransfer {
     for (int l = 0; l <= b_.lmax; ++l)
       for (int q = -std::min(l, b_.pmax); q <= std::min(l, b_.pmax); ++q)
         sum += (std::conj(yi_[ShIndex(l, q)]) * g_[ShIndex(l, q)]).real();
-    return sum;
+    return sum * fresnel_;
   }
+  // The coefficients' Fresnel table is `w` (a closed form) at N.V: the sum times w(n.v).
+  void SetFresnel(std::function<double(double)> w) { w_ = std::move(w); }
 
  private:
   void Prepare(const Vec3& n, const Vec3& v) {
     n_ = n;
     v_ = v;
+    fresnel_ = w_ ? w_(n.Dot(v)) : 1.0;
     r_ = (n * (2 * n.Dot(v)) - v).Normalized();
     const Vec3 a = std::abs(r_.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
     e1_ = a.Cross(r_).Normalized();
@@ -126,6 +132,8 @@ class TestTransfer {
           g_[ShIndex(l, q)] += b_.at(l, p, q) * yo[ShIndex(p, q)];
   }
   BrdfCoefficients b_;
+  std::function<double(double)> w_;
+  double fresnel_ = 1.0;
   Vec3 n_{2, 2, 2}, v_, r_, e1_, e2_;
   std::vector<std::complex<double>> g_, yi_;
 };
@@ -180,12 +188,14 @@ struct DirectAndReference {
   std::vector<double> local, global, ref;
 };
 DirectAndReference DirectVsBruteForce(const ShrmSynthesizer& synth, const BrdfCoefficients& brdf,
-                                      uint32_t seed) {
+                                      uint32_t seed,
+                                      const std::function<double(double)>& fresnel = nullptr) {
   DirectAndReference out;
   auto integ = ReferenceIntegrator::Create(GetScene().samples);
   EXPECT_TRUE(integ.ok());
   if (!integ.ok()) return out;
   TestTransfer transfer(brdf);
+  if (fresnel) transfer.SetFresnel(fresnel);
   TransferFunction fn = [&transfer](const Vec3& n, const Vec3& v, const Vec3& w, int c) {
     return transfer(n, v, w, c);
   };
@@ -426,6 +436,17 @@ TEST(ShrmSynthesisTest, TangentCoefficientsOnlyQZeroTexelCentresEqualDirectEvalu
 // as an expansion in n' = Rot(R)^T N. The direct evaluation, local and global, against the
 // pixel sum of the world-frame BRDF they define; the cubes' texel centres against the direct
 // evaluation; ShrmEval from (N, V) against ShrmEvalAt from (R, V).
+// ShrmEval from (N, V) against ShrmEvalAt from (R, V) at 16 random front-facing pairs.
+void ExpectEvalFromNormalIsEvalAtReflection(const ShrmCube& cube, std::mt19937& rng) {
+  for (int i = 0; i < 16; ++i) {
+    Vec3 n, v;
+    RandomNormalView(rng, &n, &v);
+    const Vec3 r = n * (2 * n.Dot(v)) - v;
+    const auto a = ShrmEval(cube, n, v), b = ShrmEvalAt(cube, r, v);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(a[c], b[c], kSameArgumentTol * (1 + std::abs(b[c])));
+  }
+}
+
 TEST(ShrmSynthesisTest, NormalVariableMatchesBruteForceAndTexelCentres) {
   BrdfCoefficients brdf = TestBrdf();
   brdf.view = ViewVariable::kNormal;
@@ -446,12 +467,43 @@ TEST(ShrmSynthesisTest, NormalVariableMatchesBruteForceAndTexelCentres) {
     ASSERT_TRUE(cube.ok());
     EXPECT_EQ(cube->view, ViewVariable::kNormal);
     EXPECT_LT(TexelCentreError(synth, *cube, rng), kTexelCentreTol);
-    for (int i = 0; i < 16; ++i) {
-      Vec3 n, v;
-      RandomNormalView(rng, &n, &v);
-      const Vec3 r = n * (2 * n.Dot(v)) - v;
-      const auto a = ShrmEval(*cube, n, v), b = ShrmEvalAt(*cube, r, v);
-      for (int c = 0; c < 3; ++c) EXPECT_NEAR(a[c], b[c], kSameArgumentTol * (1 + std::abs(b[c])));
+    ExpectEvalFromNormalIsEvalAtReflection(*cube, rng);
+  }
+}
+
+// The Fresnel table in either view variable (conventions 4; brdf_coefficients.h): the value is
+// the sum times w(N.V). The table holds w(x) = 0.2 + 0.8 (1 - x)^2, which the Catmull-Rom cubic
+// with its quadratic ghost nodes reproduces exactly (up to the nodes' float rounding); the pixel
+// sum multiplies the test's own world-frame BRDF by the closed form at n.v. The direct
+// evaluation (local, global), the cubes' texel centres and ShrmEval from (N, V); negative
+// control: the same coefficients without the table are far from the reference.
+TEST(ShrmSynthesisTest, ViewVariableFresnelMatchesBruteForce) {
+  const auto w = [](double x) { return 0.2 + 0.8 * (1 - x) * (1 - x); };
+  for (const ViewVariable view : {ViewVariable::kView, ViewVariable::kNormal}) {
+    BrdfCoefficients brdf = TestBrdf();
+    brdf.view = view;
+    for (int k = 0; k <= kFresnelIntervals; ++k)
+      brdf.fresnel.push_back(
+          static_cast<float>(w(1.0 - static_cast<double>(k) / kFresnelIntervals)));
+    const ShrmSynthesizer synth = MakeSynth(brdf);
+    const auto [local, global, ref] = DirectVsBruteForce(synth, brdf, 13, w);
+    BrdfCoefficients bare = brdf;
+    bare.fresnel.clear();
+    const auto plain = DirectVsBruteForce(MakeSynth(bare), bare, 13, w);
+    std::printf(
+        "%s variable with a Fresnel table, direct vs brute force: local %.3g, global %.3g "
+        "(without the table %.3g)\n",
+        ViewVariableName(view), RelRms(local, ref), RelRms(global, ref), RelRms(plain.local, ref));
+    EXPECT_LT(RelRms(local, ref), kFresnelQuadraticTol);
+    EXPECT_LT(RelRms(global, ref), kFresnelQuadraticTol);
+    EXPECT_GT(RelRms(plain.local, ref), 0.05);
+    std::mt19937 rng(13);
+    for (ShrmKind kind : {ShrmKind::kGlobal, ShrmKind::kLocal}) {
+      auto cube = synth.BuildCube(kind, 16);
+      ASSERT_TRUE(cube.ok());
+      EXPECT_EQ(cube->fresnel.size(), brdf.fresnel.size());
+      EXPECT_LT(TexelCentreError(synth, *cube, rng), kTexelCentreTol);
+      ExpectEvalFromNormalIsEvalAtReflection(*cube, rng);
     }
   }
 }

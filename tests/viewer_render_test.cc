@@ -262,29 +262,33 @@ TEST_F(ViewerRenderTest, ModesMatchCpuEvaluationOfTheSameShrm) {
 // SHRMs in the normal variable (shrm:view_variable "normal", docs/shaders.md): the global pass
 // with SHRM_VIEW_NORMAL (each texel at its own normal) and the local form with the argument
 // ShrmViewNormal(R, V), against the CPU's evaluation of the same cubes. GGX with f0 = 0.04: the
-// cubes carry the Fresnel table (shrm_common.glsl ShrmFresnel), which both sides multiply by.
+// cubes carry the Fresnel table (shrm_common.glsl ShrmFresnel), which both sides multiply by; in
+// the view variable too (conventions 4: N.V = |R + V| / 2 there, ShrmFresnelCos).
 TEST_F(ViewerRenderTest, NormalVariableModesMatchCpuEvaluation) {
   ASSERT_NE(renderer_, nullptr);
   const EnvMap env = EnvMap::FromLatLong(*map_);
-  PrefilterOptions opt;
-  opt.f = kF;
-  opt.p = kP;
-  opt.face_size = kFaceSize;
-  opt.threads = 2;
-  opt.view = ViewVariable::kNormal;
-  auto data = std::make_shared<ShrmData>(*shrm_);
   const std::unique_ptr<Brdf> ggx = ParseBrdfSpec("ggx:alpha=0.3,f0=0.04").value();
-  opt.kind = ShrmKind::kGlobal;
-  data->global = Prefilter(env, *ggx, opt).value().cube;
-  opt.kind = ShrmKind::kLocal;
-  data->local = Prefilter(env, *ggx, opt).value().cube;
-  ASSERT_EQ(data->global.view, ViewVariable::kNormal);
-  ASSERT_EQ(data->global.fresnel.size(), static_cast<size_t>(kFresnelIntervals + 1));
-  ASSERT_EQ(data->local.fresnel.size(), static_cast<size_t>(kFresnelIntervals + 1));
-  SceneData scene;
-  scene.shrm = data;
-  ASSERT_TRUE(renderer_->SetScene(scene).ok());
-  ExpectModesMatchCpu(*data, "normal variable: ", kFresnelSilhouetteCos);
+  for (const ViewVariable view : {ViewVariable::kNormal, ViewVariable::kView}) {
+    PrefilterOptions opt;
+    opt.f = kF;
+    opt.p = kP;
+    opt.face_size = kFaceSize;
+    opt.threads = 2;
+    opt.view = view;
+    auto data = std::make_shared<ShrmData>(*shrm_);
+    opt.kind = ShrmKind::kGlobal;
+    data->global = Prefilter(env, *ggx, opt).value().cube;
+    opt.kind = ShrmKind::kLocal;
+    data->local = Prefilter(env, *ggx, opt).value().cube;
+    ASSERT_EQ(data->global.view, view);
+    ASSERT_EQ(data->global.fresnel.size(), static_cast<size_t>(kFresnelIntervals + 1));
+    ASSERT_EQ(data->local.fresnel.size(), static_cast<size_t>(kFresnelIntervals + 1));
+    SceneData scene;
+    scene.shrm = data;
+    ASSERT_TRUE(renderer_->SetScene(scene).ok());
+    ExpectModesMatchCpu(*data, absl::StrCat(ViewVariableName(view), " variable: "),
+                        kFresnelSilhouetteCos);
+  }
   SceneData back;
   back.shrm = shrm_;
   ASSERT_TRUE(renderer_->SetScene(back).ok());

@@ -64,21 +64,25 @@ class LocalShrmMode final : public RenderMode {
     GLint major = 0;
     glGetIntegerv(GL_MAJOR_VERSION, &major);
     fast_path_ = major >= 4;  // cube map arrays (GL 4.0)
-    if (!taps_program_ || pmax_ != cube.pmax) {
+    // shrm:view_variable "normal": SHRM_VIEW_NORMAL (the Fresnel table's argument is N.R).
+    const bool view_normal = cube.view == ViewVariable::kNormal;
+    if (!taps_program_ || pmax_ != cube.pmax || program_view_normal_ != view_normal) {
       taps_program_.reset();
       filtered_program_.reset();
       pmax_ = -1;
       for (int fast = 0; fast <= (fast_path_ ? 1 : 0); ++fast) {
         const std::string fragment = absl::StrCat(
             fast ? "#version 400 core\n#define SHRM_FILTERED\n" : "#version 330 core\n",
-            "#define FAST_PATH ", fast, "\n#define PMAX ", cube.pmax, "\n", shaders::kCommonGlsl,
-            shaders::kLocalGlsl, kFragmentMain);
+            view_normal ? "#define SHRM_VIEW_NORMAL\n" : "", "#define FAST_PATH ", fast,
+            "\n#define PMAX ", cube.pmax, "\n", shaders::kCommonGlsl, shaders::kLocalGlsl,
+            kFragmentMain);
         SHRM_ASSIGN_OR_RETURN((fast ? filtered_program_ : taps_program_),
                               BuildProgram(kMeshVertexShader, fragment,
                                            fast ? "mode 2 (local SHRM, filtered pass)"
                                                 : "mode 2 (local SHRM, four-tap pass)"));
       }
       pmax_ = cube.pmax;
+      program_view_normal_ = view_normal;
     }
     // Layer k * 6 + face holds coefficient k of that face, texels in GL order: the KTX2 SHRM's
     // level as it is, the layout of a 2D array texture (exact texel fetches) and of a cube-map
@@ -149,7 +153,8 @@ class LocalShrmMode final : public RenderMode {
   // Destroyed in reverse order: the textures, then the programs.
   GlProgram filtered_program_, taps_program_;
   GlTexture filtered_, texture_;
-  std::vector<float> fresnel_;  // the SHRM's Fresnel table (shrm_common.glsl ShrmFresnel)
+  std::vector<float> fresnel_;        // the SHRM's Fresnel table (shrm_common.glsl ShrmFresnel)
+  bool program_view_normal_ = false;  // the programs were built with SHRM_VIEW_NORMAL
   int pmax_ = -1, size_ = 0;
   bool tangent_index_ = false, view_normal_ = false, ready_ = false, fast_path_ = false;
 };

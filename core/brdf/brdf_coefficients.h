@@ -16,6 +16,8 @@
 #include <span>
 #include <vector>
 
+#include "core/base/geometry.h"
+
 namespace shrm {
 
 // Which direction the BRDF is reparameterized by (the pole of the local frame).
@@ -37,20 +39,23 @@ enum class ReparamKind {
 enum class ViewVariable { kView, kNormal };
 const char* ViewVariableName(ViewVariable v);  // "view", "normal"
 
-// Fresnel normalization (docs/shrm.md "Fresnel normalization"): kNormal coefficients of a model
-// with a Fresnel factor expand rho-hat / w(theta_n') instead of rho-hat, w the model's Fresnel
-// factor at the mirror configuration, V.H = N.V = cos theta_n' (Brdf::MirrorFresnel; Schlick's
+// Fresnel normalization (docs/shrm.md "Fresnel normalization"): the coefficients of a model with
+// a Fresnel factor (both view variables) expand rho-hat / w(N.V) instead of rho-hat, w the
+// model's Fresnel factor at the mirror configuration, V.H = N.V (Brdf::MirrorFresnel; Schlick's
 // f0 + (1 - f0)(1 - N.V)^5 for GGX), tabulated here; an evaluation multiplies the expansion by
-// w(N.R) (N.R = N.V). Dividing by w takes out the rise to grazing (25-fold for f0 = 0.04) that a
-// truncated expansion in n' would otherwise ring with into the front, where the values are 25
-// times smaller: what remains is the lobe's shape, the shadowing and the horizon's cut.
+// w(N.V) (FresnelCosine: N.V = N.R = cos theta_n' in kNormal, cos(theta_o' / 2) in kView).
+// Dividing by w takes out the rise to grazing (25-fold for f0 = 0.04) that a truncated expansion
+// in the view variable would otherwise ring with into the front, where the values are 25 times
+// smaller: what remains is the lobe's shape, the shadowing and the horizon's cut. In kView the
+// energy of eqs. 5.17/5.18 (total_energy) is that of rho-hat / w too, so the epsilon rule's
+// captured fraction measures the truncation of what is expanded.
 //   Table: kFresnelIntervals + 1 nodes at N.R = 1 - k / K per channel (values[k * channels + c]),
 //   uniform in N.R as Schlick's polynomial is (no inverse trigonometry in a shader), each a
 //   float (the files' precision, so that the projection and every evaluation divide and
 //   multiply by the same numbers), floored at kFresnelFloor of the channel's largest; between
 //   nodes the Catmull-Rom cubic of FresnelAt (C^1, so rho-hat / w stays C^1; ghost nodes beyond
 //   both ends on the quadratic through the three nearest: v_-1 = 3 (v_0 - v_1) + v_2). An empty
-//   table is w = 1 (kView, models without a Fresnel factor, files written before it).
+//   table is w = 1 (models without a Fresnel factor, files written before it).
 inline constexpr int kFresnelIntervals = 128;
 inline constexpr double kFresnelFloor = 1e-4;
 // w at cos theta_n' (clamped to [0, 1]) for channel c of a table with `channels` channels; 1 for
@@ -62,6 +67,12 @@ inline int FresnelChannels(size_t size) { return static_cast<int>(size / (kFresn
 // w for channel c of a stored table (ShrmCube::fresnel), its channels inferred from its size and
 // c clamped to them (a 1-channel table serves every channel); 1 for an empty table.
 double FresnelFactor(std::span<const float> table, double cos_theta_n, int c);
+// N.V, the table's argument, at an evaluation's index direction r (R, unit) and argument (unit):
+// the normal N in kNormal (N.R = N.V), the view V in kView (|R + V| = 2 N.V; no cancellation as
+// the dot product's (1 + R.V) / 2 would have near grazing).
+inline double FresnelCosine(ViewVariable view, const Vec3& r, const Vec3& argument) {
+  return view == ViewVariable::kNormal ? r.Dot(argument) : 0.5 * (r + argument).Norm();
+}
 
 struct BrdfCoefficients {
   int lmax = 0;      // F_rho: l <= lmax
@@ -75,7 +86,7 @@ struct BrdfCoefficients {
   // of eqs. 5.17/5.18 without the (1 - epsilon)), computed in the angular domain so that the
   // captured fraction sum |rho_lpq|^2 / total_energy measures the truncation error.
   std::vector<double> total_energy;
-  // kNormal: the Fresnel table above (empty: no normalization).
+  // The Fresnel table above (empty: no normalization).
   std::vector<double> fresnel;
 
   size_t Index(int l, int p, int q, int c) const {

@@ -370,8 +370,8 @@ constexpr double kEquatorThetaO = kPi * (1 - 1e-9);
 // One theta_o' node's terms: out(l, p, q, c) += w lam[q * (P + 1) + p] x (acc, or for kNormal
 // the extension above of acc and acc_eq, the equator's), acc[(c * (P + 1) + q) * (F + 1) + l];
 // sin_n = sin theta_n' of the node (kNormal).
-// kNormal divides f by the Fresnel table at the node and e by it at the equator
-// (brdf_coefficients.h): inv_f[c] and inv_e[c], their inverses per channel.
+// Models with a Fresnel table divide f by it at the node's N.V (both variables) and, for kNormal,
+// e by it at the equator (brdf_coefficients.h): inv_f[c] and inv_e[c], their inverses per channel.
 void AddViewNode(double w, const double* lam, const std::vector<double>& acc,
                  const std::vector<double>& acc_eq, double sin_n, const double* inv_f,
                  const double* inv_e, BrdfCoefficients* out) {
@@ -390,7 +390,8 @@ void AddViewNode(double w, const double* lam, const std::vector<double>& acc,
         const size_t base = static_cast<size_t>(c * np + q) * nl;
         const double* src = &acc[base];
         if (we == 0) {
-          for (int l = q; l <= lmax; ++l) out->values[out->Index(l, p, q, c)] += wf * src[l];
+          const double wfc = wf * inv_f[c];
+          for (int l = q; l <= lmax; ++l) out->values[out->Index(l, p, q, c)] += wfc * src[l];
           continue;
         }
         const double* eq = &acc_eq[base];
@@ -545,8 +546,8 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
   };
   std::vector<double> acc_eq;  // kNormal: e of AddViewNode, at the equator of n'
   std::vector<double> inv_f(channels, 1.0), inv_e(channels, 1.0);
+  out->fresnel = FresnelTable(brdf);
   if (normal) {
-    out->fresnel = FresnelTable(brdf);
     InverseFresnel(*out, std::cos(0.5 * kEquatorThetaO), inv_e.data());
     accumulate(kEquatorThetaO);
     acc_eq = acc;
@@ -562,13 +563,15 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
     const double w_o =
         0.5 * ro.weight[k] * kPi * 6.0 * u_o * (1.0 - u_o) * (normal ? half_s : sin_o);
     accumulate(theta_o);
-    for (int c = 0; c < channels; ++c) energy[c] += w_o * energy_k[c];
+    // N.V = cos(theta_o' / 2) in both variables: the Fresnel table's argument.
+    InverseFresnel(*out, half_c, inv_f.data());
+    // The energy of what is expanded: rho-hat / w (kView; kNormal's is replaced below).
+    for (int c = 0; c < channels; ++c) energy[c] += w_o * energy_k[c] * inv_f[c] * inv_f[c];
     if (normal) {
       legendre_o.Eval(half_c, half_s, lam_o.data());
     } else {
       legendre_o.Eval(cos_o, sin_o, lam_o.data());
     }
-    if (normal) InverseFresnel(*out, half_c, inv_f.data());
     AddViewNode(scale * w_o, lam_o.data(), acc, acc_eq, half_s, inv_f.data(), inv_e.data(), out);
   }
   // 2 pi (phi_o') * 2 (phi over [0, pi] only, rho-hat even) = 4 pi (eq. 5.18).
@@ -639,15 +642,16 @@ void SeparableCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampl
   };
   std::vector<double> acc_eq;  // kNormal: e of AddViewNode, at the equator of n'
   std::vector<double> inv_f(channels, 1.0), inv_e(channels, 1.0);
+  out->fresnel = FresnelTable(brdf);
   if (normal) {
-    out->fresnel = FresnelTable(brdf);
     InverseFresnel(*out, std::cos(0.5 * kEquatorThetaO), inv_e.data());
     accumulate(kEquatorThetaO);
     acc_eq = acc;
   }
   for (int k = 0; k < n_o; ++k) {
     accumulate(ro.theta[k]);
-    if (normal) InverseFresnel(*out, ro.cos_theta[k], inv_f.data());
+    // N.V: cos theta_n' (kNormal), cos(theta_o' / 2) (kView).
+    InverseFresnel(*out, normal ? ro.cos_theta[k] : std::cos(0.5 * ro.theta[k]), inv_f.data());
     // kNormal: the rule's weights are those of [-1, 1] on [0, 1], W of AddViewNode.
     AddViewNode(scale * ro.weight[k], &lam_o[static_cast<size_t>(k) * nq * np], acc, acc_eq,
                 ro.sin_theta[k], inv_f.data(), inv_e.data(), out);
@@ -677,6 +681,16 @@ std::vector<double> BrdfEnergy(const Brdf& brdf, int lmax_hint, const BrdfSampli
     return energy;
   }
   std::vector<double> sq(channels);
+  // Models with a Fresnel table: the energy of rho-hat / w(N.V), what the coefficients expand.
+  const std::vector<double> fresnel = FresnelTable(brdf);
+  std::vector<double> inv2(channels, 1.0);
+  auto set_fresnel = [&](double theta_o) {
+    if (fresnel.empty()) return;
+    for (int c = 0; c < channels; ++c) {
+      const double w = FresnelAt(fresnel, channels, std::cos(0.5 * theta_o), c);
+      inv2[c] = 1.0 / (w * w);
+    }
+  };
   const bool clipped =
       brdf.clipped_at_normal_horizon() && brdf.reparam() == ReparamKind::kReflection;
   if (clipped && !s.energy_uniform_panels) {
@@ -694,6 +708,7 @@ std::vector<double> BrdfEnergy(const Brdf& brdf, int lmax_hint, const BrdfSampli
     const Rule1D ro = SinPanels(Or(s.energy_panels_o, std::max(6, sharp / 12)), order, half);
     AzimuthRule azimuth(brdf, Or(s.energy_phi, std::max(16, sharp / 3)), 0);
     for (size_t k = 0; k < ro.x.size(); ++k) {
+      set_fresnel(ro.x[k]);
       const double a = 0.5 * kPi - 0.5 * ro.x[k], b = 0.5 * kPi + 0.5 * ro.x[k];
       // [0, a]: the whole arc is visible.
       const int na = std::max(1, static_cast<int>(std::ceil(panels_i * a / kPi)));
@@ -703,7 +718,7 @@ std::vector<double> BrdfEnergy(const Brdf& brdf, int lmax_hint, const BrdfSampli
           const double t = panel.x[j], st = std::sin(t);
           azimuth.Squares(t, std::cos(t), st, ro.x[k], sq.data());
           const double w = ro.w[k] * panel.w[j] * st;
-          for (int c = 0; c < channels; ++c) energy[c] += w * sq[c];
+          for (int c = 0; c < channels; ++c) energy[c] += w * sq[c] * inv2[c];
         }
       }
       // [a, b]: the arc shrinks from pi to 0.
@@ -717,7 +732,7 @@ std::vector<double> BrdfEnergy(const Brdf& brdf, int lmax_hint, const BrdfSampli
           const double st = std::sin(t);
           azimuth.Squares(t, std::cos(t), st, ro.x[k], sq.data());
           const double w = ro.w[k] * panel.w[j] * dt * st;
-          for (int c = 0; c < channels; ++c) energy[c] += w * sq[c];
+          for (int c = 0; c < channels; ++c) energy[c] += w * sq[c] * inv2[c];
         }
       }
     }
@@ -728,10 +743,11 @@ std::vector<double> BrdfEnergy(const Brdf& brdf, int lmax_hint, const BrdfSampli
     const Rule1D ro = SinPanels(Or(s.energy_panels_o, 12), order, half);
     AzimuthRule azimuth(brdf, Or(s.energy_phi, 32), 0);
     for (size_t k = 0; k < ro.x.size(); ++k) {
+      set_fresnel(ro.x[k]);
       for (size_t j = 0; j < ri.x.size(); ++j) {
         azimuth.Squares(ri.x[j], std::cos(ri.x[j]), std::sin(ri.x[j]), ro.x[k], sq.data());
         const double w = ro.w[k] * ri.w[j];
-        for (int c = 0; c < channels; ++c) energy[c] += w * sq[c];
+        for (int c = 0; c < channels; ++c) energy[c] += w * sq[c] * inv2[c];
       }
     }
   }

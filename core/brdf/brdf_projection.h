@@ -78,12 +78,13 @@ absl::StatusOr<BrdfCoefficients> ComputeBrdfCoefficients(const Brdf& brdf, int l
 
 // The Fresnel table of kNormal coefficients (brdf_coefficients.h): Brdf::MirrorFresnel at the
 // table's nodes, per channel, floored and rounded to float; empty for models without a Fresnel
-// factor. ComputeBrdfCoefficients fills BrdfCoefficients::fresnel with it for kNormal.
+// factor. ComputeBrdfCoefficients fills BrdfCoefficients::fresnel with it (both view variables).
 std::vector<double> FresnelTable(const Brdf& brdf);
 
 // The energy double-integral of rho-hat^2 over both spheres, per channel (eqs. 5.17/5.18 right
 // sides without (1 - epsilon); 5.17's 2 pi integral rho-hat^2 sin t dt times 4 pi for the 1D case,
-// so that it equals the sum of rho_lpq^2 in all cases).
+// so that it equals the sum of rho_lpq^2 in all cases). Models with a Fresnel table (FresnelTable):
+// the energy of rho-hat / w(N.V), what the coefficients expand.
 std::vector<double> BrdfEnergy(const Brdf& brdf, int lmax_hint, const BrdfSampling& sampling = {},
                                ViewVariable view = ViewVariable::kView);
 

@@ -66,12 +66,12 @@ void TexelValue(const ShrmCube& cube, int face, int x, int y, const Vec3& view_s
     out[c] += weight * DotSh(ys, coeffs, n, cube.channels, c);
 }
 
-// kNormal cubes with a Fresnel table: the expansion times w(N.R) (brdf_coefficients.h).
+// Cubes with a Fresnel table: the expansion times w(N.V) (brdf_coefficients.h).
 void ScaleByFresnel(const ShrmCube& cube, const Vec3& index_dir, const Vec3& argument,
                     std::array<double, 3>& out) {
   if (cube.fresnel.empty()) return;
-  for (int c = 0; c < std::min(cube.channels, 3); ++c)
-    out[c] *= ShrmFresnel(cube, index_dir.Dot(argument), c);
+  const double cos_nv = FresnelCosine(cube.view, index_dir, argument);
+  for (int c = 0; c < std::min(cube.channels, 3); ++c) out[c] *= ShrmFresnel(cube, cos_nv, c);
 }
 
 // Texel of `face` at integer coordinates that may lie one step outside the face: the texel of the

@@ -154,6 +154,18 @@ absl::Status ReflectionMapsForViewsInto(const ShrmCube& cube, std::span<const Ve
           out[0] = maps[v].data.data() + maps[v].Index(face, 0, yy, 0);
           ProductBlock<1>(t.data(), tstride, n, width, y.data() + v * n, out);
         }
+        // A Fresnel table (conventions 4): times w(N.V) at each texel, N.V = |R_texel + V| / 2.
+        if (cube.fresnel.empty()) continue;
+        for (int x = 0; x < size; ++x) {
+          const Vec3 texel = CubeTexelDirection(face, x, yy, size);
+          for (size_t vi = 0; vi < views.size(); ++vi) {
+            const double cos_nv =
+                FresnelCosine(cube.view, texel, ShrmViewArgument(cube.view, texel, views[vi]));
+            for (int c = 0; c < ch; ++c)
+              maps[vi].data[maps[vi].Index(face, x, yy, c)] *=
+                  static_cast<float>(ShrmFresnel(cube, cos_nv, c));
+          }
+        }
       }
     });
   } else {
@@ -235,6 +247,7 @@ absl::StatusOr<std::vector<RadianceCube>> KautzMcCoolSlices(const ShrmCube& loca
     const double theta =
         KautzMcCoolTheta(k, t_b) * (local_cube.view == ViewVariable::kNormal ? 0.5 : 1.0);
     NormalizedLegendre(pm, std::cos(theta), std::sin(theta), lambda);
+    const double cos_nv = std::cos(0.5 * KautzMcCoolTheta(k, t_b));
     for (int f = 0; f < kCubeFaceCount; ++f)
       for (int y = 0; y < size; ++y)
         for (int x = 0; x < size; ++x)
@@ -243,8 +256,8 @@ absl::StatusOr<std::vector<RadianceCube>> KautzMcCoolSlices(const ShrmCube& loca
             for (int p = 0; p <= pm; ++p)
               s += lambda[LegendreIndex(p, 0)] *
                    local_cube.data[local_cube.Index(f, x, y, ShIndex(p, 0), c)];
-            // kNormal: times the Fresnel factor at N.R = cos theta_n' (shrm_map.h).
-            s *= ShrmFresnel(local_cube, std::cos(theta), c);
+            // Times the Fresnel factor at N.V = cos(theta_o' / 2) (shrm_map.h).
+            s *= ShrmFresnel(local_cube, cos_nv, c);
             slices[k].data[slices[k].Index(f, x, y, c)] = static_cast<float>(s);
           }
   }

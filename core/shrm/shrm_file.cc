@@ -48,12 +48,13 @@ std::map<std::string, std::string> ShrmConventionAttributes(const ShrmCube& cube
         "Y_pq(Rot^T N_s), Rot = Rz(beta) Ry(alpha), (alpha, beta) the SH angles of R; N_s = the "
         "normal N = (R + V)/|R + V| in the SH frame (N.R >= 0 only)";
   }
-  if (cube.view == ViewVariable::kNormal && !cube.fresnel.empty()) {
+  if (!cube.fresnel.empty() && cube.index == ReparamKind::kReflection) {
     const int ch = FresnelChannels(cube.fresnel.size());
     absl::StrAppend(&attrs["shrm:eval"],
-                    "; times w(N.R) of shrm:fresnel: 'K C v_0 .. v_K' (C channels per node, "
-                    "node k at N.R = 1 - k / K; Catmull-Rom in N.R, ghost nodes "
-                    "v_-1 = 3 (v_0 - v_1) + v_2, v_K+1 = 3 (v_K - v_K-1) + v_K-2)");
+                    "; times w(N.V) of shrm:fresnel: 'K C v_0 .. v_K' (C channels per node, "
+                    "node k at N.V = 1 - k / K; Catmull-Rom in N.V, ghost nodes "
+                    "v_-1 = 3 (v_0 - v_1) + v_2, v_K+1 = 3 (v_K - v_K-1) + v_K-2); N.V = N.R ",
+                    cube.view == ViewVariable::kNormal ? "(normal)" : "= |R + V| / 2 (view)");
     std::string table = absl::StrCat(kFresnelIntervals, " ", ch);
     for (float v : cube.fresnel) absl::StrAppend(&table, " ", absl::StrFormat("%.9g", v));
     attrs["shrm:fresnel"] = table;
@@ -103,8 +104,8 @@ absl::Status ParseShrmConventionAttributes(const std::string& label,
                                                      "' (view, or normal with index reflection)"));
     }
   }
-  // shrm:fresnel: absent for the view variable, models without a Fresnel factor and files
-  // written before the normalization (w = 1).
+  // shrm:fresnel: absent for models without a Fresnel factor and files written before the
+  // normalization (w = 1); reflection-indexed SHRMs only (conventions 3: the normal variable only).
   cube->fresnel.clear();
   if (auto it = attributes.find("shrm:fresnel"); it != attributes.end()) {
     const std::vector<std::string> words = absl::StrSplit(it->second, ' ', absl::SkipEmpty());
@@ -112,12 +113,12 @@ absl::Status ParseShrmConventionAttributes(const std::string& label,
     const bool header = words.size() >= 2 && absl::SimpleAtoi(words[0], &k) &&
                         absl::SimpleAtoi(words[1], &ch) && k == kFresnelIntervals &&
                         (ch == 1 || ch == 3) && words.size() == 2 + static_cast<size_t>(k + 1) * ch;
-    if (!header || cube->view != ViewVariable::kNormal) {
+    if (!header || index == "tangent") {
       return absl::InvalidArgumentError(absl::StrCat(label, ": bad shrm:fresnel (expected '",
                                                      kFresnelIntervals, " C' and (",
                                                      kFresnelIntervals,
                                                      " + 1) x C positive values, C = 1 or 3, with "
-                                                     "shrm:view_variable normal)"));
+                                                     "shrm:index reflection)"));
     }
     for (size_t i = 2; i < words.size(); ++i) {
       float v = 0;

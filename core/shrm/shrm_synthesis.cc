@@ -77,7 +77,7 @@ absl::StatusOr<ShrmSynthesizer> ShrmSynthesizer::Create(int light_lmax, int chan
   s.channels_ = channels;
   s.reparam_ = brdf.reparam;
   s.view_ = brdf.view;
-  if (brdf.view == ViewVariable::kNormal && !brdf.fresnel.empty()) {
+  if (!brdf.fresnel.empty()) {
     if (brdf.fresnel.size() != static_cast<size_t>(kFresnelIntervals + 1) * brdf.channels) {
       return absl::InvalidArgumentError(absl::StrCat("SHRM: BRDF Fresnel table has ",
                                                      brdf.fresnel.size(), " values, expected ",
@@ -198,7 +198,7 @@ std::array<double, 3> ShrmSynthesizer::RadianceAtArgument(ShrmKind kind, const V
   std::array<double, 3> out{0, 0, 0};
   for (int c = 0; c < std::min(channels_, 3); ++c) {
     for (int k = 0; k < n; ++k) out[c] += y[k] * coeffs[static_cast<size_t>(k) * channels_ + c];
-    out[c] *= Fresnel(index_dir.Dot(argument), c);
+    out[c] *= Fresnel(FresnelCosine(view_, index_dir, argument), c);
   }
   return out;
 }
@@ -259,7 +259,7 @@ void ShrmSynthesizer::ScaleByFresnel(const Vec3& index_dir, const Vec3& argument
   if (fresnel_.empty()) return;
   const size_t per_channel = static_cast<size_t>(lmax_ + 1) * (pmax_ + 1);
   for (int c = 0; c < channels_; ++c) {
-    const double a = Fresnel(index_dir.Dot(argument), c);
+    const double a = Fresnel(FresnelCosine(view_, index_dir, argument), c);
     for (size_t i = 0; i < per_channel; ++i) bands[i * channels_ + c] *= a;
   }
 }

@@ -22,8 +22,9 @@ vec3 ShrmCoefficient(int face, ivec2 xy, int k) {
 }
 
 // The Fresnel table of an SHRM with the KTX2 key "shrm:fresnel" (shrm:view_variable "normal",
-// docs/shaders.md "Fresnel normalization"): the expansion is of rho-hat / w(N.R), so the value is
-// the sum times w(N.R), N.R = N.V = cos theta. The key's text is "K C v_0 .. v_K" (K = 128
+// docs/shaders.md "Fresnel normalization"): the expansion is of rho-hat / w(N.V), so the value is
+// the sum times w(N.V) (ShrmFresnelCos: N.R for the normal variable, |R + V| / 2 for the view
+// variable). The key's text is "K C v_0 .. v_K" (K = 128
 // intervals, C channels per node): upload node k as shrm_fresnel[k] (C = 1: the value in all three
 // components) and set shrm_fresnel_count = K + 1; without the key shrm_fresnel_count = 0 (w = 1).
 // Node k is at N.R = 1 - k / K; between nodes the Catmull-Rom cubic in N.R of the writer
@@ -45,6 +46,18 @@ vec3 ShrmFresnel(float cos_nr) {
   vec3 v = p1 + 0.5 * u * (p2 - p0 + u * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 +
                                           u * (3.0 * (p1 - p2) + p3 - p0)));
   return max(v, 0.5 * min(p1, p2));
+}
+
+// N.V, the Fresnel table's argument, at the index direction (R, any length) and the evaluation's
+// argument (world, unit): N.R where the argument is N (shrm:view_variable "normal": define
+// SHRM_VIEW_NORMAL), |R + V| / 2 where it is V (the view variable; conventions 4).
+float ShrmFresnelCos(vec3 index, vec3 arg) {
+  vec3 r = normalize(index);
+#ifdef SHRM_VIEW_NORMAL
+  return dot(r, arg);
+#else
+  return 0.5 * length(r + arg);
+#endif
 }
 
 // The SH frame of a world direction (pole +Y): ShFrame(w) = (w.x, -w.z, w.y).

@@ -39,8 +39,14 @@ void main() {
                         ShrmFresnel(0.5 * length(r + v)),
                     1.0);
 #else
-  EvalSh(ShFrame(normalize(shrm_view)), y);
-  shrm_color = vec4(ShrmGlobalTexel(shrm_face, ivec2(gl_FragCoord.xy), y), 1.0);
+  vec3 v = normalize(shrm_view);
+  EvalSh(ShFrame(v), y);
+  vec3 sum = ShrmGlobalTexel(shrm_face, ivec2(gl_FragCoord.xy), y);
+  if (shrm_fresnel_count != 0) {  // the table's factor at N.V = |R + V| / 2 (conventions 4)
+    vec2 st = (floor(gl_FragCoord.xy) + 0.5) / float(textureSize(shrm_coeffs, 0).x);
+    sum *= ShrmFresnel(0.5 * length(normalize(CubeFaceDirection(shrm_face, st)) + v));
+  }
+  shrm_color = vec4(sum, 1.0);
 #endif
 }
 #endif

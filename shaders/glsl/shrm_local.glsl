@@ -80,7 +80,7 @@ vec3 ShrmLocal(vec3 index, vec3 view) {
           f.x * (1.0 - f.y) * ShrmLocalTexel(f10, t10, v_sh) +
           (1.0 - f.x) * f.y * ShrmLocalTexel(f01, t01, v_sh) +
           f.x * f.y * ShrmLocalTexel(f11, t11, v_sh)) *
-         ShrmFresnel(dot(normalize(index), view));
+         ShrmFresnel(ShrmFresnelCos(index, view));
 }
 
 #ifdef SHRM_FILTERED
@@ -95,6 +95,6 @@ vec3 ShrmLocalFiltered(vec3 index, vec3 view) {
   EvalSh(ShrmToLocalFrame(ShFrame(normalize(index)), ShFrame(view)), y);
   vec3 sum = vec3(0.0);
   for (int k = 0; k < SH_COUNT; ++k) sum += y[k] * texture(shrm_filtered, vec4(index, float(k))).rgb;
-  return sum * ShrmFresnel(dot(normalize(index), view));
+  return sum * ShrmFresnel(ShrmFresnelCos(index, view));
 }
 #endif

@@ -21,7 +21,7 @@
 //   3 shrm_fresnel: ShrmFresnelTable (uniform buffer, 2080 bytes): the SHRM's Fresnel table (KTX2
 //     key "shrm:fresnel", text "K C v_0 .. v_K" with K = 128 and C channels per node): count =
 //     K + 1 and node k in nodes[k].rgb (C = 1: the value in all three), or count = 0 without the
-//     key (w = 1). Normal-variable SHRMs are the sum times w(N.R) (docs/shaders.md).
+//     key (w = 1). SHRMs with the key are the sum times w(N.V) (docs/shaders.md).
 
 const SHRM_SH_COUNT: i32 = (SHRM_PMAX + 1) * (SHRM_PMAX + 1);
 
@@ -41,8 +41,8 @@ struct ShrmFresnelTable {
 }
 @group(0) @binding(3) var<uniform> shrm_fresnel: ShrmFresnelTable;
 
-// w(N.R) of the Fresnel table (1 without one): node k at N.R = 1 - k / K, the Catmull-Rom cubic
-// in N.R between them, ghost nodes beyond both ends on the quadratic through the three nearest
+// w(N.V) of the Fresnel table (1 without one): node k at N.V = 1 - k / K, the Catmull-Rom cubic
+// in N.V between them, ghost nodes beyond both ends on the quadratic through the three nearest
 // (core/brdf/brdf_coefficients.h FresnelAt).
 fn shrm_fresnel_at(cos_nr: f32) -> vec3f {
   if (shrm_fresnel.count != SHRM_FRESNEL_NODES) {
@@ -210,12 +210,11 @@ fn shrm_global_pass(@builtin(global_invocation_id) id: vec3u) {
   }
   let face = i32(id.z);
   var d = normalize(shrm.view);
-  var w = vec3f(1.0);
+  let r = normalize(shrm_cube_face_direction(face, (vec2f(id.xy) + 0.5) / f32(s)));
+  // The Fresnel table's factor at the texel's N.V = |R + V| / 2 (either view variable; exact,
+  // and without the cancellation of dot(N, R) near V = -R).
+  let w = shrm_fresnel_at(0.5 * length(r + d));
   if (SHRM_VIEW_NORMAL) {
-    let r = normalize(shrm_cube_face_direction(face, (vec2f(id.xy) + 0.5) / f32(s)));
-    // The Fresnel table's factor at the texel's N.R = |R + V| / 2 (exact, and without the
-    // cancellation of dot(N, R) near V = -R).
-    w = shrm_fresnel_at(0.5 * length(r + d));
     d = shrm_view_normal(r, d);
   }
   let y = shrm_eval_sh(shrm_sh_frame(d));
@@ -281,6 +280,12 @@ fn shrm_local(index: vec3f, view: vec3f) -> vec3f {
       f.x * (1.0 - f.y) * shrm_local_texel(shrm_resolve_texel(c.face, p0 + vec2i(1, 0)), v_sh) +
       (1.0 - f.x) * f.y * shrm_local_texel(shrm_resolve_texel(c.face, p0 + vec2i(0, 1)), v_sh) +
       f.x * f.y * shrm_local_texel(shrm_resolve_texel(c.face, p0 + vec2i(1, 1)), v_sh);
-  // Normal-variable SHRMs with a Fresnel table (`view` is N there): times w(N.R).
-  return sum * shrm_fresnel_at(dot(normalize(index), view));
+  // SHRMs with a Fresnel table: times w(N.V), N.V = N.R where `view` is N (SHRM_VIEW_NORMAL),
+  // |R + V| / 2 where it is V (conventions 4).
+  let r = normalize(index);
+  var cos_nv = 0.5 * length(r + view);
+  if (SHRM_VIEW_NORMAL) {
+    cos_nv = dot(r, view);
+  }
+  return sum * shrm_fresnel_at(cos_nv);
 }

@@ -27,7 +27,8 @@ import { checker, launchChromium, serve, openPage, requireChromium } from './har
 import { faceCoordinates, normalize, texelDirection } from './ktx_cube.mjs';
 
 const [wgslPath, globalPath, globalRefPath, localPath, localRefPath, globalNPath, globalNRefPath, localNPath,
-  localNRefPath] = process.argv.slice(2).map((p) => resolve(p));
+  localNRefPath, globalVPath, globalVRefPath, localVPath, localVRefPath] =
+  process.argv.slice(2).map((p) => resolve(p));
 if (!localRefPath) {
   console.error('usage: node run_shaders.mjs SHRM_WGSL GLOBAL.ktx2 GLOBAL_REF.ktx2 LOCAL.ktx2 LOCAL_REF.ktx2');
   process.exit(2);
@@ -245,6 +246,45 @@ try {
       check(overBare > 0.1 * 6 * 3 * lN.size ** 2,
         `local normal negative control: without the Fresnel table ${overBare} channel values differ`);
       check(r.errors.length === 0, `local normal: no WebGPU errors ${r.errors.join('; ')}`);
+    }
+  }
+  // View-variable SHRMs with the Fresnel table (conventions 4: w(N.V), N.V = |R + V| / 2).
+  if (localVRefPath) {
+    const gV = loadShrm(globalVPath, 'global view');
+    const lV = loadShrm(localVPath, 'local view');
+    const gRef = loadRef(globalVRefPath);
+    const lRef = loadRef(localVRefPath);
+    check(gV.view === 'view' && lV.view === 'view' && gV.fresnel?.length === 129 && lV.fresnel?.length === 129,
+      `view inputs: GGX f0 0.04 SHRMs in the view variable carry the Fresnel table (shrm:fresnel, 129 nodes)`);
+    r = await run({ ...common(gV), view: gRef.view });
+    if (r.error) {
+      fail(`global view fresnel: ${r.error}`);
+    } else {
+      const [worst, over] = compareTexels(gV, r.global, gRef.data, LOCAL_REL);
+      check(over === 0, `global view fresnel: shrm_global_pass = CPU eq. 5.35 times w(|R + V| / 2), ` +
+        `6 x ${gV.size}^2 texels: worst error ${worst.toExponential(2)} of sum|c_k| (limit ${LOCAL_REL})`);
+      const bare = await run({ ...common(gV), fresnel: null, view: gRef.view });
+      const [, overBare] = compareTexels(gV, bare.global, gRef.data, LOCAL_REL);
+      check(overBare > 0.1 * 6 * 3 * gV.size ** 2,
+        `global view negative control: without the Fresnel table ${overBare} channel values differ`);
+      check(r.errors.length === 0, `global view fresnel: no WebGPU errors ${r.errors.join('; ')}`);
+    }
+    const centresV = [];
+    for (let f = 0; f < 6; ++f)
+      for (let y = 0; y < lV.size; ++y)
+        for (let x = 0; x < lV.size; ++x) centresV.push(texelDirection(f, x, y, lV.size));
+    r = await run({ ...common(lV), view: lRef.view, dirs: centresV });
+    if (r.error) {
+      fail(`local view fresnel: ${r.error}`);
+    } else {
+      const [worst, over] = compareTexels(lV, r.local, lRef.data, LOCAL_REL);
+      check(over === 0, `local view fresnel: shrm_local(R, V) at the ${centresV.length} texel centres = CPU ` +
+        `eq. 5.10 times w(|R + V| / 2): worst error ${worst.toExponential(2)} of sum|c_k| (limit ${LOCAL_REL})`);
+      const bare = await run({ ...common(lV), fresnel: null, view: lRef.view, dirs: centresV });
+      const [, overBare] = compareTexels(lV, bare.local, lRef.data, LOCAL_REL);
+      check(overBare > 0.1 * 6 * 3 * lV.size ** 2,
+        `local view negative control: without the Fresnel table ${overBare} channel values differ`);
+      check(r.errors.length === 0, `local view fresnel: no WebGPU errors ${r.errors.join('; ')}`);
     }
   }
   const pageErrors = log.filter((l) => l.startsWith('pageerror') || l.startsWith('error'));
