@@ -700,6 +700,12 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCube(ShrmKind kind, int face_size
   if (pmax_ == 0 && options.p0_sht_path) {
     return BuildCubeP0(kind, face_size, na, options.threads, options.scratch);
   }
+  if (pmax_ > 0 && kind == ShrmKind::kGlobal && RhoQmax() == 0 && options.p0_sht_path &&
+      options.path == ShrmGridOptions::CubePath::kAuto) {
+    // The zonal coefficients have degree F only; the grid keeps the general path's rows (its
+    // interpolation error falls with them, and the SHT's share of the time is small).
+    return BuildZonalGlobalCube(face_size, na, options.threads, options.scratch);
+  }
   if (pmax_ > 0 && (options.path == ShrmGridOptions::CubePath::kDirect ||
                     (options.path == ShrmGridOptions::CubePath::kAuto &&
                      DirectCubeIsCheaper(kind, face_size, na)))) {
@@ -824,8 +830,19 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeP0(ShrmKind kind, int face_si
                                                    " alpha samples cannot resolve degree ", lmax_,
                                                    " (need >= ", lmax_ + 1, ")"));
   }
-  const int f = lmax_, ch = channels_, nb = 2 * na;
-  std::vector<double> real(static_cast<size_t>(ShCount(f)) * ch);
+  SynthesisScratch local;
+  SynthesisScratch& work = scratch != nullptr ? *scratch : local;
+  if (absl::Status st = ZonalGrid(1, na, threads, work); !st.ok()) return st;
+  ShrmCube cube = NewCube(kind, face_size, scratch);
+  internal::ResampleToCube(work.grid.data(), na, channels_, internal::GridColumns::kSht, threads,
+                           cube);
+  return cube;
+}
+
+absl::Status ShrmSynthesizer::ZonalGrid(int zonal, int na, int threads,
+                                        SynthesisScratch& work) const {
+  const int f = lmax_, ch = channels_, zc = zonal * ch, nb = 2 * na;
+  std::vector<double> real(static_cast<size_t>(ShCount(f)) * zc);
   {
     std::vector<std::complex<double>> cplx(ShCount(f));
     std::vector<double> one(ShCount(f));
@@ -834,23 +851,22 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeP0(ShrmKind kind, int face_si
         for (int m = -l; m <= l; ++m)
           cplx[ShIndex(l, m)] = light_[(static_cast<size_t>(m + f) * (f + 1) + l) * ch + c];
       ComplexToReal(f, cplx, one);
-      for (int l = 0; l <= f; ++l) {
-        const double k = std::sqrt(4 * kPi / (2 * l + 1)) * Rho(l, 0, 0, c);
-        for (int m = -l; m <= l; ++m)
-          real[static_cast<size_t>(ShIndex(l, m)) * ch + c] = k * one[ShIndex(l, m)];
-      }
+      for (int p = 0; p < zonal; ++p)
+        for (int l = 0; l <= f; ++l) {
+          const double k = std::sqrt(4 * kPi / (2 * l + 1)) * Rho(l, p, 0, c);
+          for (int m = -l; m <= l; ++m)
+            real[static_cast<size_t>(ShIndex(l, m)) * zc + p * ch + c] = k * one[ShIndex(l, m)];
+        }
     }
   }
   // The synthesis does not depend on the analysis quadrature; the pixel-sum plan skips the exact
   // rule's theta-resampling matrices (grids of fewer than 2F + 1 rings), which only the analysis
   // uses and which cost more than the synthesis itself.
   auto plan =
-      GetShtPlan(ShtGrid{nb, na, ShtGridKind::kEquiangular}, f, ch, ShtQuadrature::kPixelSum);
+      GetShtPlan(ShtGrid{nb, na, ShtGridKind::kEquiangular}, f, zc, ShtQuadrature::kPixelSum);
   if (!plan.ok()) return plan.status();
-  const size_t row = static_cast<size_t>(nb) * ch;
+  const size_t row = static_cast<size_t>(nb) * zc;
   // Every row is written below (the transform's na rows, then the four padding rows).
-  SynthesisScratch local;
-  SynthesisScratch& work = scratch != nullptr ? *scratch : local;
   std::vector<float>& values = work.grid;
   values.resize(row * (na + 4));
   if (absl::Status st = (*plan)->Inverse(real, std::span<float>(values.data() + 2 * row, na * row),
@@ -870,8 +886,55 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeP0(ShrmKind kind, int face_si
   mirror(-2, 1);
   mirror(na, na - 1);
   mirror(na + 1, na - 2);
-  ShrmCube cube = NewCube(kind, face_size, scratch);
-  internal::ResampleToCube(values.data(), na, ch, internal::GridColumns::kSht, threads, cube);
+  return absl::OkStatus();
+}
+
+absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildZonalGlobalCube(int face_size, int na, int threads,
+                                                               SynthesisScratch* scratch) const {
+  if (na < lmax_ + 1) {
+    return absl::InvalidArgumentError(absl::StrCat("SHRM grid: ", na,
+                                                   " alpha samples cannot resolve degree ", lmax_,
+                                                   " (need >= ", lmax_ + 1, ")"));
+  }
+  SynthesisScratch local;
+  SynthesisScratch& work = scratch != nullptr ? *scratch : local;
+  const int pm = pmax_, ch = channels_, zonal = pm + 1, zc = zonal * ch;
+  if (absl::Status st = ZonalGrid(zonal, na, threads, work); !st.ok()) return st;
+  // B_p0 at every texel centre: a P = 0 cube of zonal x channels values.
+  ShrmCube z;
+  z.kind = ShrmKind::kLocal;
+  z.face_size = face_size;
+  z.pmax = 0;
+  z.channels = zc;
+  z.data = std::move(work.zonal);
+  z.data.resize(z.size());
+  internal::ResampleToCube(work.grid.data(), na, zc, internal::GridColumns::kSht, threads, z);
+  ShrmCube cube = NewCube(ShrmKind::kGlobal, face_size, scratch);
+  const int n = ShCount(pm), size = face_size;
+  std::vector<double> kp(zonal);
+  for (int p = 0; p < zonal; ++p) kp[p] = std::sqrt(4 * kPi / (2 * p + 1));
+  ParallelChunks(kCubeFaceCount * size, threads, [&](int begin, int end) {
+    // Y_ps of a row's texels at once (EvalShBatch: y[ShIndex(p, s) * size + x]).
+    std::vector<Vec3> dirs(size);
+    std::vector<double> y(static_cast<size_t>(n) * size);
+    for (int row = begin; row < end; ++row) {
+      const int face = row / size, yy = row % size;
+      for (int x = 0; x < size; ++x)
+        dirs[x] = ShFrameFromWorld(CubeTexelDirection(face, x, yy, size));
+      EvalShBatch(pm, dirs, y);
+      for (int x = 0; x < size; ++x) {
+        const float* b = z.data.data() + z.Index(face, x, yy, 0, 0);
+        float* out = cube.data.data() + cube.Index(face, x, yy, 0, 0);
+        for (int p = 0; p <= pm; ++p)
+          for (int s = -p; s <= p; ++s) {
+            const double w = kp[p] * y[static_cast<size_t>(ShIndex(p, s)) * size + x];
+            for (int c = 0; c < ch; ++c)
+              out[ShIndex(p, s) * ch + c] = static_cast<float>(w * b[p * ch + c]);
+          }
+      }
+    }
+  });
+  work.zonal = std::move(z.data);
   return cube;
 }
 

@@ -50,6 +50,8 @@ int FftFriendlyRings(int na);
 struct SynthesisScratch {
   std::vector<float> grid;
   ShtScratch sht;
+  // The zonal path's per-texel q = 0 coefficients (BuildCube, tangent reparameterization).
+  std::vector<float> zonal;
   // A released cube's storage (e.g. a live frame no longer held): BuildCube takes it for its
   // output when its capacity suffices (every value is written again), instead of zero-filling
   // a fresh buffer. Left empty once taken.
@@ -187,6 +189,15 @@ class ShrmSynthesizer {
   bool DirectCubeIsCheaper(ShrmKind kind, int face_size, int na) const;
   absl::StatusOr<ShrmCube> BuildCubeP0(ShrmKind kind, int face_size, int na, int threads,
                                        SynthesisScratch* scratch) const;
+  // The inverse SHT of the zonal filters rho_{l,p,0} (p < zonal) times the lighting, onto the
+  // padded equiangular grid of BuildCubeP0 (zonal x channels values per node, channel p * ch + c):
+  // B_p0(alpha, beta) = sum_lm sqrt(4 pi / (2l + 1)) rho_lp0 L_lm Y_lm(alpha, beta).
+  absl::Status ZonalGrid(int zonal, int na, int threads, SynthesisScratch& work) const;
+  // The global cube of a q = 0-only BRDF (the tangent reparameterization, RhoQmax() = 0): its
+  // local coefficients B_p0 are zonal (ZonalGrid, resampled to the texels), and the global ones
+  // follow per texel by the addition theorem, c_ps(T) = B_p0(T) sqrt(4 pi / (2p + 1)) Y_ps(T).
+  absl::StatusOr<ShrmCube> BuildZonalGlobalCube(int face_size, int na, int threads,
+                                                SynthesisScratch* scratch) const;
   // Per-thread buffers of SynthesizeRows.
   struct RowScratch {
     std::vector<double> cols, dp, bre, bim, sre, sim;
