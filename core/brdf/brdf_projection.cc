@@ -372,14 +372,16 @@ constexpr double kEquatorThetaO = kPi * (1 - 1e-9);
 // sin_n = sin theta_n' of the node (kNormal).
 // Models with a Fresnel table divide f by it at the node's N.V (both variables) and, for kNormal,
 // e by it at the equator (brdf_coefficients.h): inv_f[c] and inv_e[c], their inverses per channel.
+// qmax: the largest q whose terms can be nonzero (pmax, or 0 for azimuth-independent models);
+// lam and acc hold q = 0 .. qmax.
 void AddViewNode(double w, const double* lam, const std::vector<double>& acc,
                  const std::vector<double>& acc_eq, double sin_n, const double* inv_f,
-                 const double* inv_e, BrdfCoefficients* out) {
+                 const double* inv_e, int qmax, BrdfCoefficients* out) {
   const int lmax = out->lmax, pmax = out->pmax;
-  const int nl = lmax + 1, np = pmax + 1;
+  const int nl = lmax + 1, np = pmax + 1, nq = qmax + 1;
   const bool normal = out->view == ViewVariable::kNormal;
   const double s2 = sin_n * sin_n, c2 = 1 - s2;
-  for (int q = 0; q <= pmax; ++q) {
+  for (int q = 0; q <= qmax; ++q) {
     for (int p = q; p <= pmax; ++p) {
       const double b = w * lam[static_cast<size_t>(q) * np + p];
       // f's weight and e's: 1 and 0 (view), c2 and s2 (normal, p + q even), s2 and -s2 (odd).
@@ -387,7 +389,7 @@ void AddViewNode(double w, const double* lam, const std::vector<double>& acc,
       const double wf = !normal ? b : even ? b * c2 : b * s2;
       const double we = !normal ? 0.0 : even ? b * s2 : -b * s2;
       for (int c = 0; c < out->channels; ++c) {
-        const size_t base = static_cast<size_t>(c * np + q) * nl;
+        const size_t base = static_cast<size_t>(c * nq + q) * nl;
         const double* src = &acc[base];
         if (we == 0) {
           const double wfc = wf * inv_f[c];
@@ -572,7 +574,8 @@ void SplitCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampling&
     } else {
       legendre_o.Eval(cos_o, sin_o, lam_o.data());
     }
-    AddViewNode(scale * w_o, lam_o.data(), acc, acc_eq, half_s, inv_f.data(), inv_e.data(), out);
+    AddViewNode(scale * w_o, lam_o.data(), acc, acc_eq, half_s, inv_f.data(), inv_e.data(), qmax,
+                out);
   }
   // 2 pi (phi_o') * 2 (phi over [0, pi] only, rho-hat even) = 4 pi (eq. 5.18).
   out->total_energy.assign(channels, 0.0);
@@ -586,13 +589,14 @@ void SeparableCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampl
                            BrdfCoefficients* out) {
   const bool normal = out->view == ViewVariable::kNormal;
   const int channels = brdf.channels();
-  const int qmax = pmax;
+  // Azimuth-independent models (Kajiya-Kay) have rho_lpq = 0 for q != 0: q = 0 only.
+  const int qmax = brdf.azimuth_independent() ? 0 : pmax;
   const int sharp = brdf.bandwidth_hint().lmax;  // the lobe's own bandwidth
   const int n_i = Or(s.theta_i, std::max({4 * lmax, 64, 3 * sharp}));
   const int n_o = Or(s.theta_o, std::max(4 * pmax + 16, 48));
   const int n_phi = Or(s.phi, std::max(2 * pmax + 24, 32));
-  const RingQuadrature ri = GaussLegendreRule(n_i);
-  RingQuadrature ro = GaussLegendreRule(n_o);
+  const RingQuadrature& ri = CachedGaussLegendre(n_i);
+  RingQuadrature ro = CachedGaussLegendre(n_o);
   if (normal) {
     for (int k = 0; k < n_o; ++k) {
       const double x = 0.5 * (1.0 + ro.cos_theta[k]);  // cos theta_n'
@@ -654,7 +658,7 @@ void SeparableCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampl
     InverseFresnel(*out, normal ? ro.cos_theta[k] : std::cos(0.5 * ro.theta[k]), inv_f.data());
     // kNormal: the rule's weights are those of [-1, 1] on [0, 1], W of AddViewNode.
     AddViewNode(scale * ro.weight[k], &lam_o[static_cast<size_t>(k) * nq * np], acc, acc_eq,
-                ro.sin_theta[k], inv_f.data(), inv_e.data(), out);
+                ro.sin_theta[k], inv_f.data(), inv_e.data(), qmax, out);
   }
 }
 

@@ -237,6 +237,21 @@ void ResampleToCubeFromRows(const float* rows, int first_row, int row_count, int
                  });
 }
 
+void StreamFloats(const float* src, size_t n, float* dst) {
+#if defined(__AVX512F__)
+  size_t i = 0;
+  while (i < n && reinterpret_cast<uintptr_t>(dst + i) % 64 != 0) {
+    dst[i] = src[i];
+    ++i;
+  }
+  for (; i + 16 <= n; i += 16) _mm512_stream_ps(dst + i, _mm512_loadu_ps(src + i));
+  for (; i < n; ++i) dst[i] = src[i];
+  _mm_sfence();
+#else
+  std::copy(src, src + n, dst);
+#endif
+}
+
 void ReserveLargeBuffer(std::vector<float>& v, size_t n) {
   v.clear();
   v.reserve(n);

@@ -41,6 +41,12 @@ void ResampleToCube(const float* values, int na, int stride, GridColumns columns
 void ResampleToCubeFromRows(const float* rows, int first_row, int row_count, int na, int stride,
                             int grid_stride, GridColumns columns, int threads, ShrmCube& cube);
 
+// dst[0 .. n) = src[0 .. n) with non-temporal stores where dst is 64-byte aligned (AVX-512; a
+// plain copy otherwise): a large output written once, e.g. a cube of many coefficients per texel,
+// skips the reads for ownership that ordinary stores of lines not in cache cost. Ends with a store
+// fence, so the values are visible to other threads once it returns.
+void StreamFloats(const float* src, size_t n, float* dst);
+
 // Reserves `n` floats in `v` and, for large buffers on Linux, asks for transparent huge pages on
 // the 2 MB-aligned part of the new (untouched) storage before it is first written. THP is usually
 // in "madvise" mode, and first-touch page faults on 4 KB pages dominate writing a fresh 10-20 MB

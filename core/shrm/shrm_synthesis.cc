@@ -643,6 +643,26 @@ namespace {
 
 // The output storage of a cube: the scratch's released buffer when it is large enough (resize to
 // the same size writes nothing; the resampling then writes every value), else a fresh one.
+#if defined(__AVX512F__)
+constexpr bool kSimdExpansion = true;
+// BuildZonalGlobalCube's texel: out[16 k + i] = w[w_base[k] + w_lane[16 k + i]] x
+// b[b_lane[16 k + i]] for every chunk k (b: 32 floats, w and out with a chunk's slack).
+void ExpandZonalTexel(const float* w, const float* b, int chunks, const int32_t* w_base,
+                      const int32_t* w_lane, const int32_t* b_lane, float* out) {
+  const __m512 b_lo = _mm512_loadu_ps(b), b_hi = _mm512_loadu_ps(b + 16);
+  for (int k = 0; k < chunks; ++k) {
+    const __m512 wv =
+        _mm512_permutexvar_ps(_mm512_loadu_si512(w_lane + 16 * k), _mm512_loadu_ps(w + w_base[k]));
+    const __m512 bv = _mm512_permutex2var_ps(b_lo, _mm512_loadu_si512(b_lane + 16 * k), b_hi);
+    _mm512_storeu_ps(out + 16 * k, _mm512_mul_ps(wv, bv));
+  }
+}
+#else
+constexpr bool kSimdExpansion = false;
+void ExpandZonalTexel(const float*, const float*, int, const int32_t*, const int32_t*,
+                      const int32_t*, float*) {}
+#endif
+
 void AllocateCubeData(ShrmCube& cube, SynthesisScratch* scratch) {
   if (scratch != nullptr && scratch->cube.capacity() >= cube.size()) {
     cube.data = std::move(scratch->cube);
@@ -825,11 +845,7 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeP0(ShrmKind kind, int face_si
   // it commutes with ComplexToReal). Local = global for P = 0 (D^0 = 1). It runs on the same
   // equiangular (na x 2 na) grid with the optimized inverse SHT (Legendre recurrences + real
   // FFTs), then the same cubic resampling with the lat-long column convention.
-  if (na < lmax_ + 1) {
-    return absl::InvalidArgumentError(absl::StrCat("SHRM grid: ", na,
-                                                   " alpha samples cannot resolve degree ", lmax_,
-                                                   " (need >= ", lmax_ + 1, ")"));
-  }
+  if (absl::Status st = CheckZonalRows(na); !st.ok()) return st;
   SynthesisScratch local;
   SynthesisScratch& work = scratch != nullptr ? *scratch : local;
   if (absl::Status st = ZonalGrid(1, na, threads, work); !st.ok()) return st;
@@ -837,6 +853,13 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeP0(ShrmKind kind, int face_si
   internal::ResampleToCube(work.grid.data(), na, channels_, internal::GridColumns::kSht, threads,
                            cube);
   return cube;
+}
+
+absl::Status ShrmSynthesizer::CheckZonalRows(int na) const {
+  if (na >= lmax_ + 1) return absl::OkStatus();
+  return absl::InvalidArgumentError(absl::StrCat("SHRM grid: ", na,
+                                                 " alpha samples cannot resolve degree ", lmax_,
+                                                 " (need >= ", lmax_ + 1, ")"));
 }
 
 absl::Status ShrmSynthesizer::ZonalGrid(int zonal, int na, int threads,
@@ -891,11 +914,7 @@ absl::Status ShrmSynthesizer::ZonalGrid(int zonal, int na, int threads,
 
 absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildZonalGlobalCube(int face_size, int na, int threads,
                                                                SynthesisScratch* scratch) const {
-  if (na < lmax_ + 1) {
-    return absl::InvalidArgumentError(absl::StrCat("SHRM grid: ", na,
-                                                   " alpha samples cannot resolve degree ", lmax_,
-                                                   " (need >= ", lmax_ + 1, ")"));
-  }
+  if (absl::Status st = CheckZonalRows(na); !st.ok()) return st;
   SynthesisScratch local;
   SynthesisScratch& work = scratch != nullptr ? *scratch : local;
   const int pm = pmax_, ch = channels_, zonal = pm + 1, zc = zonal * ch;
@@ -913,10 +932,33 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildZonalGlobalCube(int face_size, in
   const int n = ShCount(pm), size = face_size;
   std::vector<double> kp(zonal);
   for (int p = 0; p < zonal; ++p) kp[p] = std::sqrt(4 * kPi / (2 * p + 1));
+  const size_t texel_values = static_cast<size_t>(n) * ch;
+  const size_t row_values = static_cast<size_t>(size) * texel_values;
+  // A texel's values are out[j] = w[j / ch] b[p(j / ch) ch + j % ch], j < n ch, w[k] =
+  // sqrt(4 pi / (2p + 1)) Y_ps(T) (k = ShIndex(p, s)), b = the texel's zonal values. With
+  // AVX-512 and (P + 1) ch <= 32 (b in two registers), 16 j at a time: w's window from w[j0 / ch]
+  // and b by two permutes of precomputed lane indices.
+  constexpr int kLanes = 16;
+  const int chunks = static_cast<int>((texel_values + kLanes - 1) / kLanes);
+  const bool vector_path = kSimdExpansion && zc <= 32;
+  std::vector<int32_t> w_base(chunks), w_lane(static_cast<size_t>(chunks) * kLanes),
+      b_lane(static_cast<size_t>(chunks) * kLanes);
+  for (int k = 0; k < chunks; ++k) {
+    w_base[k] = k * kLanes / ch;
+    for (int i = 0; i < kLanes; ++i) {
+      const int j = std::min<int>(k * kLanes + i, static_cast<int>(texel_values) - 1);
+      const int kk = j / ch, p = static_cast<int>(std::sqrt(static_cast<double>(kk)));
+      w_lane[k * kLanes + i] = kk - w_base[k];
+      b_lane[k * kLanes + i] = p * ch + j % ch;
+    }
+  }
   ParallelChunks(kCubeFaceCount * size, threads, [&](int begin, int end) {
-    // Y_ps of a row's texels at once (EvalShBatch: y[ShIndex(p, s) * size + x]).
+    // Y_ps of a row's texels at once (EvalShBatch: y[ShIndex(p, s) * size + x]); the row's values
+    // are made in a buffer that stays in cache, then streamed to the cube (StreamFloats). The
+    // buffer and w have a chunk's slack past their ends for the vector path's whole chunks.
     std::vector<Vec3> dirs(size);
     std::vector<double> y(static_cast<size_t>(n) * size);
+    std::vector<float> w(n + kLanes, 0.0f), buffer(row_values + kLanes), bz(32, 0.0f);
     for (int row = begin; row < end; ++row) {
       const int face = row / size, yy = row % size;
       for (int x = 0; x < size; ++x)
@@ -924,14 +966,23 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildZonalGlobalCube(int face_size, in
       EvalShBatch(pm, dirs, y);
       for (int x = 0; x < size; ++x) {
         const float* b = z.data.data() + z.Index(face, x, yy, 0, 0);
-        float* out = cube.data.data() + cube.Index(face, x, yy, 0, 0);
+        float* out = buffer.data() + static_cast<size_t>(x) * texel_values;
         for (int p = 0; p <= pm; ++p)
-          for (int s = -p; s <= p; ++s) {
-            const double w = kp[p] * y[static_cast<size_t>(ShIndex(p, s)) * size + x];
-            for (int c = 0; c < ch; ++c)
-              out[ShIndex(p, s) * ch + c] = static_cast<float>(w * b[p * ch + c]);
-          }
+          for (int s = -p; s <= p; ++s)
+            w[ShIndex(p, s)] =
+                static_cast<float>(kp[p] * y[static_cast<size_t>(ShIndex(p, s)) * size + x]);
+        if (vector_path) {
+          std::copy(b, b + zc, bz.begin());
+          ExpandZonalTexel(w.data(), bz.data(), chunks, w_base.data(), w_lane.data(), b_lane.data(),
+                           out);
+          continue;
+        }
+        for (int p = 0; p <= pm; ++p)
+          for (int k = p * p; k < (p + 1) * (p + 1); ++k)
+            for (int c = 0; c < ch; ++c) out[k * ch + c] = w[k] * b[p * ch + c];
       }
+      internal::StreamFloats(buffer.data(), row_values,
+                             cube.data.data() + cube.Index(face, 0, yy, 0, 0));
     }
   });
   work.zonal = std::move(z.data);

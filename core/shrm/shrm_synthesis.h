@@ -193,6 +193,8 @@ class ShrmSynthesizer {
   // padded equiangular grid of BuildCubeP0 (zonal x channels values per node, channel p * ch + c):
   // B_p0(alpha, beta) = sum_lm sqrt(4 pi / (2l + 1)) rho_lp0 L_lm Y_lm(alpha, beta).
   absl::Status ZonalGrid(int zonal, int na, int threads, SynthesisScratch& work) const;
+  // na equiangular rows resolve degree F (the zonal grids).
+  absl::Status CheckZonalRows(int na) const;
   // The global cube of a q = 0-only BRDF (the tangent reparameterization, RhoQmax() = 0): its
   // local coefficients B_p0 are zonal (ZonalGrid, resampled to the texels), and the global ones
   // follow per texel by the addition theorem, c_ps(T) = B_p0(T) sqrt(4 pi / (2p + 1)) Y_ps(T).
