@@ -31,6 +31,9 @@ std::span<const Command> Commands() {
        "a procedural daylight sky (Preetham 1999) with the sun of a date, time and place, as a "
        "lat-long EXR (docs/sky.md)",
        DefineSky},
+      {"brdf-table",
+       "sample a BRDF model into the table that --brdf table:PATH reads (docs/cli.md)",
+       DefineBrdfTable},
   };
   return kCommands;
 }

@@ -25,6 +25,7 @@ void DefineInfo(CLI::App* sub, absl::Status* status);
 void DefineBatch(CLI::App* sub, absl::Status* status);
 void DefineLive(CLI::App* sub, absl::Status* status);
 void DefineSky(CLI::App* sub, absl::Status* status);
+void DefineBrdfTable(CLI::App* sub, absl::Status* status);
 
 struct Command {
   std::string_view name;

@@ -88,6 +88,16 @@ def run_one(shrm, env, brdf, rule_args, tmp):
     return row
 
 
+def print_row(row, label):
+    """One measured row on stdout as the sweep goes."""
+    meas = row.get("measured") or {}
+    print(f"{label} exit {row['exit']} {row.get('F_B', '-')},{row.get('P_B', '-')} "
+          f"S {row.get('face_size', '-')} {row.get('file_mb', '-')} MB {row['wall_s']} s "
+          f"front {meas.get('front', {}).get('rms', '-')} / "
+          f"{meas.get('front', {}).get('max', '-')} grazing "
+          f"{meas.get('grazing', {}).get('rms', '-')}", flush=True)
+
+
 def sweep(args, rules, brdfs):
     """run_one for every map x BRDF x rule, printed as it goes, written to args.json."""
     rows = []
@@ -99,13 +109,7 @@ def sweep(args, rules, brdfs):
                     row = run_one(args.shrm, env, b, rule_args, tmp)
                     row.update({"map": m, "brdf": b, "rule": rule})
                     rows.append(row)
-                    meas = row.get("measured") or {}
-                    print(f"{m:10s} {b:24s} {rule:13s} exit {row['exit']} "
-                          f"{row.get('F_B', '-')},{row.get('P_B', '-')} S {row.get('face_size', '-')} "
-                          f"{row.get('file_mb', '-')} MB {row['wall_s']} s "
-                          f"front {meas.get('front', {}).get('rms', '-')} / "
-                          f"{meas.get('front', {}).get('max', '-')} grazing "
-                          f"{meas.get('grazing', {}).get('rms', '-')}", flush=True)
+                    print_row(row, f"{m:10s} {b:24s} {rule:13s}")
     with open(args.json, "w") as f:
         json.dump({"verify_pairs": VERIFY, "rows": rows}, f, indent=1)
         f.write("\n")
@@ -150,6 +154,29 @@ def cmd_auto(args):
 def cmd_default(args):
     """The default job (`--tolerance 0.01`, `--view-variable auto`) on every view-dependent row."""
     sweep(args, dict([AUTO_RULE]), [b for b in BRDFS if not b.startswith("phong")])
+
+
+# The issue's table-BRDF row: a model sampled by `shrm brdf-table` at its default 128 x 64 x 64
+# cells, prefiltered as `table:PATH` by the default job (labelled by the model it samples).
+TABLE_MODEL = "ggx:alpha=0.3,f0=1"
+
+
+def cmd_table(args):
+    """The default job with the table BRDF (TABLE_MODEL sampled) on the four maps."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "model.shrmbrdf")
+        subprocess.run([args.shrm, "brdf-table", "--brdf", TABLE_MODEL, "-o", path], check=True,
+                       capture_output=True)
+        rows = []
+        for m in MAPS:
+            env = os.path.join(ROOT, "data", "envmaps", m + ".exr")
+            row = run_one(args.shrm, env, "table:" + path, AUTO_RULE[1], tmp)
+            row.update({"map": m, "brdf": "table (" + TABLE_MODEL + ")", "rule": AUTO_RULE[0]})
+            rows.append(row)
+            print_row(row, f"{m:10s} table")
+    with open(args.json, "w") as f:
+        json.dump({"verify_pairs": VERIFY, "rows": rows}, f, indent=1)
+        f.write("\n")
 
 
 def session21_default(key):
@@ -262,11 +289,15 @@ def main(argv):
     dt.add_argument("--before", help="an earlier `default` JSON to compare with (default: "
                     "session 21's rows)")
     dt.add_argument("--before-label", default="before")
+    tb = sub.add_parser("table")
+    tb.add_argument("--shrm", default=os.path.join(ROOT, "build", "cli", "shrm"))
+    tb.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "defaults_table_brdf.json"))
     t = sub.add_parser("normal-table")
     t.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "defaults_normal.json"))
     args = ap.parse_args(argv)
     {"run": cmd_run, "normal": cmd_normal, "auto": cmd_auto, "default": cmd_default,
-     "default-table": cmd_default_table, "normal-table": cmd_normal_table}[args.cmd](args)
+     "default-table": cmd_default_table, "normal-table": cmd_normal_table,
+     "table": cmd_table}[args.cmd](args)
 
 
 if __name__ == "__main__":

@@ -176,7 +176,7 @@ TEST(CommandTable, EveryCommandIsListedOnceAndDefinesItsOptions) {
   // docs/cli.md's list.
   EXPECT_EQ(names, (std::set<std::string>{"analyze", "prefilter", "eval", "reference", "render",
                                           "explicit", "irradiance", "ibl", "info", "batch", "live",
-                                          "sky"}));
+                                          "sky", "brdf-table"}));
 }
 
 // CLI11's rule: the first argument that is not an option selects the subcommand (the program's

@@ -180,6 +180,16 @@ double TableBrdf::ReparamTransfer(double theta_i, double theta_o, double phi, in
   double fi, fo;
   Locate(theta_i, table_.n_theta_i, &i0, &fi);
   Locate(theta_o, table_.n_theta_o, &o0, &fo);
+  // kReflection: theta_o' = pi (V = -R) is no pole of the table's function (its limit depends on
+  // the direction of approach, i.e. on phi), so beyond the last node the values are extrapolated
+  // linearly from the last two nodes of the same (theta_i', phi) instead of continued through it
+  // (which averaged over phi: the normal variable's equator values, taken there, were wrong).
+  const bool extrapolate = table_.reparam == ReparamKind::kReflection &&
+                           o0 == table_.n_theta_o - 1 && table_.n_theta_o >= 2;
+  if (extrapolate) {
+    o0 = table_.n_theta_o - 2;
+    fo += 1.0;  // weights 1 - fo < 0 and fo > 1 on the last two nodes
+  }
   double sum = 0;
   for (int a = 0; a < 2; ++a) {
     for (int b = 0; b < 2; ++b) {
@@ -198,7 +208,7 @@ double TableBrdf::ReparamTransfer(double theta_i, double theta_o, double phi, in
                        fk * table_.values[table_.Index(i, o, k_hi, c)]);
     }
   }
-  return sum;
+  return extrapolate ? std::max(sum, 0.0) : sum;
 }
 
 double TableBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const {
