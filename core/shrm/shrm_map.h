@@ -33,8 +33,9 @@ struct ShrmCube {
   int channels = 3;
   // data[Index(face, x, y, k, c)], k = ShIndex(p, q).
   std::vector<float> data;
-  // kNormal: the Fresnel table (brdf_coefficients.h) the expansion is multiplied by at
-  // cos theta_n' = N.R, (kFresnelIntervals + 1) x 1 or x channels values; empty: no factor.
+  // The Fresnel table (brdf_coefficients.h) the expansion is multiplied by at N.V
+  // (FresnelCosine: N.R for kNormal, |R + V| / 2 for kView), (kFresnelIntervals + 1) x 1 or x
+  // channels values; empty: no factor.
   std::vector<float> fresnel;
 
   int coeff_count() const { return ShCount(pmax); }
@@ -48,7 +49,7 @@ struct ShrmCube {
   }
 };
 
-// The Fresnel factor of `cube` at N.R = cos_n for channel c (1 without a table).
+// The Fresnel factor of `cube` at N.V = cos_n for channel c (1 without a table).
 inline double ShrmFresnel(const ShrmCube& cube, double cos_n, int c) {
   return FresnelFactor(cube.fresnel, cos_n, c);
 }

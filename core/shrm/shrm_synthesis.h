@@ -230,13 +230,13 @@ class ShrmSynthesizer {
   void LSumsBlock(const double* alpha, const double* beta, int n, std::vector<Lanes>& sre,
                   std::vector<Lanes>& sim) const;
   // BandContributionsAtArguments for n <= kWignerBlock points.
-  // bands (BandCount() values of one point) times the Fresnel factor at (R, N) (kNormal).
+  // bands (BandCount() values of one point) times the Fresnel factor at N.V (FresnelCosine).
   void ScaleByFresnel(const Vec3& index_dir, const Vec3& argument, double* bands) const;
   void BandContributionsBlock(const Vec3* index_dirs, const Vec3* arguments, int n,
                               double* out) const;
   ReparamKind reparam_ = ReparamKind::kReflection;
   ViewVariable view_ = ViewVariable::kView;
-  std::vector<float> fresnel_;  // kNormal: the coefficients' Fresnel table (ShrmCube::fresnel)
+  std::vector<float> fresnel_;  // the coefficients' Fresnel table (ShrmCube::fresnel)
   // Complex lighting: light_[((m + F) * (F + 1) + l) * channels + c] (zero for l < |m|).
   std::vector<std::complex<double>> light_;
   // rho_lpq per channel (grey BRDFs expanded): rho_[((p * (P + 1) + q) * (F + 1) + l) * ch + c],
