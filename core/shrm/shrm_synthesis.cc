@@ -641,8 +641,6 @@ void ShrmSynthesizer::SynthesizeSlabs(ShrmKind kind, int na, int owned, int thre
 
 namespace {
 
-// The output storage of a cube: the scratch's released buffer when it is large enough (resize to
-// the same size writes nothing; the resampling then writes every value), else a fresh one.
 #if defined(__AVX512F__)
 constexpr bool kSimdExpansion = true;
 // BuildZonalGlobalCube's texel: out[16 k + i] = w[w_base[k] + w_lane[16 k + i]] x
@@ -663,6 +661,8 @@ void ExpandZonalTexel(const float*, const float*, int, const int32_t*, const int
                       const int32_t*, float*) {}
 #endif
 
+// The output storage of a cube: the scratch's released buffer when it is large enough (resize to
+// the same size writes nothing; the resampling then writes every value), else a fresh one.
 void AllocateCubeData(ShrmCube& cube, SynthesisScratch* scratch) {
   if (scratch != nullptr && scratch->cube.capacity() >= cube.size()) {
     cube.data = std::move(scratch->cube);

@@ -68,6 +68,8 @@ struct ShrmGridOptions {
   // P = 0 only: synthesize B_00 on the grid with the inverse SHT (core/transform/sht.h) of the
   // coefficients sqrt(4 pi / (2l + 1)) rho_l L_lm instead of the Wigner / FFT rows (same grid,
   // same interpolation; faster for every F). false = the general path (tests compare the two).
+  // The same switch (with path kAuto) takes a q = 0-only global cube (Kajiya-Kay) through the
+  // zonal path (BuildZonalGlobalCube), whose B_p0 are such syntheses.
   bool p0_sht_path = true;
   // P > 0: how the texels' coefficients are made. kGrid: the grid and the cubic resampling above.
   // kDirect: each texel centre exactly (eq. 5.23, then the rotation of eq. 5.14 for the global
