@@ -28,6 +28,8 @@
 // BM_SynthesisGlobal/F/P   the synthesis stage alone: the 64 x 64 x 6 global SHRM of (F, P)
 //                          from fixed coefficients (the orders of the material benchmarks: ggx
 //                          (14, 5), microfacet sigma 0.1 (22, 2), Ward (21, 2))
+// BM_SynthesisZonal/F/P    the same for Kajiya-Kay's q = 0-only coefficients at (9, 8) (the
+//                          zonal path), the storage reused as the live session reuses it
 // Targets (issue 13): lighting and material changes <= 5 ms, the sequence >= 30 frames/s.
 #include <benchmark/benchmark.h>
 
@@ -300,18 +302,29 @@ void BM_LiveSplitSumMaterial(benchmark::State& state) {
 }
 BENCHMARK(BM_LiveSplitSumMaterial)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-void BM_SynthesisGlobal(benchmark::State& state) {
-  const int f = static_cast<int>(state.range(0)), p = static_cast<int>(state.range(1));
+// A synthesizer of fixed RGB coefficients at (F, P): every rho_lpq set, or (tangent) q = 0 only,
+// as Kajiya-Kay's.
+ShrmSynthesizer FixedSynthesizer(int f, int p, bool tangent) {
   std::vector<double> light(static_cast<size_t>(ShCount(f)) * 3);
   for (size_t i = 0; i < light.size(); ++i) light[i] = std::cos(0.37 * static_cast<double>(i));
   BrdfCoefficients rho;
   rho.lmax = f;
   rho.pmax = p;
   rho.channels = 1;
-  rho.values.resize(static_cast<size_t>(f + 1) * (p + 1) * (p + 1));
-  for (size_t i = 0; i < rho.values.size(); ++i) rho.values[i] = 1.0 / (1.0 + 0.1 * i);
+  rho.values.assign(static_cast<size_t>(f + 1) * (p + 1) * (p + 1), 0.0);
+  if (tangent) {
+    rho.reparam = ReparamKind::kTangent;
+    for (int l = 0; l <= f; ++l)
+      for (int pp = 0; pp <= p; ++pp) rho.values[rho.Index(l, pp, 0, 0)] = 1.0 / (1.0 + l + pp);
+  } else {
+    for (size_t i = 0; i < rho.values.size(); ++i) rho.values[i] = 1.0 / (1.0 + 0.1 * i);
+  }
+  return OrDie(ShrmSynthesizer::Create(f, 3, light, rho), "creating the synthesizer");
+}
+
+void BM_SynthesisGlobal(benchmark::State& state) {
   const ShrmSynthesizer synth =
-      OrDie(ShrmSynthesizer::Create(f, 3, light, rho), "creating the synthesizer");
+      FixedSynthesizer(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)), false);
   for (auto _ : state) {
     benchmark::DoNotOptimize(OrDie(synth.BuildCube(ShrmKind::kGlobal, kFaceSize), "synthesis"));
   }
@@ -322,6 +335,23 @@ BENCHMARK(BM_SynthesisGlobal)
     ->Args({21, 2})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+// Kajiya-Kay's synthesis alone: a global SHRM of tangent-reparameterized coefficients (q = 0
+// only: the zonal path, BuildZonalGlobalCube) at its analysed (9, 8), its storage reused as the
+// live session reuses it (SynthesisScratch with the previous cube's buffer).
+void BM_SynthesisZonal(benchmark::State& state) {
+  const ShrmSynthesizer synth =
+      FixedSynthesizer(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)), true);
+  SynthesisScratch scratch;
+  ShrmGridOptions options;
+  options.scratch = &scratch;
+  for (auto _ : state) {
+    ShrmCube cube = OrDie(synth.BuildCube(ShrmKind::kGlobal, kFaceSize, options), "synthesis");
+    benchmark::DoNotOptimize(cube.data.data());
+    scratch.cube = std::move(cube.data);
+  }
+}
+BENCHMARK(BM_SynthesisZonal)->Args({9, 8})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 }  // namespace shrm

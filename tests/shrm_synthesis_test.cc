@@ -445,6 +445,29 @@ TEST(ShrmSynthesisTest, TangentCoefficientsOnlyQZeroTexelCentresEqualDirectEvalu
   }
 }
 
+// The zonal path with the caller's storage (a live session's SynthesisScratch): the texels' Y_ps
+// table is made by the first cube of a face size and P and reused by the next, and a released
+// cube's buffer is written again. Every cube equals the one made without storage bit for bit,
+// including after the face size or P changes (the table is remade) and back.
+TEST(ShrmSynthesisTest, ZonalCubeWithReusedStorageEqualsFreshCube) {
+  SynthesisScratch scratch;
+  ShrmGridOptions reuse;
+  reuse.scratch = &scratch;
+  for (const auto& [pmax, size] :
+       std::vector<std::pair<int, int>>{{8, 12}, {8, 12}, {8, 10}, {5, 10}, {8, 12}}) {
+    BrdfCoefficients brdf = TestBrdf(10, pmax);
+    brdf.reparam = ReparamKind::kTangent;
+    const ShrmSynthesizer synth = MakeSynth(brdf);
+    auto fresh = synth.BuildCube(ShrmKind::kGlobal, size);
+    auto reused = synth.BuildCube(ShrmKind::kGlobal, size, reuse);
+    ASSERT_TRUE(fresh.ok() && reused.ok());
+    EXPECT_EQ(fresh->data, reused->data) << "P " << pmax << " S " << size;
+    EXPECT_EQ(scratch.zonal_w_face_size, size);
+    EXPECT_EQ(scratch.zonal_w_pmax, pmax);
+    scratch.cube = std::move(reused->data);  // released, as a live frame's
+  }
+}
+
 // The normal variable (brdf_coefficients.h ViewVariable::kNormal): coefficients (p + q even) read
 // as an expansion in n' = Rot(R)^T N. The direct evaluation, local and global, against the
 // pixel sum of the world-frame BRDF they define; the cubes' texel centres against the direct

@@ -607,32 +607,50 @@ void SeparableCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampl
   }
   const int nl = lmax + 1, np = pmax + 1, nq = qmax + 1;
 
-  // lambda_l^q(cos theta) for q <= qmax only: lam_i[(j * nq + q) * nl + l].
-  std::vector<double> table(LegendreCount(std::max(lmax, pmax)));
-  std::vector<double> lam_i(static_cast<size_t>(n_i) * nq * nl, 0.0);
-  for (int j = 0; j < n_i; ++j) {
-    NormalizedLegendre(lmax, ri.cos_theta[j], ri.sin_theta[j], table);
-    for (int q = 0; q <= qmax; ++q) {
-      for (int l = q; l <= lmax; ++l) lam_i[(j * nq + q) * nl + l] = table[LegendreIndex(l, q)];
+  // lambda_l^q(cos theta) for q <= qmax only: lam_i[(j * nq + q) * nl + l] (LegendreColumns,
+  // kLanes nodes at a time; entries l < q stay 0).
+  auto legendre_table = [&](int degree, int nodes, const RingQuadrature& rule) {
+    const LegendreColumns columns(degree, qmax);
+    const int n = degree + 1;
+    constexpr int kLanes = LegendreColumns::kLanes;
+    std::vector<double> table(static_cast<size_t>(nodes) * nq * n, 0.0);
+    std::vector<double> lanes(columns.size() * kLanes);
+    alignas(64) double x[kLanes], sn[kLanes];
+    for (int j0 = 0; j0 < nodes; j0 += kLanes) {
+      const int count = std::min(kLanes, nodes - j0);
+      for (int k = 0; k < kLanes; ++k) {
+        x[k] = k < count ? rule.cos_theta[j0 + k] : 1.0;
+        sn[k] = k < count ? rule.sin_theta[j0 + k] : 0.0;
+      }
+      columns.EvalLanes(x, sn, lanes.data());
+      for (int k = 0; k < count; ++k)
+        for (int q = 0; q <= std::min(qmax, degree); ++q)
+          for (int l = q; l <= degree; ++l)
+            table[((j0 + k) * nq + q) * n + l] = lanes[(q * n + l) * kLanes + k];
     }
-  }
-  std::vector<double> lam_o(static_cast<size_t>(n_o) * nq * np, 0.0);
-  for (int k = 0; k < n_o; ++k) {
-    NormalizedLegendre(pmax, ro.cos_theta[k], ro.sin_theta[k], table);
-    for (int q = 0; q <= qmax; ++q) {
-      for (int p = q; p <= pmax; ++p) lam_o[(k * nq + q) * np + p] = table[LegendreIndex(p, q)];
-    }
-  }
+    return table;
+  };
+  const std::vector<double> lam_i = legendre_table(lmax, n_i, ri);
+  const std::vector<double> lam_o = legendre_table(pmax, n_o, ro);
 
   AzimuthRule azimuth(brdf, n_phi, qmax);
   std::vector<double> cq(nq * channels);
   std::vector<double> acc(static_cast<size_t>(channels) * nq * nl);  // [(c * nq + q) * nl + l]
   const double scale = 4.0 * kPi * kPi;
+  // Azimuth-independent models in the view variable: cq[c] is rho-hat itself, so the energy
+  // (BrdfEnergy's double integral of rho-hat^2 over theta_i', theta_o', with the even azimuth
+  // integral over [0, pi] a factor pi) comes from the same evaluations on the same rule
+  // (energy_k: the theta_i' integral at one theta_o').
+  const bool flat_energy = brdf.azimuth_independent() && !normal;
+  std::vector<double> energy(channels, 0.0), energy_k(channels, 0.0);
   // acc at one theta_o': the theta_i' integrals.
   auto accumulate = [&](double theta_o) {
     std::fill(acc.begin(), acc.end(), 0.0);
+    std::fill(energy_k.begin(), energy_k.end(), 0.0);
     for (int j = 0; j < n_i; ++j) {
       azimuth.Cosines(ri.theta[j], ri.cos_theta[j], ri.sin_theta[j], theta_o, cq.data());
+      if (flat_energy)
+        for (int c = 0; c < channels; ++c) energy_k[c] += ri.weight[j] * kPi * cq[c] * cq[c];
       for (int q = 0; q <= qmax; ++q) {
         const double* lam = &lam_i[(j * nq + q) * nl];
         for (int c = 0; c < channels; ++c) {
@@ -656,9 +674,16 @@ void SeparableCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampl
     accumulate(ro.theta[k]);
     // N.V: cos theta_n' (kNormal), cos(theta_o' / 2) (kView).
     InverseFresnel(*out, normal ? ro.cos_theta[k] : std::cos(0.5 * ro.theta[k]), inv_f.data());
+    for (int c = 0; c < channels; ++c)
+      energy[c] += ro.weight[k] * energy_k[c] * inv_f[c] * inv_f[c];
     // kNormal: the rule's weights are those of [-1, 1] on [0, 1], W of AddViewNode.
     AddViewNode(scale * ro.weight[k], &lam_o[static_cast<size_t>(k) * nq * np], acc, acc_eq,
                 ro.sin_theta[k], inv_f.data(), inv_e.data(), qmax, out);
+  }
+  // 2 pi (phi_o') * 2 (phi over [0, pi] only, rho-hat even) = 4 pi (eq. 5.18), as BrdfEnergy.
+  if (flat_energy) {
+    out->total_energy.assign(channels, 0.0);
+    for (int c = 0; c < channels; ++c) out->total_energy[c] = 4.0 * kPi * energy[c];
   }
 }
 
@@ -797,9 +822,9 @@ absl::StatusOr<BrdfCoefficients> ComputeBrdfCoefficients(const Brdf& brdf, int l
     if (brdf.radially_symmetric()) {
       RadialCoefficients(brdf, lmax, sampling, &out);
     } else {
-      SeparableCoefficients(brdf, lmax, pmax, sampling, &out);
+      SeparableCoefficients(brdf, lmax, pmax, sampling, &out);  // azimuth-independent: energy
     }
-    out.total_energy = BrdfEnergy(brdf, lmax, sampling, out.view);
+    if (out.total_energy.empty()) out.total_energy = BrdfEnergy(brdf, lmax, sampling, out.view);
   }
   if (out.view == ViewVariable::kNormal) {
     // The extension's energy over the whole sphere has a cross term of f and its equator values

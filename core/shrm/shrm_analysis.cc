@@ -121,10 +121,31 @@ absl::StatusOr<ShrmAnalysis> AnalyzeShrm(int light_lmax, int channels,
 
   // Energy of B per band (all channels; grey BRDFs apply to every lighting channel).
   auto bc = [&](int c) { return brdf.channels == 1 ? 0 : c; };
+  // RhoBand at P_B and at the computed pmax, per BRDF channel and band, once: the curves below
+  // ask for them O(F^2) times (the same sums, so the same values as calling RhoBand there).
+  const int nlb = brdf.lmax + 1;
+  std::vector<double> rho_pb(static_cast<size_t>(brdf.channels) * nlb),
+      rho_pmax(static_cast<size_t>(brdf.channels) * nlb), rho_total(brdf.channels);
+  for (int c = 0; c < brdf.channels; ++c) {
+    for (int l = 0; l <= brdf.lmax; ++l) {
+      rho_pb[c * nlb + l] = RhoBand(brdf, l, a.p_b, c);
+      rho_pmax[c * nlb + l] = RhoBand(brdf, l, brdf.pmax, c);
+    }
+    rho_total[c] = RhoTotal(brdf, c);
+  }
+  // BrdfCapturedFraction(brdf, f, P_B) from the tables (its sums in its order).
+  auto captured_at_pb = [&](int f) {
+    double num = 0, den = 0;
+    for (int c = 0; c < brdf.channels; ++c) {
+      for (int l = 0; l <= std::min(f, brdf.lmax); ++l) num += rho_pb[c * nlb + l];
+      den += rho_total[c];
+    }
+    return den > 0 ? num / den : 1.0;
+  };
   std::vector<double> eb(fmax + 1, 0.0);  // E_B band l at P_B
   for (int l = 0; l <= fmax; ++l)
     for (int c = 0; c < channels; ++c)
-      eb[l] += 4 * kPi / (2 * l + 1) * lband[l * channels + c] * RhoBand(brdf, l, a.p_b, bc(c));
+      eb[l] += 4 * kPi / (2 * l + 1) * lband[l * channels + c] * rho_pb[bc(c) * nlb + l];
   std::vector<double> eb_cum(fmax + 1);
   for (int l = 0; l <= fmax; ++l) eb_cum[l] = eb[l] + (l ? eb_cum[l - 1] : 0.0);
 
@@ -138,17 +159,19 @@ absl::StatusOr<ShrmAnalysis> AnalyzeShrm(int light_lmax, int channels,
     for (int c = 0; c < channels; ++c) {
       double lcap = 0;
       for (int l = 0; l <= std::min(f, light_lmax); ++l) lcap += lband[l * channels + c];
+      const double* pb = &rho_pb[bc(c) * nlb];
+      const double* pmax = &rho_pmax[bc(c) * nlb];
       double rcap = 0;
-      for (int l = 0; l <= std::min(f, brdf.lmax); ++l) rcap += RhoBand(brdf, l, a.p_b, bc(c));
+      for (int l = 0; l <= std::min(f, brdf.lmax); ++l) rcap += pb[l];
       const double lres = std::max(0.0, ltot[c] - lcap);
-      const double rres = std::max(0.0, RhoTotal(brdf, bc(c)) - rcap);
+      const double rres = std::max(0.0, rho_total[bc(c)] - rcap);
       res += 4 * kPi / (2 * f + 3) * lres * rres;
       double computed = 0, worst_weight = 0;
-      for (int l = 0; l <= brdf.lmax; ++l) computed += RhoBand(brdf, l, brdf.pmax, bc(c));
-      const double outside = std::max(0.0, RhoTotal(brdf, bc(c)) - computed);
+      for (int l = 0; l <= brdf.lmax; ++l) computed += pmax[l];
+      const double outside = std::max(0.0, rho_total[bc(c)] - computed);
       for (int l = 0; l <= std::min({f, light_lmax, brdf.lmax}); ++l) {
         const double w = 4 * kPi / (2 * l + 1) * lband[l * channels + c];
-        res += w * (RhoBand(brdf, l, brdf.pmax, bc(c)) - RhoBand(brdf, l, a.p_b, bc(c)));
+        res += w * (pmax[l] - pb[l]);
         worst_weight = std::max(worst_weight, w);
       }
       res += worst_weight * outside;
@@ -165,7 +188,7 @@ absl::StatusOr<ShrmAnalysis> AnalyzeShrm(int light_lmax, int channels,
     ShrmAnalysis::CurvePoint pt;
     pt.f = f;
     pt.light = light_captured(f);
-    pt.brdf = BrdfCapturedFraction(brdf, f, a.p_b);
+    pt.brdf = captured_at_pb(f);
     pt.b = eb_cum[fmax] > 0 ? eb_cum[f] / eb_cum[fmax] : 1.0;
     pt.min_estimate = 1 - std::min(1 - pt.light, 1 - pt.brdf);
     pt.bound = 1 - bound(f);

@@ -649,8 +649,10 @@ void ExpandZonalTexel(const float* w, const float* b, int chunks, const int32_t*
                       const int32_t* w_lane, const int32_t* b_lane, float* out) {
   const __m512 b_lo = _mm512_loadu_ps(b), b_hi = _mm512_loadu_ps(b + 16);
   for (int k = 0; k < chunks; ++k) {
-    const __m512 wv =
-        _mm512_permutexvar_ps(_mm512_loadu_si512(w_lane + 16 * k), _mm512_loadu_ps(w + w_base[k]));
+    // The zero-masking form with every lane kept: the plain intrinsic's _mm512_undefined_ps
+    // trips GCC 12's -Wmaybe-uninitialized once inlined (the same instruction either way).
+    const __m512 wv = _mm512_maskz_permutexvar_ps(0xFFFF, _mm512_loadu_si512(w_lane + 16 * k),
+                                                  _mm512_loadu_ps(w + w_base[k]));
     const __m512 bv = _mm512_permutex2var_ps(b_lo, _mm512_loadu_si512(b_lane + 16 * k), b_hi);
     _mm512_storeu_ps(out + 16 * k, _mm512_mul_ps(wv, bv));
   }
@@ -933,7 +935,6 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildZonalGlobalCube(int face_size, in
   std::vector<double> kp(zonal);
   for (int p = 0; p < zonal; ++p) kp[p] = std::sqrt(4 * kPi / (2 * p + 1));
   const size_t texel_values = static_cast<size_t>(n) * ch;
-  const size_t row_values = static_cast<size_t>(size) * texel_values;
   // A texel's values are out[j] = w[j / ch] b[p(j / ch) ch + j % ch], j < n ch, w[k] =
   // sqrt(4 pi / (2p + 1)) Y_ps(T) (k = ShIndex(p, s)), b = the texel's zonal values. With
   // AVX-512 and (P + 1) ch <= 32 (b in two registers), 16 j at a time: w's window from w[j0 / ch]
@@ -952,37 +953,67 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildZonalGlobalCube(int face_size, in
       b_lane[k * kLanes + i] = p * ch + j % ch;
     }
   }
+  // w of every texel, [texel][k] floats (a row's texels contiguous, kLanes of slack at the end
+  // for the vector path's window loads): kept in the caller's scratch when there is one (it
+  // depends only on S_B and P_B, so a live session's frames compute it once), else made row by
+  // row into a buffer.
+  const size_t texels = static_cast<size_t>(kCubeFaceCount) * size * size;
+  float* w_table = nullptr;
+  bool w_ready = false;
+  if (scratch != nullptr) {
+    w_ready = scratch->zonal_w_face_size == size && scratch->zonal_w_pmax == pm &&
+              scratch->zonal_w.size() == texels * n + kLanes;
+    if (!w_ready) {
+      scratch->zonal_w.assign(texels * n + kLanes, 0.0f);
+      scratch->zonal_w_face_size = size;
+      scratch->zonal_w_pmax = pm;
+    }
+    w_table = scratch->zonal_w.data();
+  }
+  // A row's w: sqrt(4 pi / (2p + 1)) Y_ps(T) (EvalShBatch: y[ShIndex(p, s) * size + x]).
+  auto row_weights = [&](int face, int yy, std::vector<Vec3>& dirs, std::vector<double>& y,
+                         float* w) {
+    for (int x = 0; x < size; ++x)
+      dirs[x] = ShFrameFromWorld(CubeTexelDirection(face, x, yy, size));
+    EvalShBatch(pm, dirs, y);
+    for (int p = 0; p <= pm; ++p)
+      for (int k = p * p; k < (p + 1) * (p + 1); ++k)
+        for (int x = 0; x < size; ++x)
+          w[static_cast<size_t>(x) * n + k] =
+              static_cast<float>(kp[p] * y[static_cast<size_t>(k) * size + x]);
+  };
+  // Texels go to the cube in blocks of kBlock: a block's values (kBlock x n x ch floats, 15.5 KB
+  // at (P, ch) = (8, 3)) are made in a buffer that stays in L1, then streamed (StreamFloats).
+  constexpr int kBlock = 16;
   ParallelChunks(kCubeFaceCount * size, threads, [&](int begin, int end) {
-    // Y_ps of a row's texels at once (EvalShBatch: y[ShIndex(p, s) * size + x]); the row's values
-    // are made in a buffer that stays in cache, then streamed to the cube (StreamFloats). The
-    // buffer and w have a chunk's slack past their ends for the vector path's whole chunks.
     std::vector<Vec3> dirs(size);
     std::vector<double> y(static_cast<size_t>(n) * size);
-    std::vector<float> w(n + kLanes, 0.0f), buffer(row_values + kLanes), bz(32, 0.0f);
+    std::vector<float> w_row(w_table != nullptr ? 0 : static_cast<size_t>(size) * n + kLanes);
+    std::vector<float> buffer(kBlock * texel_values + kLanes), bz(32, 0.0f);
     for (int row = begin; row < end; ++row) {
       const int face = row / size, yy = row % size;
-      for (int x = 0; x < size; ++x)
-        dirs[x] = ShFrameFromWorld(CubeTexelDirection(face, x, yy, size));
-      EvalShBatch(pm, dirs, y);
-      for (int x = 0; x < size; ++x) {
-        const float* b = z.data.data() + z.Index(face, x, yy, 0, 0);
-        float* out = buffer.data() + static_cast<size_t>(x) * texel_values;
-        for (int p = 0; p <= pm; ++p)
-          for (int s = -p; s <= p; ++s)
-            w[ShIndex(p, s)] =
-                static_cast<float>(kp[p] * y[static_cast<size_t>(ShIndex(p, s)) * size + x]);
-        if (vector_path) {
-          std::copy(b, b + zc, bz.begin());
-          ExpandZonalTexel(w.data(), bz.data(), chunks, w_base.data(), w_lane.data(), b_lane.data(),
-                           out);
-          continue;
+      float* w = w_table != nullptr ? w_table + static_cast<size_t>(row) * size * n : w_row.data();
+      if (!w_ready) row_weights(face, yy, dirs, y, w);
+      float* dst = cube.data.data() + cube.Index(face, 0, yy, 0, 0);
+      for (int x0 = 0; x0 < size; x0 += kBlock) {
+        const int count = std::min(kBlock, size - x0);
+        for (int i = 0; i < count; ++i) {
+          const int x = x0 + i;
+          const float* b = z.data.data() + z.Index(face, x, yy, 0, 0);
+          const float* wx = w + static_cast<size_t>(x) * n;
+          float* out = buffer.data() + static_cast<size_t>(i) * texel_values;
+          if (vector_path) {
+            std::copy(b, b + zc, bz.begin());
+            ExpandZonalTexel(wx, bz.data(), chunks, w_base.data(), w_lane.data(), b_lane.data(),
+                             out);
+            continue;
+          }
+          for (int p = 0; p <= pm; ++p)
+            for (int k = p * p; k < (p + 1) * (p + 1); ++k)
+              for (int c = 0; c < ch; ++c) out[k * ch + c] = wx[k] * b[p * ch + c];
         }
-        for (int p = 0; p <= pm; ++p)
-          for (int k = p * p; k < (p + 1) * (p + 1); ++k)
-            for (int c = 0; c < ch; ++c) out[k * ch + c] = w[k] * b[p * ch + c];
+        internal::StreamFloats(buffer.data(), count * texel_values, dst + x0 * texel_values);
       }
-      internal::StreamFloats(buffer.data(), row_values,
-                             cube.data.data() + cube.Index(face, 0, yy, 0, 0));
     }
   });
   work.zonal = std::move(z.data);

@@ -52,6 +52,10 @@ struct SynthesisScratch {
   ShtScratch sht;
   // The zonal path's per-texel q = 0 coefficients (BuildCube, tangent reparameterization).
   std::vector<float> zonal;
+  // The zonal path's per-texel sqrt(4 pi / (2p + 1)) Y_ps(T) for the cube of zonal_w_face_size
+  // and zonal_w_pmax (they depend on nothing else): made by the first cube, reused by the next.
+  std::vector<float> zonal_w;
+  int zonal_w_face_size = 0, zonal_w_pmax = -1;
   // A released cube's storage (e.g. a live frame no longer held): BuildCube takes it for its
   // output when its capacity suffices (every value is written again), instead of zero-filling
   // a fresh buffer. Left empty once taken.
