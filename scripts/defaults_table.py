@@ -28,7 +28,8 @@ misses the tolerance in estimated front RMS (there auto also chooses in the view
 keeps the smaller estimate; elsewhere it is the normal row itself), and the table takes its
 rows from it.
 
-`default` runs the default job on all 28 view-dependent rows (session 22: the normal variable's
+`default` runs the default job on all 28 view-dependent rows (`--verify N`: its check at N pairs
+instead of 256; session 25 reran it at 2048 to see how the figures move with the sample) (session 22: the normal variable's
 C^1 extension, the batched estimate), and `default-table` prints its table beside session 21's
 default of each row (its auto row where auto ran, else the normal row), or with `--before
 OLD.json --before-label NAME` beside an earlier `default` run (session 23: `--json
@@ -268,6 +269,7 @@ def cmd_normal_table(args):
 
 
 def main(argv):
+    global VERIFY
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("run")
@@ -284,6 +286,8 @@ def main(argv):
     d = sub.add_parser("default")
     d.add_argument("--shrm", default=os.path.join(ROOT, "build", "cli", "shrm"))
     d.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "defaults_s22.json"))
+    d.add_argument("--verify", type=int, default=256,
+                   help="the job's check pairs (default %(default)s; session 25's recheck: 2048)")
     dt = sub.add_parser("default-table")
     dt.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "defaults_s22.json"))
     dt.add_argument("--before", help="an earlier `default` JSON to compare with (default: "
@@ -295,6 +299,7 @@ def main(argv):
     t = sub.add_parser("normal-table")
     t.add_argument("--json", default=os.path.join(ROOT, "docs", "data", "defaults_normal.json"))
     args = ap.parse_args(argv)
+    VERIFY = getattr(args, "verify", 256)
     {"run": cmd_run, "normal": cmd_normal, "auto": cmd_auto, "default": cmd_default,
      "default-table": cmd_default_table, "normal-table": cmd_normal_table,
      "table": cmd_table}[args.cmd](args)
