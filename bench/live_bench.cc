@@ -323,31 +323,11 @@ ShrmSynthesizer FixedSynthesizer(int f, int p, bool tangent) {
   return OrDie(ShrmSynthesizer::Create(f, 3, light, rho), "creating the synthesizer");
 }
 
-void BM_SynthesisGlobal(benchmark::State& state) {
+// The global cube of FixedSynthesizer(F, P, tangent) per iteration, the grid and the cube's
+// storage reused as in a live session (SynthesisScratch with the previous cube's buffer).
+void TimeGlobalCubes(benchmark::State& state, bool tangent) {
   const ShrmSynthesizer synth =
-      FixedSynthesizer(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)), false);
-  SynthesisScratch scratch;  // the grid and the cube's storage reused, as in a live session
-  ShrmGridOptions options;
-  options.scratch = &scratch;
-  for (auto _ : state) {
-    ShrmCube cube = OrDie(synth.BuildCube(ShrmKind::kGlobal, kFaceSize, options), "synthesis");
-    benchmark::DoNotOptimize(cube.data.data());
-    scratch.cube = std::move(cube.data);
-  }
-}
-BENCHMARK(BM_SynthesisGlobal)
-    ->Args({14, 5})
-    ->Args({22, 2})
-    ->Args({21, 2})
-    ->Unit(benchmark::kMillisecond)
-    ->UseRealTime();
-
-// Kajiya-Kay's synthesis alone: a global SHRM of tangent-reparameterized coefficients (q = 0
-// only: the zonal path, BuildZonalGlobalCube) at its analysed (9, 8), its storage reused as the
-// live session reuses it (SynthesisScratch with the previous cube's buffer).
-void BM_SynthesisZonal(benchmark::State& state) {
-  const ShrmSynthesizer synth =
-      FixedSynthesizer(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)), true);
+      FixedSynthesizer(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)), tangent);
   SynthesisScratch scratch;
   ShrmGridOptions options;
   options.scratch = &scratch;
@@ -357,6 +337,19 @@ void BM_SynthesisZonal(benchmark::State& state) {
     scratch.cube = std::move(cube.data);
   }
 }
+
+void BM_SynthesisGlobal(benchmark::State& state) { TimeGlobalCubes(state, false); }
+BENCHMARK(BM_SynthesisGlobal)
+    ->Args({14, 5})
+    ->Args({22, 2})
+    ->Args({21, 2})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// Kajiya-Kay's synthesis alone: a global SHRM of tangent-reparameterized coefficients (q = 0
+// only: the zonal path, BuildZonalGlobalCube) at its analysed (9, 8), its storage reused as the
+// live session reuses it.
+void BM_SynthesisZonal(benchmark::State& state) { TimeGlobalCubes(state, true); }
 BENCHMARK(BM_SynthesisZonal)->Args({9, 8})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace

@@ -674,8 +674,9 @@ void SeparableCoefficients(const Brdf& brdf, int lmax, int pmax, const BrdfSampl
     accumulate(ro.theta[k]);
     // N.V: cos theta_n' (kNormal), cos(theta_o' / 2) (kView).
     InverseFresnel(*out, normal ? ro.cos_theta[k] : std::cos(0.5 * ro.theta[k]), inv_f.data());
-    for (int c = 0; c < channels; ++c)
-      energy[c] += ro.weight[k] * energy_k[c] * inv_f[c] * inv_f[c];
+    if (flat_energy)
+      for (int c = 0; c < channels; ++c)
+        energy[c] += ro.weight[k] * energy_k[c] * inv_f[c] * inv_f[c];
     // kNormal: the rule's weights are those of [-1, 1] on [0, 1], W of AddViewNode.
     AddViewNode(scale * ro.weight[k], &lam_o[static_cast<size_t>(k) * nq * np], acc, acc_eq,
                 ro.sin_theta[k], inv_f.data(), inv_e.data(), qmax, out);
