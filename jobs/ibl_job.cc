@@ -397,7 +397,7 @@ absl::StatusOr<IblRun> RunIblJobOnMap(const IblJob& job, const EnvMap& map,
   SHRM_ASSIGN_OR_RETURN(const ibl::SplitSumSetOptions options, IblSplitSumSetOptions(job));
   if (progress) SHRM_RETURN_IF_ERROR(progress("lighting"));
   SHRM_ASSIGN_OR_RETURN(const ibl::SpecularLight light,
-                        ibl::ComputeSpecularLight(map, rotation, 0, threads));
+                        ibl::ComputeSplitSumLight(map, rotation, options, threads));
   run.timings.push_back({"lighting", MsSince(t0)});
   SHRM_ASSIGN_OR_RETURN(
       ibl::SplitSumSet set,

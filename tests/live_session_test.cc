@@ -5,7 +5,7 @@
 // worker while updates arrive), not by timing; errors are frames, and the next update recovers.
 // On courtyard.exr box-downsampled to 256 x 128 (it resolves degree 127, above every F_rho here).
 // A session with split-sum options also hands out the split-sum set of each lighting state: equal,
-// bit for bit, to the offline PrefilterSplitSumSet of ComputeSpecularLight (what `shrm ibl`
+// bit for bit, to the offline PrefilterSplitSumSet of ComputeSplitSumLight (what `shrm ibl`
 // computes, tested against the brute-force pixel sum in tests/split_sum_test.cc), recomputed when
 // the lighting changes and reused when only the material does.
 #include "core/live/live_session.h"
@@ -288,7 +288,7 @@ ibl::SplitSumSetOptions SplitSumOptions() {
 ibl::SplitSumSet OfflineSplitSum(const Mat3& rotation) {
   const int threads = SessionOptions().threads;
   absl::StatusOr<ibl::SpecularLight> light =
-      ibl::ComputeSpecularLight(*Courtyard(), rotation, 0, threads);
+      ibl::ComputeSplitSumLight(*Courtyard(), rotation, SplitSumOptions(), threads);
   EXPECT_TRUE(light.ok()) << light.status();
   if (!light.ok()) return {};
   absl::StatusOr<ibl::SplitSumSet> set =

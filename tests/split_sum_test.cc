@@ -330,6 +330,82 @@ TEST(SplitSumTest, EveryLevelMatchesThePixelSumOnTheBundledMaps) {
   }
 }
 
+// The light `shrm ibl` uses stops at the degree its lobes need (SplitSumLightDegree), not at the
+// map's 511. Checked against the transform to the map's full degree on the bundled maps: the
+// moments are that transform's E_0 and bound its energy (Parseval), what the chosen degree leaves
+// out of every level is within its share of the tolerance and below the bound the chain counts,
+// and each level's degree drops no more than its tolerance of the full spectrum.
+TEST(SplitSumTest, SplitSumLightDegreeBoundsWhatItLeavesOut) {
+  // E_0 from the pixels against the transform's constant band: the same sum in another order.
+  constexpr double kMomentTol = 1e-9;
+  // The chain's tail, total - (running sum), carries the rounding of ~F additions of terms up
+  // to the total: 1e-13 of the total covers F <= 511 (511 x 2^-53 = 5.7e-14).
+  constexpr double kTailRounding = 1e-13;
+  for (const char* name : kMaps) {
+    for (const bool sheen : {false, true}) {
+      auto map = LoadBundled(name);
+      ASSERT_TRUE(map.ok()) << map.status();
+      SplitSumSetOptions options;
+      options.chain = *MakeMipChain(RoughnessPreset::kFilament, 256, 0);
+      options.tolerance = 1e-3 / 30;  // the job's default (jobs/ibl_job.h)
+      options.sheen = sheen;
+      auto full = ComputeSpecularLight(*map, Mat3::Identity(), 0, 1);
+      ASSERT_TRUE(full.ok()) << full.status();
+      const LightMoments moments = MapLightMoments(*map);
+      ASSERT_TRUE(moments.known);
+      EXPECT_NEAR(moments.e0, full->energy[0], kMomentTol * full->energy[0]) << name;
+      double sum_all = 0;
+      for (double e : full->energy) sum_all += e;
+      EXPECT_GE(moments.total, sum_all) << name << ": Parseval";
+      const int d = SplitSumLightDegree(*map, Mat3::Identity(), options, moments);
+      ASSERT_GE(d, 0);
+      ASSERT_LE(d, full->degree);
+      auto light = ComputeSplitSumLight(*map, Mat3::Identity(), options, 1);
+      ASSERT_TRUE(light.ok()) << light.status();
+      ASSERT_EQ(light->degree, d);
+      for (int l = 0; l <= d; ++l) {
+        ASSERT_NEAR(light->energy[l], full->energy[l], 1e-9 * full->energy[l] + 1e-300)
+            << name << " l " << l;
+      }
+      std::printf("%-14s sheen %d: light degree %d of %d\n", name, sheen, d, full->degree);
+      // Courtyard's spectrum falls fast enough for the GGX and Lambert lobes to stop well short.
+      if (std::string(name) == "courtyard.exr" && !sheen) EXPECT_LT(d, full->degree - 64);
+      const auto check = [&](SpecularLobe lobe, const MipChain& chain) {
+        SpecularOptions opt;
+        opt.lobe = lobe;
+        opt.chain = chain;
+        opt.tolerance = options.tolerance;
+        auto got = PrefilterSpecular(*map, opt, &*light);
+        ASSERT_TRUE(got.ok()) << got.status();
+        for (const SpecularLevel& level : got->levels) {
+          if (level.alpha == 0) continue;
+          const std::vector<double> g = SplitSumZonal(lobe, level.alpha, full->degree);
+          double total = 0, above_d = 0, above_f = 0;
+          for (int l = 0; l <= full->degree; ++l) {
+            const double t = g[l] * g[l] * full->energy[l];
+            total += t;
+            if (l > d) above_d += t;
+            if (l > level.degree) above_f += t;
+          }
+          const double tol2 = options.tolerance * options.tolerance;
+          EXPECT_LE(above_d, kLightTailShare * tol2 * total)
+              << name << " " << SpecularLobeName(lobe) << " r " << level.roughness;
+          EXPECT_LE(above_f, tol2 * total)
+              << name << " " << SpecularLobeName(lobe) << " r " << level.roughness;
+          // The reported estimate counts the bound, so it is not below the true tail.
+          EXPECT_GE(level.truncation_estimate * level.truncation_estimate + kTailRounding,
+                    above_f / total)
+              << name << " " << SpecularLobeName(lobe) << " r " << level.roughness;
+        }
+      };
+      check(SpecularLobe::kGgx, options.chain);
+      if (sheen) check(SpecularLobe::kCharlie, options.chain);
+      const double one[] = {1.0};
+      check(SpecularLobe::kLambert, *MakeMipChain(RoughnessPreset::kExplicit, 32, 1, one));
+    }
+  }
+}
+
 TEST(SplitSumTest, BaseLevelIsTheMapAtEveryTexelCentre) {
   // The base level's table-driven lookups against the test's own bilinear lookup at every texel
   // of every face (the angles agree to the rounding of the direction's normalization), without

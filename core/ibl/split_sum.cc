@@ -542,13 +542,16 @@ int SpecularLightDegree(const EnvMap& map, const Mat3& rotation, int max_degree)
 }
 
 absl::StatusOr<SpecularLight> SpecularLightFromCoefficients(int degree, const Mat3& rotation,
-                                                            std::vector<double> unrotated) {
+                                                            std::vector<double> unrotated,
+                                                            int map_degree, double total_energy) {
   if (degree < 0 || unrotated.size() != static_cast<size_t>(ShCount(degree)) * 3) {
     return absl::InvalidArgumentError(
         absl::StrCat("IBL: ", unrotated.size(), " coefficients for degree ", degree));
   }
   SpecularLight light;
   light.degree = degree;
+  light.map_degree = std::max(degree, map_degree);
+  light.total_energy = total_energy;
   light.rotation = rotation;
   light.coeffs = std::move(unrotated);
   // As LightingCoefficients does after its transform.
@@ -577,7 +580,76 @@ absl::StatusOr<SpecularLight> ComputeSpecularLight(const EnvMap& map, const Mat3
   auto coeffs =
       LightingCoefficients(map, limit, Mat3::Identity(), threads, ShtQuadrature::kPixelSum);
   if (!coeffs.ok()) return coeffs.status();
-  return SpecularLightFromCoefficients(limit, rotation, std::move(coeffs).value());
+  const int map_degree = SpecularLightDegree(map, rotation, 0);
+  const LightMoments moments = limit < map_degree ? MapLightMoments(map) : LightMoments{};
+  return SpecularLightFromCoefficients(limit, rotation, std::move(coeffs).value(), map_degree,
+                                       moments.total);
+}
+
+LightMoments MapLightMoments(const EnvMap& map) {
+  LightMoments out;
+  const Image* img = map.lat_long_image();
+  if (img == nullptr || img->width < 1 || img->height < 1 || img->channels < 3) return out;
+  const RingQuadrature rule = FejerFirstRule(img->height);
+  const size_t w = static_cast<size_t>(img->width);
+  double sum = 0, sum_sq = 0;
+  for (int j = 0; j < img->height; ++j) {
+    const float* row = img->pixels.data() + static_cast<size_t>(j) * w * img->channels;
+    double s = 0, s2 = 0;
+    for (size_t i = 0; i < w; ++i) {
+      const float* px = row + i * img->channels;
+      const double y = kLuma[0] * px[0] + kLuma[1] * px[1] + kLuma[2] * px[2];
+      s += y;
+      s2 += y * y;
+    }
+    const double weight = 2 * kPi / static_cast<double>(w) * rule.weight[j];
+    sum += weight * s;
+    sum_sq += weight * s2;
+  }
+  out.known = true;
+  out.e0 = sum * sum / (4 * kPi);
+  out.total = sum_sq;
+  return out;
+}
+
+int SplitSumLightDegree(const EnvMap& map, const Mat3& rotation, const SplitSumSetOptions& options,
+                        const LightMoments& moments) {
+  const int limit = SpecularLightDegree(map, rotation, 0);
+  if (!moments.known || !(moments.e0 > 0) || !(options.tolerance > 0)) return limit;
+  const double spread = std::max(0.0, moments.total - moments.e0);
+  const double budget = kLightTailShare * options.tolerance * options.tolerance * moments.e0;
+  int need = 0;
+  const auto lobe_needs = [&](SpecularLobe lobe, double alpha) {
+    if (!(alpha > 0) || need >= limit) return;
+    const std::vector<double> g = SplitSumZonal(lobe, alpha, limit);
+    // The smallest d with max_{d < j <= limit} g_j^2 spread <= budget: from the top down.
+    double largest = 0;
+    int d = limit;
+    for (int j = limit; j > need; --j) {
+      largest = std::max(largest, g[j] * g[j]);
+      if (largest * spread > budget) break;
+      d = j - 1;
+    }
+    need = std::max(need, d);
+  };
+  for (double r : options.chain.roughness) lobe_needs(SpecularLobe::kGgx, r * r);
+  if (options.sheen) {
+    for (double r : options.chain.roughness) lobe_needs(SpecularLobe::kCharlie, r * r);
+  }
+  lobe_needs(SpecularLobe::kLambert, 1.0);
+  return std::min(need, limit);
+}
+
+absl::StatusOr<SpecularLight> ComputeSplitSumLight(const EnvMap& map, const Mat3& rotation,
+                                                   const SplitSumSetOptions& options, int threads) {
+  if (threads < 1) return absl::InvalidArgumentError(absl::StrCat("IBL: threads = ", threads));
+  const LightMoments moments = MapLightMoments(map);
+  const int degree = SplitSumLightDegree(map, rotation, options, moments);
+  auto coeffs =
+      LightingCoefficients(map, degree, Mat3::Identity(), threads, ShtQuadrature::kPixelSum);
+  if (!coeffs.ok()) return coeffs.status();
+  return SpecularLightFromCoefficients(degree, rotation, std::move(coeffs).value(),
+                                       SpecularLightDegree(map, rotation, 0), moments.total);
 }
 
 absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const SpecularOptions& options,
@@ -650,22 +722,36 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
       out.levels.push_back(std::move(level));
       continue;
     }
-    const std::vector<double> g = SplitSumZonal(options.lobe, level.alpha, limit);
+    // g to the map's own degree when the light stops short of it (the bound of what lies above).
+    const int top = light->total_energy > 0 ? std::max(limit, light->map_degree) : limit;
+    const std::vector<double> g = SplitSumZonal(options.lobe, level.alpha, top);
     const std::vector<double>& energy = light->energy;
+    double total = 0, kept = 0;
+    for (int l = 0; l <= limit; ++l) {
+      total += g[l] * g[l] * energy[l];
+      kept += energy[l];
+    }
+    // The dropped energy above `limit`, bounded (SplitSumLightDegree): the map's energy there
+    // times the largest g_j^2 it may meet.
+    double above = 0;
+    if (top > limit) {
+      double largest = 0;
+      for (int j = limit + 1; j <= top; ++j) largest = std::max(largest, g[j] * g[j]);
+      above = largest * std::max(0.0, light->total_energy - kept);
+    }
     // Smallest F whose dropped energy is within tolerance^2 of the total.
-    double total = 0;
-    for (int l = 0; l <= limit; ++l) total += g[l] * g[l] * energy[l];
     double tail = total;
     int f = limit;
     for (int l = 0; l <= limit; ++l) {
       tail -= g[l] * g[l] * energy[l];
-      if (tail <= options.tolerance * options.tolerance * total) {
+      if (tail + above <= options.tolerance * options.tolerance * total) {
         f = l;
         break;
       }
     }
     level.degree = f;
-    level.truncation_estimate = total > 0 ? std::sqrt(std::max(0.0, tail) / total) : 0.0;
+    level.truncation_estimate =
+        total > 0 ? std::sqrt(std::max(0.0, tail) + above) / std::sqrt(total) : 0.0;
     BrdfCoefficients zonal;
     zonal.lmax = f;
     zonal.pmax = 0;

@@ -42,10 +42,12 @@
 // The base level (r = 0) is the map itself, resampled bilinearly at the texel centres (what both
 // tools do); a level with r > 0 but a lobe narrower than its texels is still convolved.
 //
-// Degree per level: the map's coefficients L_lm up to the largest degree the map resolves
-// (ShtMaxDegree of its lat-long grid, e.g. 511 for 1024 x 512) are computed once; level k uses
-// the smallest F_k whose dropped energy sum_{l > F} g_l^2 E_l (E_l = sum_m |L_lm|^2, luminance)
-// is at most tolerance^2 of the level's total sum_l g_l^2 E_l, i.e. an RMS over the sphere of
+// Degree per level: the map's coefficients L_lm are computed once, up to the largest degree the
+// map resolves (ShtMaxDegree of its lat-long grid, e.g. 511 for 1024 x 512) or, for a split-sum
+// set, up to the degree D its lobes need (SplitSumLightDegree: the energy above D bounded by
+// Parseval's identity from the pixels); level k uses the smallest F_k <= D whose dropped energy,
+// sum_{F < l <= D} g_l^2 E_l (E_l = sum_m |L_lm|^2, luminance) plus the bound of what lies above
+// D, is at most tolerance^2 of the level's total sum_l g_l^2 E_l, i.e. an RMS over the sphere of
 // at most `tolerance` relative to the level's RMS radiance (reported per level as
 // truncation_estimate). The per-direction error is measured against SplitSumReference() in
 // tests/split_sum_test.cc and docs/ibl.md.
@@ -209,6 +211,13 @@ struct SpecularLight {
   Mat3 rotation = Mat3::Identity();
   std::vector<double> coeffs;  // L_lm, coeffs[ShIndex(l, m) * 3 + c]
   std::vector<double> energy;  // E_l = sum_m |luminance L_lm|^2
+  // What lies above `degree` when the light stops short of what the map resolves: the degree
+  // the map resolves (SpecularLightDegree without a cap; = degree when nothing is left out) and
+  // the luminance energy of the whole map, LightMoments::total (0: not known, nothing is assumed
+  // above `degree`). PrefilterSpecular bounds each level's dropped energy above `degree` by
+  // max_{degree < j <= map_degree} g_j^2 (total_energy - sum_l energy[l]).
+  int map_degree = 0;
+  double total_energy = 0;
 };
 absl::StatusOr<SpecularLight> ComputeSpecularLight(const EnvMap& map, const Mat3& rotation,
                                                    int max_degree, int threads);
@@ -216,10 +225,28 @@ absl::StatusOr<SpecularLight> ComputeSpecularLight(const EnvMap& map, const Mat3
 int SpecularLightDegree(const EnvMap& map, const Mat3& rotation, int max_degree);
 // The light of coefficients already computed: `unrotated` are the map's L_lm to `degree`
 // (LightingCoefficients with kPixelSum, unrotated), rotated here by `rotation` (RotateLighting);
-// with the energy per degree. Equal, bit for bit, to ComputeSpecularLight of the same map at that
-// degree (a live session keeps the unrotated coefficients and turns them per frame).
+// with the energy per degree, and SpecularLight::map_degree / total_energy as given (map_degree
+// < degree: taken as `degree`). Equal, bit for bit, to ComputeSpecularLight (or
+// ComputeSplitSumLight) of the same map at that degree (a live session keeps the unrotated
+// coefficients and turns them per frame).
 absl::StatusOr<SpecularLight> SpecularLightFromCoefficients(int degree, const Mat3& rotation,
-                                                            std::vector<double> unrotated);
+                                                            std::vector<double> unrotated,
+                                                            int map_degree = 0,
+                                                            double total_energy = 0);
+
+// The luminance moments of a lat-long map's pixels under the forward transform's own quadrature
+// (ShtQuadrature::kPixelSum, the Fejer-1 rule: weight (2 pi / W) w_j per pixel of ring j):
+// e0 = (sum Y w)^2 / (4 pi), the energy E_0 of the constant band, and total = sum Y^2 w, by
+// Parseval's identity the sum of E_l over every degree the pixels hold (measured on the bundled
+// maps: sum_{l <= 511} E_l is 93-99.9% of it; the rest lies above the map's degree). Rotations
+// change neither. known = false for other layouts, whose transform runs on a lat-long grid
+// resampled inside LightingCoefficients.
+struct LightMoments {
+  bool known = false;
+  double e0 = 0;
+  double total = 0;
+};
+LightMoments MapLightMoments(const EnvMap& map);
 
 // The prefiltered mip chain, from `light` when given (its rotation must be options.rotation; the
 // base level is resampled from `map`). Errors: InvalidArgument for a bad chain, tolerance,
@@ -243,6 +270,24 @@ struct SplitSumSet {
   // unwindowed.
   std::vector<double> radiance_sh9;
 };
+// The smallest degree D of the map's coefficients that a split-sum set needs, so that the map
+// need not be transformed to the largest degree it resolves (for a 1024 x 512 map, 511: 23 ms
+// on one core) when the set's lobes drop its high bands anyway: for every level with alpha > 0
+// of the set's chains (GGX, Charlie when options.sheen, the Lambert irradiance), the bound of its
+// energy above D, max_{D < j <= limit} g_j^2 (total - e0), is at most kLightTailShare x
+// tolerance^2 of e0 (which no level's total is below, g_0 = 1). The level's degree is then chosen
+// with the bound counted as dropped energy (PrefilterSpecular). `limit`, returned when the
+// moments are not known, is SpecularLightDegree(map, rotation, 0). Measured (tolerance 1e-3 /
+// 30, the job's default, Filament chain from 256): courtyard 392 of 511; city and interior keep
+// 510-511 (their sun's energy and the horizon kink of the roughest lobes reach every band).
+inline constexpr double kLightTailShare = 0.1;
+int SplitSumLightDegree(const EnvMap& map, const Mat3& rotation, const SplitSumSetOptions& options,
+                        const LightMoments& moments);
+// ComputeSpecularLight to SplitSumLightDegree, with the moments' total energy: the light `shrm
+// ibl` uses.
+absl::StatusOr<SpecularLight> ComputeSplitSumLight(const EnvMap& map, const Mat3& rotation,
+                                                   const SplitSumSetOptions& options, int threads);
+
 // The set from `light` (the map's, with its rotation; the base levels are resampled from `map`).
 // `progress` (optional) is called at the start of each stage ("specular", ["sheen"],
 // "irradiance"; its error stops the call) and `timings` (optional) gets each stage's time.

@@ -338,8 +338,11 @@ absl::Status LiveSession::ComputeSplitSum(const State& state, const LiveFrame* p
   if (split_sum_map_ != state.map) {  // one map (its pointer keeps it alive)
     split_sum_unrotated_.clear();
     split_sum_map_ = state.map;
+    split_sum_moments_ = ibl::MapLightMoments(*state.map);
   }
-  const int degree = ibl::SpecularLightDegree(*state.map, state.rotation, 0);
+  // The degree `shrm ibl` uses (ibl::ComputeSplitSumLight): what the set's lobes need.
+  const int degree =
+      ibl::SplitSumLightDegree(*state.map, state.rotation, *split_sum_, split_sum_moments_);
   auto it = split_sum_unrotated_.find(degree);
   if (it == split_sum_unrotated_.end()) {
     SHRM_ASSIGN_OR_RETURN(std::vector<double> unrotated,
@@ -349,8 +352,11 @@ absl::Status LiveSession::ComputeSplitSum(const State& state, const LiveFrame* p
              .emplace(degree, std::make_shared<const std::vector<double>>(std::move(unrotated)))
              .first;
   }
-  SHRM_ASSIGN_OR_RETURN(const ibl::SpecularLight light,
-                        ibl::SpecularLightFromCoefficients(degree, state.rotation, *it->second));
+  SHRM_ASSIGN_OR_RETURN(
+      const ibl::SpecularLight light,
+      ibl::SpecularLightFromCoefficients(degree, state.rotation, *it->second,
+                                         ibl::SpecularLightDegree(*state.map, state.rotation, 0),
+                                         split_sum_moments_.total));
   clock.End();
   SHRM_ASSIGN_OR_RETURN(ibl::SplitSumSet set,
                         ibl::PrefilterSplitSumSet(*state.map, light, *split_sum_, options_.threads,
