@@ -363,6 +363,46 @@ TEST(EnvMapLatLong, SamplesUseFejerRingWeightsAndToLatLong) {
   EXPECT_FALSE(src.ToLatLong(101).ok());
 }
 
+// Across the seam (azimuth +-pi) the lookup blends the last and the first column, as the
+// written-out bilinear weights say; an azimuth turned by whole turns looks up the same place; the
+// batched lookup equals the single one.
+TEST(EnvMapLatLong, BilinearWrapsTheSeamAndWholeTurns) {
+  const Image& in = Courtyard256();
+  const EnvMap src = EnvMap::FromLatLong(in);
+  const int w = in.width, j = 40;
+  const double theta = kPi * (j + 0.5) / in.height;
+  // x = 0.25 past the last column's centre: 3/4 of column w - 1 and 1/4 of column 0.
+  for (const double x : {w - 0.75, -0.75}) {
+    const double p = 2 * kPi * ((x + 0.5) / w - 0.5);
+    const std::array<float, 3> got = src.LatLongRadianceAt(theta, p);
+    const double ax = x - std::floor(x);
+    const int x0 = (static_cast<int>(std::floor(x)) + w) % w, x1 = (x0 + 1) % w;
+    for (int c = 0; c < 3; ++c) {
+      const double want = (1 - ax) * in.at(x0, j, c) + ax * in.at(x1, j, c);
+      EXPECT_NEAR(got[c], want, kPixelCentreRelTol * want) << "x " << x << " c " << c;
+    }
+  }
+  std::vector<double> thetas, phis;
+  for (int k = -3; k <= 3; ++k) {
+    const double p = 0.3 + 2 * kPi * k;
+    const std::array<float, 3> turned = src.LatLongRadianceAt(theta, p);
+    const std::array<float, 3> base = src.LatLongRadianceAt(theta, 0.3);
+    for (int c = 0; c < 3; ++c) {
+      // The turns shift x by whole widths, changing its rounding only (~1e-13 of a pixel).
+      EXPECT_NEAR(turned[c], base[c], kPixelCentreRelTol * base[c]) << "turns " << k;
+    }
+    thetas.push_back(theta + 0.01 * k);
+    phis.push_back(p);
+  }
+  std::vector<float> batch(3 * thetas.size());
+  src.LatLongRadianceAt(thetas.data(), phis.data(), 0.125, static_cast<int>(thetas.size()),
+                        batch.data());
+  for (size_t k = 0; k < thetas.size(); ++k) {
+    const std::array<float, 3> one = src.LatLongRadianceAt(thetas[k], phis[k] + 0.125);
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(batch[3 * k + c], one[c]) << k;
+  }
+}
+
 // --- Lighting coefficients -----------------------------------------------------------------
 
 TEST(EnvMapLighting, CubeResampledShtAgreesWithDirectSummation) {

@@ -369,7 +369,9 @@ TEST(SplitSumTest, SplitSumLightDegreeBoundsWhatItLeavesOut) {
       }
       std::printf("%-14s sheen %d: light degree %d of %d\n", name, sheen, d, full->degree);
       // Courtyard's spectrum falls fast enough for the GGX and Lambert lobes to stop well short.
-      if (std::string(name) == "courtyard.exr" && !sheen) EXPECT_LT(d, full->degree - 64);
+      if (std::string(name) == "courtyard.exr" && !sheen) {
+        EXPECT_LT(d, full->degree - 64);
+      }
       const auto check = [&](SpecularLobe lobe, const MipChain& chain) {
         SpecularOptions opt;
         opt.lobe = lobe;

@@ -168,8 +168,10 @@ std::array<float, 3> Bilinear(const Image& img, double x, double y, bool wrap_x)
   int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
   int x1 = x0 + 1, y1 = std::min(y0 + 1, h - 1);
   if (wrap_x) {
-    x0 = ((x0 % w) + w) % w;
-    x1 = ((x1 % w) + w) % w;
+    // x0 is almost always in [-1, w - 1] (an azimuth in [-pi, pi]): compares instead of integer
+    // divisions, which took most of a lookup's time.
+    x0 = x0 >= 0 && x0 < w ? x0 : x0 < 0 && x0 >= -w ? x0 + w : ((x0 % w) + w) % w;
+    x1 = x0 + 1 < w ? x0 + 1 : 0;
   } else {
     x1 = std::min(x1, w - 1);
   }
@@ -486,6 +488,19 @@ std::array<float, 3> EnvMap::LatLongRadianceAt(double theta, double p) const {
   const double x = (p / (2 * kPi) + 0.5) * img.width - 0.5;
   const double y = theta / kPi * img.height - 0.5;
   return Bilinear(img, x, y, /*wrap_x=*/true);
+}
+
+void EnvMap::LatLongRadianceAt(const double* theta, const double* phi, double phi_offset, int n,
+                               float* out) const {
+  const Image& img = images_[0];
+  for (int k = 0; k < n; ++k) {
+    const double x = ((phi[k] + phi_offset) / (2 * kPi) + 0.5) * img.width - 0.5;
+    const double y = theta[k] / kPi * img.height - 0.5;
+    const std::array<float, 3> v = Bilinear(img, x, y, /*wrap_x=*/true);
+    out[3 * k] = v[0];
+    out[3 * k + 1] = v[1];
+    out[3 * k + 2] = v[2];
+  }
 }
 
 std::array<float, 3> EnvMap::CubeRadiance(const Vec3& d) const {

@@ -161,6 +161,10 @@ class EnvMap {
   // (the angles Radiance() computes from a direction; docs/conventions.md), for callers that
   // have them already (layout() must be kLatLong).
   std::array<float, 3> LatLongRadianceAt(double theta, double phi) const;
+  // The same at n points, theta[k] and phi[k] + phi_offset, into out[3 k .. 3 k + 2]: equal to
+  // LatLongRadianceAt point by point (one call per row of a cube face instead of one per texel).
+  void LatLongRadianceAt(const double* theta, const double* phi, double phi_offset, int n,
+                         float* out) const;
 
  private:
   EnvMap() = default;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <optional>
 #include <random>
 
@@ -146,18 +147,15 @@ void ResampleLatLongBase(const EnvMap& map, int s, int threads, double phi_offse
     for (int row = begin; row < end; ++row) {
       const int face = row / s, y = row % s;
       const int side = face == kPosX ? 0 : face == kNegX ? 1 : face == kPosZ ? 2 : 3;
-      for (int x = 0; x < s; ++x) {
-        const size_t i = static_cast<size_t>(y) * s + x;
-        std::array<float, 3> v;
-        if (face == kPosY) {
-          v = map.LatLongRadianceAt(up_theta[i], up_phi[i] + phi_offset);
-        } else if (face == kNegY) {
-          v = map.LatLongRadianceAt(down_theta[i], down_phi[i] + phi_offset);
-        } else {
-          v = map.LatLongRadianceAt(side_theta[i],
-                                    side_phi[static_cast<size_t>(side) * s + x] + phi_offset);
-        }
-        for (int c = 0; c < 3; ++c) cube.data[cube.Index(face, x, y, c)] = v[c];
+      const size_t i = static_cast<size_t>(y) * s;
+      float* out = cube.data.data() + cube.Index(face, 0, y, 0);
+      if (face == kPosY) {
+        map.LatLongRadianceAt(&up_theta[i], &up_phi[i], phi_offset, s, out);
+      } else if (face == kNegY) {
+        map.LatLongRadianceAt(&down_theta[i], &down_phi[i], phi_offset, s, out);
+      } else {
+        map.LatLongRadianceAt(&side_theta[i], &side_phi[static_cast<size_t>(side) * s], phi_offset,
+                              s, out);
       }
     }
   });
@@ -373,7 +371,58 @@ std::array<double, 3> SplitSumReference(const EnvMap& map, SpecularLobe lobe, do
   return {sum[0] / norm, sum[1] / norm, sum[2] / norm};
 }
 
+namespace {
+
+// The bounding cone of `n` unit directions (float-rounded members) with `sum` their sum.
+template <typename Cone, typename DirAt>
+Cone BoundingCone(const Vec3& sum, int n, DirAt dir_at) {
+  Cone cone;
+  const double len = sum.Norm();
+  // A block spread over more than a hemisphere (len ~ 0) is never skipped.
+  cone.axis = len > 1e-9 ? sum * (1 / len) : Vec3{0, 0, 1};
+  double min_cos = len > 1e-9 ? 1.0 : -1.0;
+  for (int k = 0; k < n; ++k) min_cos = std::min(min_cos, cone.axis.Dot(dir_at(k)));
+  // The member directions are rounded to float (relative 6e-8, so the cosines above are off by
+  // as much): widen the cone by more than that.
+  min_cos = std::max(-1.0, min_cos - 1e-6);
+  cone.sin_radius = min_cos <= 0 ? 2.0 : std::sqrt(1 - min_cos * min_cos);
+  return cone;
+}
+
+}  // namespace
+
 PixelSumTable::PixelSumTable(const EnvMap& map) {
+  if (const Image* img = map.lat_long_image(); img != nullptr && img->channels >= 3) {
+    // The directions and solid angles of EnvMap::ForEachSample, as tables.
+    image_ = img;
+    const int w = img->width, h = img->height;
+    const RingQuadrature q = FejerFirstRule(h);
+    row_sin_ = q.sin_theta;
+    row_cos_ = q.cos_theta;
+    row_omega_.resize(h);
+    for (int j = 0; j < h; ++j) row_omega_[j] = q.weight[j] * 2 * kPi / w;
+    col_sin_.resize(w);
+    col_cos_.resize(w);
+    for (int i = 0; i < w; ++i) {
+      const double p = 2 * kPi * ((i + 0.5) / w - 0.5);
+      col_sin_[i] = std::sin(p);
+      col_cos_[i] = std::cos(p);
+    }
+    blocks_per_row_ = (w + kBlock - 1) / kBlock;
+    blocks_ = blocks_per_row_ * h;
+    cones_.resize(blocks_);
+    BlockData block;
+    for (int blk = 0; blk < blocks_; ++blk) {
+      MakeLatLongBlock(blk, block);
+      const int n = std::min(kBlock, w - (blk % blocks_per_row_) * kBlock);
+      Vec3 sum{0, 0, 0};
+      for (int k = 0; k < n; ++k) sum = sum + Vec3{block.x[k], block.y[k], block.z[k]};
+      cones_[blk] = BoundingCone<Cone>(sum, n, [&](int k) {
+        return Vec3{block.x[k], block.y[k], block.z[k]};
+      });
+    }
+    return;
+  }
   // Streamed from the map (not through map.samples(), which would keep 48 bytes per pixel
   // besides this table's 28).
   const size_t count = map.sample_count();
@@ -397,19 +446,35 @@ PixelSumTable::PixelSumTable(const EnvMap& map) {
   });
   for (int b = 0; b < blocks_; ++b) {
     const size_t begin = static_cast<size_t>(b) * kBlock;
-    const size_t end = std::min(count, begin + kBlock);
-    Cone& cone = cones_[b];
-    const double len = sums[b].Norm();
-    // A block spread over more than a hemisphere (len ~ 0) is never skipped.
-    cone.axis = len > 1e-9 ? sums[b] * (1 / len) : Vec3{0, 0, 1};
-    double min_cos = len > 1e-9 ? 1.0 : -1.0;
-    for (size_t k = begin; k < end; ++k) {
-      min_cos = std::min(min_cos, cone.axis.Dot(Vec3{x_[k], y_[k], z_[k]}));
-    }
-    // The member directions are rounded to float (relative 6e-8, so the cosines above are off by
-    // as much): widen the cone by more than that.
-    min_cos = std::max(-1.0, min_cos - 1e-6);
-    cone.sin_radius = min_cos <= 0 ? 2.0 : std::sqrt(1 - min_cos * min_cos);
+    const int members = static_cast<int>(std::min(count, begin + kBlock) - begin);
+    cones_[b] = BoundingCone<Cone>(sums[b], members, [&](int k) {
+      return Vec3{x_[begin + k], y_[begin + k], z_[begin + k]};
+    });
+  }
+}
+
+void PixelSumTable::MakeLatLongBlock(int blk, BlockData& out) const {
+  const int w = image_->width;
+  const int j = blk / blocks_per_row_, c0 = (blk % blocks_per_row_) * kBlock;
+  const int n = std::min(kBlock, w - c0);
+  const double st = row_sin_[j], ct = row_cos_[j];
+  const float omega = static_cast<float>(row_omega_[j]);
+  const float* px = image_->pixels.data() +
+                    (static_cast<size_t>(j) * w + c0) * static_cast<size_t>(image_->channels);
+  const int ch = image_->channels;
+  for (int k = 0; k < n; ++k) {
+    out.x[k] = static_cast<float>(st * col_sin_[c0 + k]);
+    out.y[k] = static_cast<float>(ct);
+    out.z[k] = static_cast<float>(-st * col_cos_[c0 + k]);
+    out.omega[k] = omega;
+    out.r[k] = px[k * ch];
+    out.g[k] = px[k * ch + 1];
+    out.b[k] = px[k * ch + 2];
+  }
+  for (int k = n; k < kBlock; ++k) {
+    out.x[k] = out.z[k] = 0;
+    out.y[k] = 1;
+    out.omega[k] = out.r[k] = out.g[k] = out.b[k] = 0;
   }
 }
 
@@ -444,20 +509,31 @@ std::vector<std::array<double, 3>> PixelSumTable::Prefiltered(SpecularLobe lobe,
     ParallelChunks(static_cast<int>(dirs.size()), threads, [&](int begin, int end) {
       constexpr int kLanes = 8;
       std::vector<std::array<double, 4>> total(end - begin, {0, 0, 0, 0});
+      std::unique_ptr<BlockData> made;
+      if (image_ != nullptr) made = std::make_unique<BlockData>();
       for (int blk = 0; blk < blocks_; ++blk) {
         const Cone& cone = cones_[blk];
-        const size_t base = static_cast<size_t>(blk) * kBlock;
-        const float* px = x_.data() + base;
-        const float* py = y_.data() + base;
-        const float* pz = z_.data() + base;
-        const float* po = omega_.data() + base;
-        const float* pr = r_.data() + base;
-        const float* pg = g_.data() + base;
-        const float* pb = b_.data() + base;
+        // Every member at least 90 degrees from dir: K = 0 for the whole block.
+        const auto behind = [&cone](const Vec3& dir) {
+          return cone.sin_radius <= 1 && dir.Dot(cone.axis) <= -cone.sin_radius;
+        };
+        const float *px, *py, *pz, *po, *pr, *pg, *pb;
+        if (made) {
+          bool any = false;
+          for (int i = begin; i < end && !any; ++i) any = !behind(dirs[i]);
+          if (!any) continue;
+          MakeLatLongBlock(blk, *made);
+          px = made->x, py = made->y, pz = made->z, po = made->omega;
+          pr = made->r, pg = made->g, pb = made->b;
+        } else {
+          const size_t base = static_cast<size_t>(blk) * kBlock;
+          px = x_.data() + base, py = y_.data() + base, pz = z_.data() + base;
+          po = omega_.data() + base;
+          pr = r_.data() + base, pg = g_.data() + base, pb = b_.data() + base;
+        }
         for (int i = begin; i < end; ++i) {
           const Vec3& dir = dirs[i];
-          // Every member at least 90 degrees from dir: K = 0 for the whole block.
-          if (cone.sin_radius <= 1 && dir.Dot(cone.axis) <= -cone.sin_radius) continue;
+          if (behind(dir)) continue;
           const float rx = static_cast<float>(dir.x), ry = static_cast<float>(dir.y),
                       rz = static_cast<float>(dir.z);
           float sw[kLanes] = {}, sr[kLanes] = {}, sg[kLanes] = {}, sb[kLanes] = {};

@@ -119,13 +119,18 @@ std::array<double, 3> SplitSumReference(const EnvMap& map, SpecularLobe lobe, do
                                         const Vec3& r);
 
 // SplitSumReference for many directions at once, for the jobs' own checks: the map's samples
-// copied once into blocks of single-precision structure-of-arrays (direction, solid angle,
-// radiance), the kernel written in e = |r - d|^2 = 2 (1 - r.d), which keeps its peak exact in
-// single precision (GGX: K ~ (1 - e / 2)+ / (alpha^2 + (1 - alpha^2) e / 4)^2, no cancellation
-// near r = d), each block's sums in single precision and the totals in double; blocks wholly
-// behind the kernel's hemisphere are skipped by a bounding cone (their K is 0 exactly). Agrees
-// with SplitSumReference to ~1e-6 relative (tests/split_sum_test.cc); a 16-direction check of a
+// in blocks of single-precision structure-of-arrays (direction, solid angle, radiance), the
+// kernel written in e = |r - d|^2 = 2 (1 - r.d), which keeps its peak exact in single precision
+// (GGX: K ~ (1 - e / 2)+ / (alpha^2 + (1 - alpha^2) e / 4)^2, no cancellation near r = d), each
+// block's sums in single precision and the totals in double; blocks wholly behind the kernel's
+// hemisphere are skipped by a bounding cone (their K is 0 exactly). Agrees with
+// SplitSumReference to ~1e-6 relative (tests/split_sum_test.cc); a 16-direction check of a
 // 1024 x 512 map costs a few ms where SplitSumReference took tens.
+// A lat-long map's blocks are runs of up to kBlock pixels of one row, made when they are summed
+// from the map's own pixels (kept by reference: the map must outlive the table) and per-row and
+// per-column tables of the directions (EnvMap::ForEachSample's formula): no copy of the map, whose
+// 28 bytes per pixel (14 MB at 1024 x 512) cost the job more in first-touch page faults than
+// remaking the blocks does. Other layouts' samples are copied into the blocks.
 class PixelSumTable {
  public:
   explicit PixelSumTable(const EnvMap& map);
@@ -139,10 +144,21 @@ class PixelSumTable {
     Vec3 axis;          // unit
     double sin_radius;  // sine of the largest angle between the axis and a member
   };
+  // One block's members: kBlock entries each (padded with zero solid angles).
+  struct BlockData {
+    alignas(64) float x[kBlock], y[kBlock], z[kBlock], omega[kBlock], r[kBlock], g[kBlock],
+        b[kBlock];
+  };
+  // Block `blk` of a lat-long map, written into `out`.
+  void MakeLatLongBlock(int blk, BlockData& out) const;
   int blocks_ = 0;
-  // Per block, kBlock entries each (the last block padded with zero solid angles).
-  std::vector<float> x_, y_, z_, omega_, r_, g_, b_;
   std::vector<Cone> cones_;
+  // Lat-long maps.
+  const Image* image_ = nullptr;
+  int blocks_per_row_ = 0;
+  std::vector<double> row_sin_, row_cos_, row_omega_, col_sin_, col_cos_;
+  // Other layouts: per block, kBlock entries each (the last block padded with zero solid angles).
+  std::vector<float> x_, y_, z_, omega_, r_, g_, b_;
 };
 
 // The estimate cmgen and glTF-IBL-Sampler compute, for comparison (tests, benchmarks): GGX half
