@@ -1,7 +1,8 @@
 // Speed of the split-sum chain (core/ibl/split_sum.h) on a bundled 1024 x 512 map, one thread,
 // against the 1024-sample importance-sampled estimate that cmgen and glTF-IBL-Sampler compute
 // (the tests' second reference), in the same run: the full GGX chain of the Filament preset
-// (256 x 256 down to 16 x 16), its stages (the map's coefficients, the chain from them), the
+// (256 x 256 down to 16 x 16), its stages (the map's coefficients to the degree the set needs,
+// and to the map's 511 as before; the chain from them), the
 // irradiance cube, and the importance-sampled chain over the same texels. Counters: the largest
 // relative RMS and largest relative error of any level against the brute-force pixel sum at 32
 // seeded texel centres per level (|got - ref| / max(|ref|, 0.01 mean |ref|), luminance). Also the
@@ -58,11 +59,23 @@ std::pair<double, double> Accuracy(const SpecularChain& chain) {
   return {rms, largest};
 }
 
+// The split-sum set's options of the job's defaults (chain, tolerance, irradiance).
+SplitSumSetOptions SetOptions() {
+  SplitSumSetOptions opt;
+  opt.chain = Options().chain;
+  opt.tolerance = Options().tolerance;
+  return opt;
+}
+
+// The map's coefficients to the degree the set needs (ComputeSplitSumLight), then the chain: what
+// `shrm ibl` computes for its GGX chain.
 void BM_GgxChain(benchmark::State& state) {
   const EnvMap& map = Map();
   SpecularChain chain;
   for (auto _ : state) {
-    auto c = PrefilterSpecular(map, Options());
+    auto light = ComputeSplitSumLight(map, Mat3::Identity(), SetOptions(), 1);
+    if (!light.ok()) state.SkipWithError(std::string(light.status().message()).c_str());
+    auto c = PrefilterSpecular(map, Options(), &*light);
     if (!c.ok()) state.SkipWithError(std::string(c.status().message()).c_str());
     chain = std::move(c).value();
   }
@@ -73,6 +86,7 @@ void BM_GgxChain(benchmark::State& state) {
 }
 BENCHMARK(BM_GgxChain)->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
 
+// The map's coefficients to the largest degree it resolves (511), as before session 26.
 void BM_GgxChainLighting(benchmark::State& state) {
   for (auto _ : state) {
     auto l = ComputeSpecularLight(Map(), Mat3::Identity(), 0, 1);
@@ -81,8 +95,20 @@ void BM_GgxChainLighting(benchmark::State& state) {
 }
 BENCHMARK(BM_GgxChainLighting)->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
 
+// The same to the degree the set needs (SplitSumLightDegree).
+void BM_SplitSumLighting(benchmark::State& state) {
+  int degree = 0;
+  for (auto _ : state) {
+    auto l = ComputeSplitSumLight(Map(), Mat3::Identity(), SetOptions(), 1);
+    degree = l.ok() ? l->degree : -1;
+    benchmark::DoNotOptimize(l);
+  }
+  state.counters["degree"] = degree;
+}
+BENCHMARK(BM_SplitSumLighting)->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
+
 void BM_GgxChainFromLighting(benchmark::State& state) {
-  auto light = ComputeSpecularLight(Map(), Mat3::Identity(), 0, 1);
+  auto light = ComputeSplitSumLight(Map(), Mat3::Identity(), SetOptions(), 1);
   if (!light.ok()) std::abort();
   for (auto _ : state) {
     auto c = PrefilterSpecular(Map(), Options(), &*light);
@@ -93,7 +119,7 @@ BENCHMARK(BM_GgxChainFromLighting)->Unit(benchmark::kMillisecond)->Iterations(2)
 
 // The job's irradiance cube (jobs/ibl_job.cc): one Lambert level of 32 x 32 from the lighting.
 void BM_IrradianceCubeFromLighting(benchmark::State& state) {
-  auto light = ComputeSpecularLight(Map(), Mat3::Identity(), 0, 1);
+  auto light = ComputeSplitSumLight(Map(), Mat3::Identity(), SetOptions(), 1);
   if (!light.ok()) std::abort();
   SpecularOptions opt = Options();
   opt.lobe = SpecularLobe::kLambert;

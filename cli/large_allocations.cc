@@ -15,11 +15,12 @@
 // block is reused for a request of at least half its size, so a cached mapping never holds more
 // than twice what it serves.
 //
-// Only large blocks are affected; everything smaller goes to malloc as before. A large block
-// starts on a 2 MiB boundary and is recognised at delete by that and by the 64-byte header just
-// below it (at the end of an ordinary page of its mapping), holding a magic number and its own
-// address, so no table or lock is needed. Not compiled under AddressSanitizer, which must see
-// every allocation itself.
+// Blocks below 1 MiB go to malloc, whose heap is grown once at start-up and huge-page-advised
+// (HeapSetup below). A large block starts on a 2 MiB boundary and is recognised at delete by that
+// and by the 64-byte header just below it (at the end of an ordinary page of its mapping), holding
+// a magic number and its own address, so no table or lock is needed. Not compiled under
+// AddressSanitizer, which must see every allocation itself.
+#include <malloc.h>
 #include <sys/mman.h>
 
 #include <atomic>
@@ -171,6 +172,32 @@ void* AllocateOrThrow(size_t n) {
     handler();
   }
 }
+
+// The heap that serves everything below kLargeThreshold (the program's own medium blocks, e.g.
+// an SHT plan's tables, and the libraries' buffers) grown once by kHeapReserve and that part
+// advised for huge pages, with glibc told to take blocks up to kLargeThreshold from the heap
+// rather than from mappings of their own. Each fresh 4 KiB page costs one fault (~17 us in a
+// paravirtualized VM: 4.3 ms a MB, against 0.75 ms a MB for a huge page, whose fault zeroes 2 MiB
+// at once); an `shrm ibl` run touched ~1,800 of them.
+constexpr size_t kHeapReserve = size_t{32} << 20;
+
+struct HeapSetup {
+  HeapSetup() {
+    // Blocks below 1 MiB from the heap; the heap never trimmed below what it grew to.
+    mallopt(M_MMAP_THRESHOLD, static_cast<int>(2 * kHeapReserve));
+    mallopt(M_TRIM_THRESHOLD, static_cast<int>(4 * kHeapReserve));
+    void* p = std::malloc(kHeapReserve);
+    if (p != nullptr) {
+      const uintptr_t raw = reinterpret_cast<uintptr_t>(p);
+      const uintptr_t begin = (raw + kHugePage - 1) & ~(kHugePage - 1);
+      const uintptr_t end = (raw + kHeapReserve) & ~(kHugePage - 1);
+      if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+      std::free(p);
+    }
+    mallopt(M_MMAP_THRESHOLD, static_cast<int>(kLargeThreshold));
+  }
+};
+const HeapSetup g_heap_setup;
 
 }  // namespace
 

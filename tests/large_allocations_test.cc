@@ -2,7 +2,7 @@
 // into the program): blocks of 1 MiB or more are huge-page-advised mappings of their own, starting
 // on a 2 MiB boundary and as long as the request rounded up to whole 2 MiB (the header is on an
 // ordinary page below), kept for reuse when freed (a bounded cache) and otherwise returned to the
-// system; smaller ones come from malloc.
+// system; smaller ones come from malloc, whose heap is grown and huge-page-advised at start-up.
 // Checked against the kernel's own account of the process's mappings (/proc/self/smaps).
 #include <cstdint>
 #include <fstream>
@@ -130,6 +130,28 @@ TEST(LargeAllocationsTest, FreedBlocksAreReusedWithinBounds) {
   const int held = CountMappings();
   for (void* b : blocks) ::operator delete(b);
   EXPECT_LE(CountMappings(), held - 40 + 16);
+}
+
+// Blocks below 1 MiB (an SHT plan's tables, a library's line buffers) come from malloc's heap,
+// whose first kHeapReserve were grown at start-up and advised for huge pages: a 256 KiB block is
+// not a mapping of its own (glibc would map it by itself above its default 128 KiB threshold) and
+// lies in an advised part of the heap.
+TEST(LargeAllocationsTest, MediumBlocksComeFromTheHugePageAdvisedHeap) {
+  if (!kReplaced) GTEST_SKIP() << "not replaced under AddressSanitizer";
+  const int before = CountMappings();
+  std::vector<std::unique_ptr<char[]>> blocks;
+  constexpr int kBlocks = 16;  // 4 MiB: at least 2 MiB of them past the reserve's first boundary
+  for (int i = 0; i < kBlocks; ++i) {
+    blocks.push_back(std::make_unique<char[]>(size_t{256} << 10));
+  }
+  EXPECT_LE(CountMappings(), before + 1) << "medium blocks got mappings of their own";
+  if (std::ifstream("/sys/kernel/mm/transparent_hugepage/enabled").good()) {
+    int advised = 0;
+    for (const auto& b : blocks) advised += VmFlagsOf(b.get()).find(" hg") != std::string::npos;
+    // (The reserve's first pages, below its first 2 MiB boundary, are not advised: up to 8
+    // blocks.)
+    EXPECT_GE(advised, kBlocks - 8);
+  }
 }
 
 TEST(LargeAllocationsTest, SmallBlocksAndFailuresBehaveAsTheStandardSays) {
