@@ -449,6 +449,62 @@ TEST(ShrmSynthesisTest, TangentCoefficientsOnlyQZeroTexelCentresEqualDirectEvalu
 // table is made by the first cube of a face size and P and reused by the next, and a released
 // cube's buffer is written again. Every cube equals the one made without storage bit for bit,
 // including after the face size or P changes (the table is remade) and back.
+// The P = 0 path from real coefficients given directly (a split-sum level's g_l L_lm): at the
+// texel centres, the SH series of the same coefficients evaluated by EvalSh (the grid's cubic
+// interpolation and float storage, kTexelCentreTol); and the cube of a synthesizer whose
+// rho_l00 = k_l sqrt((2l + 1) / (4 pi)) up to that synthesizer's complex round trip (float
+// storage of the same values: kDirectCubeTol). Bad sizes are refused.
+TEST(ShrmSynthesisTest, RealZonalCubeIsTheSeriesAtTexelCentres) {
+  const Scene& sc = GetScene();
+  std::vector<double> k(kF + 1), real(sc.light.size());
+  BrdfCoefficients zonal;
+  zonal.lmax = kF;
+  zonal.pmax = 0;
+  zonal.channels = 1;
+  zonal.values.resize(kF + 1);
+  for (int l = 0; l <= kF; ++l) {
+    k[l] = std::exp(-l * l / 120.0);
+    zonal.values[l] = k[l] * std::sqrt((2 * l + 1) / (4 * kPi));
+    for (int m = -l; m <= l; ++m)
+      for (int c = 0; c < 3; ++c) {
+        const size_t i = static_cast<size_t>(ShIndex(l, m)) * 3 + c;
+        real[i] = k[l] * sc.light[i];
+      }
+  }
+  constexpr int kS = 16;
+  auto cube = ShrmSynthesizer::RealZonalCube(kF, 3, real, kS, ShrmGridOptions{});
+  ASSERT_TRUE(cube.ok()) << cube.status();
+  ASSERT_EQ(cube->data.size(), static_cast<size_t>(6) * kS * kS * 3);
+  std::vector<double> got, want, y(ShCount(kF));
+  for (int f = 0; f < 6; ++f)
+    for (int t = 0; t < kS; ++t)
+      for (int x = 0; x < kS; ++x) {
+        EvalSh(kF, ShFrameFromWorld(CubeTexelDirection(f, x, t, kS)), y);
+        for (int c = 0; c < 3; ++c) {
+          double v = 0;
+          for (int i = 0; i < ShCount(kF); ++i) v += real[static_cast<size_t>(i) * 3 + c] * y[i];
+          want.push_back(v);
+          got.push_back(cube->data[((static_cast<size_t>(f) * kS + t) * kS + x) * 3 + c]);
+        }
+      }
+  const double err = RelRms(got, want);
+  std::printf("real zonal cube vs the series at texel centres: %.3g\n", err);
+  EXPECT_LT(err, kTexelCentreTol);
+  auto synth = ShrmSynthesizer::Create(kF, 3, sc.light, zonal, kF, 0);
+  ASSERT_TRUE(synth.ok()) << synth.status();
+  auto through = synth->BuildCube(ShrmKind::kGlobal, kS);
+  ASSERT_TRUE(through.ok()) << through.status();
+  std::vector<double> a(cube->data.begin(), cube->data.end()),
+      b(through->data.begin(), through->data.end());
+  EXPECT_LT(RelRms(a, b), kDirectCubeTol);
+  EXPECT_FALSE(ShrmSynthesizer::RealZonalCube(kF, 3, std::span(real).first(10), kS, {}).ok());
+  EXPECT_FALSE(ShrmSynthesizer::RealZonalCube(-1, 3, {}, kS, {}).ok());
+  EXPECT_FALSE(ShrmSynthesizer::RealZonalCube(kF, 3, real, 0, {}).ok());
+  ShrmGridOptions few;
+  few.alpha_samples = kF;  // fewer rows than degree + 1
+  EXPECT_FALSE(ShrmSynthesizer::RealZonalCube(kF, 3, real, kS, few).ok());
+}
+
 TEST(ShrmSynthesisTest, ZonalCubeWithReusedStorageEqualsFreshCube) {
   SynthesisScratch scratch;
   ShrmGridOptions reuse;

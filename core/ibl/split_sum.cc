@@ -828,21 +828,19 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
     level.degree = f;
     level.truncation_estimate =
         total > 0 ? std::sqrt(std::max(0.0, tail) + above) / std::sqrt(total) : 0.0;
-    BrdfCoefficients zonal;
-    zonal.lmax = f;
-    zonal.pmax = 0;
-    zonal.channels = 1;
-    zonal.values.resize(f + 1);
-    // The P = 0 SHRM texel holds sum_lm sqrt(4 pi / (2l + 1)) rho_l00 L_lm Y_lm: with
-    // rho_l00 = g_l sqrt((2l + 1) / (4 pi)) it is the prefiltered radiance itself.
-    for (int l = 0; l <= f; ++l) zonal.values[l] = g[l] * std::sqrt((2 * l + 1) / (4 * kPi));
-    auto synth = ShrmSynthesizer::Create(light->degree, 3, light->coeffs, zonal, f, 0);
-    if (!synth.ok()) return synth.status();
+    // The level's coefficients g_l L_lm, synthesized by the P = 0 SHRM path.
+    std::vector<double> real(static_cast<size_t>(ShCount(f)) * 3);
+    for (int l = 0; l <= f; ++l) {
+      for (size_t i = static_cast<size_t>(l) * l * 3; i < static_cast<size_t>(l + 1) * (l + 1) * 3;
+           ++i) {
+        real[i] = g[l] * light->coeffs[i];
+      }
+    }
     ShrmGridOptions grid;
     grid.threads = options.threads;
     grid.alpha_samples = GridRings(g, light->energy, f, total, options.tolerance);
     grid.scratch = scratch;
-    auto built = synth->BuildCube(ShrmKind::kGlobal, level.face_size, grid);
+    auto built = ShrmSynthesizer::RealZonalCube(f, 3, real, level.face_size, grid);
     if (!built.ok()) return built.status();
     cube.data = std::move(built->data);
     out.levels.push_back(std::move(level));

@@ -857,6 +857,43 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeP0(ShrmKind kind, int face_si
   return cube;
 }
 
+absl::StatusOr<ShrmCube> ShrmSynthesizer::RealZonalCube(int f, int channels,
+                                                        std::span<const double> real, int face_size,
+                                                        const ShrmGridOptions& options) {
+  if (f < 0 || channels < 1 ||
+      real.size() != static_cast<size_t>(ShCount(f)) * static_cast<size_t>(channels)) {
+    return absl::InvalidArgumentError(absl::StrCat("zonal cube: ", real.size(),
+                                                   " coefficients for degree ", f, " and ",
+                                                   channels, " channels"));
+  }
+  if (face_size < 1 || options.alpha_samples < 0 || options.threads < 1) {
+    return absl::InvalidArgumentError(absl::StrCat("zonal cube: face size ", face_size,
+                                                   ", alpha_samples = ", options.alpha_samples,
+                                                   ", threads = ", options.threads));
+  }
+  // BuildCube's rule for P = 0.
+  const int na = options.alpha_samples > 0 ? options.alpha_samples
+                                           : FftFriendlyRings(std::max(32, 4 * (f + 1)));
+  if (na < f + 1) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "SHRM grid: ", na, " alpha samples cannot resolve degree ", f, " (need >= ", f + 1, ")"));
+  }
+  SynthesisScratch local;
+  SynthesisScratch& work = options.scratch != nullptr ? *options.scratch : local;
+  if (absl::Status st = RealGrid(f, channels, real, na, options.threads, work); !st.ok()) {
+    return st;
+  }
+  ShrmCube cube;
+  cube.kind = ShrmKind::kGlobal;
+  cube.face_size = face_size;
+  cube.pmax = 0;
+  cube.channels = channels;
+  AllocateCubeData(cube, options.scratch);
+  internal::ResampleToCube(work.grid.data(), na, channels, internal::GridColumns::kSht,
+                           options.threads, cube);
+  return cube;
+}
+
 absl::Status ShrmSynthesizer::CheckZonalRows(int na) const {
   if (na >= lmax_ + 1) return absl::OkStatus();
   return absl::InvalidArgumentError(absl::StrCat("SHRM grid: ", na,
@@ -866,7 +903,7 @@ absl::Status ShrmSynthesizer::CheckZonalRows(int na) const {
 
 absl::Status ShrmSynthesizer::ZonalGrid(int zonal, int na, int threads,
                                         SynthesisScratch& work) const {
-  const int f = lmax_, ch = channels_, zc = zonal * ch, nb = 2 * na;
+  const int f = lmax_, ch = channels_, zc = zonal * ch;
   std::vector<double> real(static_cast<size_t>(ShCount(f)) * zc);
   {
     std::vector<std::complex<double>> cplx(ShCount(f));
@@ -884,6 +921,12 @@ absl::Status ShrmSynthesizer::ZonalGrid(int zonal, int na, int threads,
         }
     }
   }
+  return RealGrid(f, zc, real, na, threads, work);
+}
+
+absl::Status ShrmSynthesizer::RealGrid(int f, int zc, std::span<const double> real, int na,
+                                       int threads, SynthesisScratch& work) {
+  const int nb = 2 * na;
   // The synthesis does not depend on the analysis quadrature; the pixel-sum plan skips the exact
   // rule's theta-resampling matrices (grids of fewer than 2F + 1 rings), which only the analysis
   // uses and which cost more than the synthesis itself.

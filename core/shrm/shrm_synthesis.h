@@ -173,6 +173,17 @@ class ShrmSynthesizer {
   };
   absl::StatusOr<Grid> BuildGrid(ShrmKind kind, int na, int threads = 1) const;
 
+  // The P = 0 path of BuildCube from real SH coefficients given directly: a cube of `channels`
+  // values per texel, sum_lm real[ShIndex(l, m) * channels + c] Y_lm at each texel centre (l <=
+  // f), by the same grid (options.alpha_samples rows, 0: BuildCube's rule for P = 0), inverse SHT
+  // and cubic resampling. For a zonal convolution (a split-sum level: g_l L_lm) without a
+  // synthesizer, whose complex lighting (2F + 1) (F + 1) values per channel, 5.6 MB at F = 241,
+  // it does not need. Equal to BuildCube of a synthesizer with rho_l00 = k_l sqrt((2l + 1) / (4
+  // pi)) and real = k_l L_lm up to the rounding of BuildCube's complex round trip. Errors: f < 0,
+  // channels < 1, a size mismatch, BuildCube's.
+  static absl::StatusOr<ShrmCube> RealZonalCube(int f, int channels, std::span<const double> real,
+                                                int face_size, const ShrmGridOptions& options);
+
  private:
   ShrmSynthesizer() = default;
   // InvalidArgument when na alpha rows cannot resolve the grid's degree (F, + P when global).
@@ -199,6 +210,10 @@ class ShrmSynthesizer {
   // padded equiangular grid of BuildCubeP0 (zonal x channels values per node, channel p * ch + c):
   // B_p0(alpha, beta) = sum_lm sqrt(4 pi / (2l + 1)) rho_lp0 L_lm Y_lm(alpha, beta).
   absl::Status ZonalGrid(int zonal, int na, int threads, SynthesisScratch& work) const;
+  // The padded grid of real coefficients `real` (degree f, `values` per coefficient), into
+  // work.grid: ZonalGrid's transform and padding rows.
+  static absl::Status RealGrid(int f, int values, std::span<const double> real, int na, int threads,
+                               SynthesisScratch& work);
   // na equiangular rows resolve degree F (the zonal grids).
   absl::Status CheckZonalRows(int na) const;
   // The global cube of a q = 0-only BRDF (the tangent reparameterization, RhoQmax() = 0): its
