@@ -107,7 +107,9 @@ void ResampleLatLongBase(const EnvMap& map, int s, int threads, double phi_offse
   std::vector<double> side_phi(static_cast<size_t>(4) * s);
   // Mirror images are exact: coord(s - 1 - i) = -coord(i) bit for bit (s >= 2 a power of two), and
   // hypot ignores signs. The polar angles are computed on the rows y < s / 2 and the columns
-  // x < s / 2 and mirrored; -Y's azimuth atan2(sc, tc) is +Y's atan2(sc, -tc) a row mirrored.
+  // x < s / 2 and mirrored; +Y's azimuth on the columns x < s / 2 and mirrored with its sign
+  // changed (atan2(-a, b) = -atan2(a, b) bit for bit: glibc's atan2 works on |a| and sets the
+  // sign last); -Y's azimuth atan2(sc, tc) is +Y's atan2(sc, -tc) a row mirrored.
   const int half = (s + 1) / 2;
   ParallelChunks(s, threads, [&](int begin, int end) {
     for (int y = begin; y < end; ++y) {
@@ -117,7 +119,8 @@ void ResampleLatLongBase(const EnvMap& map, int s, int threads, double phi_offse
         const double sc = coord(x);
         side_theta[row + x] =
             x < half ? std::atan2(std::hypot(1.0, sc), -tc) : side_theta[row + s - 1 - x];
-        up_phi[row + x] = std::atan2(sc, -tc);  // +Y: (sc, 1, tc)
+        // +Y: (sc, 1, tc); atan2 is odd in its first argument, exactly.
+        up_phi[row + x] = x < half ? std::atan2(sc, -tc) : -up_phi[row + s - 1 - x];
         if (y < half) {
           const double r = std::hypot(sc, tc);
           up_theta[row + x] = x < half ? std::atan2(r, 1.0) : up_theta[row + s - 1 - x];
