@@ -844,5 +844,49 @@ TEST(Ktx2Test, EncodersRoundToTheNearestCodeTiesToEven) {
   check(std::numeric_limits<float>::denorm_min());
 }
 
+// The array conversions (F16C where the build has it) give FloatToHalf's and HalfToFloat's codes
+// and values: every half code; each code's value, the midpoints (ties) between neighbouring codes
+// and a float ulp either side, of both signs; values past the half range, infinities and NaN (the
+// scalar path's saturation, in vectors that are otherwise convertible); a sweep of float bits.
+TEST(Ktx2Test, ArrayConversionsEqualTheScalarOnes) {
+  std::vector<uint16_t> codes(65536);
+  std::iota(codes.begin(), codes.end(), 0);
+  std::vector<float> back(codes.size());
+  HalvesToFloats(codes, back);
+  for (size_t c = 0; c < codes.size(); ++c) {
+    const float want = HalfToFloat(static_cast<uint16_t>(c));
+    if (std::isnan(want)) {
+      ASSERT_TRUE(std::isnan(back[c])) << c;
+    } else {
+      ASSERT_EQ(std::bit_cast<uint32_t>(back[c]), std::bit_cast<uint32_t>(want)) << c;
+    }
+  }
+  std::vector<float> values;
+  for (uint32_t c = 0; c < 0x7BFF; ++c) {
+    const float a = HalfToFloat(static_cast<uint16_t>(c));
+    const float b = HalfToFloat(static_cast<uint16_t>(c + 1));
+    const float mid = static_cast<float>(0.5 * (static_cast<double>(a) + b));
+    for (float v : {a, mid, std::nextafter(mid, 0.0f), std::nextafter(mid, 1e30f)}) {
+      values.push_back(v);
+      values.push_back(-v);
+    }
+  }
+  const float inf = std::numeric_limits<float>::infinity();
+  for (float v : {65504.0f, 65519.0f, 65520.0f, 65536.0f, 1e30f, inf,
+                  std::numeric_limits<float>::quiet_NaN()}) {
+    values.push_back(v);
+    values.push_back(-v);
+  }
+  for (uint64_t bits = 1; bits < 0xFFFFFFFFu; bits += 65521) {
+    values.push_back(std::bit_cast<float>(static_cast<uint32_t>(bits)));
+  }
+  for (size_t offset : {size_t{0}, size_t{3}}) {  // the saturated values in various lanes
+    const std::span<const float> in = std::span<const float>(values).subspan(offset);
+    std::vector<uint16_t> got(in.size());
+    FloatsToHalves(in, got);
+    for (size_t i = 0; i < in.size(); ++i) ASSERT_EQ(got[i], FloatToHalf(in[i])) << in[i];
+  }
+}
+
 }  // namespace
 }  // namespace shrm::ktx2

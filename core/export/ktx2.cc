@@ -1,11 +1,17 @@
 #include "core/export/ktx2.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <numeric>
+
+#if defined(__F16C__) && defined(__AVX__)
+#include <immintrin.h>
+#define SHRM_KTX2_F16C 1
+#endif
 
 #include "absl/strings/str_cat.h"
 
@@ -280,9 +286,21 @@ absl::StatusOr<std::string> EncodeLevel(const Ktx2Image& im, size_t p, Negatives
   switch (im.format) {
     case Format::kR16G16Sfloat:
     case Format::kR16G16B16Sfloat:
-    case Format::kR16G16B16A16Sfloat:
-      for (float x : v) PutU16(&out, FloatToHalf(x));
+    case Format::kR16G16B16A16Sfloat: {
+      // Little-endian 16-bit codes, a block of values at a time.
+      std::array<uint16_t, 1024> halves;
+      for (size_t i = 0; i < v.size(); i += halves.size()) {
+        const std::span<const float> part =
+            std::span<const float>(v).subspan(i, std::min(halves.size(), v.size() - i));
+        FloatsToHalves(part, halves);
+        if constexpr (std::endian::native == std::endian::little) {
+          out.append(reinterpret_cast<const char*>(halves.data()), part.size() * sizeof(uint16_t));
+        } else {
+          for (size_t k = 0; k < part.size(); ++k) PutU16(&out, halves[k]);
+        }
+      }
       break;
+    }
     case Format::kR32G32Sfloat:
     case Format::kR32G32B32Sfloat:
     case Format::kR32G32B32A32Sfloat:
@@ -419,6 +437,38 @@ void UnpackE5B9G9R9(uint32_t packed, float rgb[3]) {
   rgb[2] = static_cast<float>(((packed >> 18) & 0x1FFu) * scale);
 }
 
+void FloatsToHalves(std::span<const float> in, std::span<uint16_t> out) {
+  size_t i = 0;
+#ifdef SHRM_KTX2_F16C
+  const __m256 limit = _mm256_set1_ps(65504.0f);
+  const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
+  for (; i + 8 <= in.size(); i += 8) {
+    const __m256 v = _mm256_loadu_ps(in.data() + i);
+    // |v| <= 65504 is false for NaN and infinities too: those vectors go the scalar way below.
+    const __m256 ok = _mm256_cmp_ps(_mm256_and_ps(v, abs_mask), limit, _CMP_LE_OQ);
+    if (_mm256_movemask_ps(ok) != 0xFF) {
+      for (size_t k = i; k < i + 8; ++k) out[k] = FloatToHalf(in[k]);
+      continue;
+    }
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out.data() + i),
+                     _mm256_cvtps_ph(v, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC));
+  }
+#endif
+  for (; i < in.size(); ++i) out[i] = FloatToHalf(in[i]);
+}
+
+void HalvesToFloats(std::span<const uint16_t> in, std::span<float> out) {
+  size_t i = 0;
+#ifdef SHRM_KTX2_F16C
+  for (; i + 8 <= in.size(); i += 8) {
+    _mm256_storeu_ps(
+        out.data() + i,
+        _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(in.data() + i))));
+  }
+#endif
+  for (; i < in.size(); ++i) out[i] = HalfToFloat(in[i]);
+}
+
 void RoundTrip(Format format, float* values) {
   switch (format) {
     case Format::kR16G16Sfloat:
@@ -441,9 +491,15 @@ void RoundTrip(Format format, float* values) {
 void RoundTripRgb(Format format, std::span<float> rgb) {
   switch (format) {
     case Format::kR16G16B16Sfloat:
-    case Format::kR16G16B16A16Sfloat:
-      for (float& v : rgb) v = HalfToFloat(FloatToHalf(v));
+    case Format::kR16G16B16A16Sfloat: {
+      std::array<uint16_t, 1024> halves;
+      for (size_t i = 0; i < rgb.size(); i += halves.size()) {
+        const std::span<float> part = rgb.subspan(i, std::min(halves.size(), rgb.size() - i));
+        FloatsToHalves(part, halves);
+        HalvesToFloats(std::span(halves).first(part.size()), part);
+      }
       break;
+    }
     case Format::kB10G11R11UfloatPack32:
     case Format::kE5B9G9R9UfloatPack32:
     case Format::kR16G16Sfloat:  // (R and G stored; B as it is)

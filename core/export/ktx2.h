@@ -142,6 +142,12 @@ void RoundTrip(Format format, float* values);
 // RoundTrip of every RGB triple of `rgb` (3 values per texel, the alpha of the RGBA formats being
 // 1), the format decided once for the whole span.
 void RoundTripRgb(Format format, std::span<float> rgb);
+// FloatToHalf and HalfToFloat of whole arrays (out.size() >= in.size()): equal value by value,
+// 8 at a time by the processor's F16C conversions where the build has them (round to nearest
+// even, as FloatToHalf; a vector holding a value that is not finite or beyond the half range
+// takes the scalar path, whose saturation F16C does not do).
+void FloatsToHalves(std::span<const float> in, std::span<uint16_t> out);
+void HalvesToFloats(std::span<const uint16_t> in, std::span<float> out);
 
 }  // namespace shrm::ktx2
 

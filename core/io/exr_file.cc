@@ -223,6 +223,9 @@ absl::StatusOr<std::string> EncodeFloat(const Image& image) {
     {
       Imf::Header header(image.width, image.height);
       header.compression() = Imf::ZIP_COMPRESSION;
+      // zlib's fastest level: float data compresses little at any level (a 128 x 128 x 3 table:
+      // 191,604 bytes in 7.1 ms at the library's default level, 191,492 bytes in 5.0 ms at 1).
+      header.zipCompressionLevel() = 1;
       Imf::FrameBuffer fb;
       const size_t xs = sizeof(float) * image.channels;
       for (int c = 0; c < image.channels; ++c) {
