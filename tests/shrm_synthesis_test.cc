@@ -454,6 +454,37 @@ TEST(ShrmSynthesisTest, TangentCoefficientsOnlyQZeroTexelCentresEqualDirectEvalu
 // interpolation and float storage, kTexelCentreTol); and the cube of a synthesizer whose
 // rho_l00 = k_l sqrt((2l + 1) / (4 pi)) up to that synthesizer's complex round trip (float
 // storage of the same values: kDirectCubeTol). Bad sizes are refused.
+// InterpolationRows: the grid it picks for an error budget keeps the texel centres within that
+// budget of the direct evaluation (eq. 5.23, RadianceAt: no grid) for both kinds, with fewer rows
+// than the automatic rule; a smaller budget never takes fewer rows; none gives the automatic
+// rule's count.
+TEST(ShrmSynthesisTest, InterpolationRowsKeepTheTexelCentresWithinTheBudget) {
+  const ShrmSynthesizer synth = MakeSynth(TestBrdf());
+  const int automatic = FftFriendlyRings(std::max(32, 4 * (kF + kP + 1)));
+  std::mt19937 rng(11);
+  for (ShrmKind kind : {ShrmKind::kGlobal, ShrmKind::kLocal}) {
+    EXPECT_EQ(synth.InterpolationRows(kind, 0), automatic);
+    int previous = 0;
+    for (const double budget : {3e-2, 1e-2, 3e-3, 1e-3}) {
+      const int rows = synth.InterpolationRows(kind, budget);
+      EXPECT_GE(rows, previous);
+      EXPECT_GE(rows, kF + kP + 1);
+      EXPECT_LE(rows, automatic);
+      previous = rows;
+      ShrmGridOptions options;
+      options.alpha_samples = rows;
+      options.path = ShrmGridOptions::CubePath::kGrid;
+      auto cube = synth.BuildCube(kind, 48, options);
+      ASSERT_TRUE(cube.ok()) << cube.status();
+      const double err = TexelCentreError(synth, *cube, rng);
+      std::printf("%s budget %.0e: %d rows (automatic %d), texel centres vs direct %.3g\n",
+                  kind == ShrmKind::kGlobal ? "global" : "local", budget, rows, automatic, err);
+      EXPECT_LE(err, budget) << (kind == ShrmKind::kGlobal ? "global" : "local");
+    }
+    EXPECT_LT(synth.InterpolationRows(kind, 1e-2), automatic);
+  }
+}
+
 TEST(ShrmSynthesisTest, RealZonalCubeIsTheSeriesAtTexelCentres) {
   const Scene& sc = GetScene();
   std::vector<double> k(kF + 1), real(sc.light.size());

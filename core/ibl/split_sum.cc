@@ -57,38 +57,21 @@ std::vector<double> Breakpoints(double scale, double max_width) {
 // Rings of the equiangular grid the level is synthesized on before the cubic (4-point Lagrange)
 // resampling onto the cube's texels. The synthesis's generic rule, 4 (F + 1), bounds the error of
 // the top band; a level's spectrum g_l^2 E_l falls by orders of magnitude before F, so fewer
-// rings do. Cubic interpolation of a band of degree l on spacing h = pi / na errs by
-// (l h)^4 |w(x)| / 24 of its amplitude along each axis, w(x) = (x + 1) x (x - 1) (x - 2) the
-// node polynomial between the middle nodes (RMS over x: 0.404), at most the band's amplitude
-// twice over once l h passes ~2; the two axes add. The grid is the smallest (>= F + 1, a multiple
-// of 8 with an FFT length free of primes above 7) whose error, summed over the bands as the
-// truncation's is, stays within kInterpolationBudget x tolerance of the level's RMS.
-// kInterpolationBudget = 10: the tolerance given here is the sphere RMS that keeps the
-// truncation's per-direction error at the job's (the ringing of a sun reaches every dark
-// direction: IblJob divides by 30), while the interpolation errs only where the radiance varies
-// fast, i.e. next to bright features, where the relative error per direction is small. Measured
-// on the four bundled maps (rgba32f, 300 directions per level): the chosen grids (1.3-1.7 F)
-// give the same per-direction RMS as 4 F within 1e-4 (docs/results.md), and the bundled-map
-// test holds them to 1e-3.
-int GridRings(const std::vector<double>& g, const std::vector<double>& energy, int f, double total,
+// rings do: the smallest grid (>= F + 1) whose error by the cubic interpolation's model
+// (CubicGridRows, core/shrm/shrm_synthesis.h) stays within kInterpolationBudget x tolerance of
+// the level's RMS. kInterpolationBudget = 10: the tolerance given here is the sphere RMS that
+// keeps the truncation's per-direction error at the job's (the ringing of a sun reaches every
+// dark direction: IblJob divides by 30), while the interpolation errs only where the radiance
+// varies fast, i.e. next to bright features, where the relative error per direction is small.
+// Measured on the four bundled maps (rgba32f, 300 directions per level): the chosen grids
+// (1.3-1.7 F) give the same per-direction RMS as 4 F within 1e-4 (docs/results.md), and the
+// bundled-map test holds them to 1e-3.
+int GridRings(const std::vector<double>& g, const std::vector<double>& energy, int f,
               double tolerance) {
-  constexpr double kCubicRmsPerAxis = 0.404 / 24;
-  constexpr double kLargestBandError = 2;
   constexpr double kInterpolationBudget = 10;
-  const int generic = std::max(32, 4 * (f + 1));
-  const double budget = kInterpolationBudget * tolerance;
-  for (int na = FftFriendlyRings(std::max(32, f + 1)); na < generic;
-       na = FftFriendlyRings(na + 8)) {
-    const double h = kPi / na;
-    double err = 0;
-    for (int l = 1; l <= f; ++l) {
-      const double lh = l * h;
-      const double e = std::min(kLargestBandError, 2 * kCubicRmsPerAxis * lh * lh * lh * lh);
-      err += e * e * g[l] * g[l] * energy[l];
-    }
-    if (err <= budget * budget * total) return na;
-  }
-  return 0;  // the synthesis's own rule
+  std::vector<double> band(f + 1);
+  for (int l = 0; l <= f; ++l) band[l] = g[l] * g[l] * energy[l];
+  return CubicGridRows(band, 0, kInterpolationBudget * tolerance, f + 1, std::max(32, 4 * (f + 1)));
 }
 
 // The base level of a lat-long map without rotation, or turned about the vertical by a yaw:
@@ -841,7 +824,7 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
     }
     ShrmGridOptions grid;
     grid.threads = options.threads;
-    grid.alpha_samples = GridRings(g, light->energy, f, total, options.tolerance);
+    grid.alpha_samples = GridRings(g, light->energy, f, options.tolerance);
     grid.scratch = scratch;
     auto built = ShrmSynthesizer::RealZonalCube(f, 3, real, level.face_size, grid);
     if (!built.ok()) return built.status();

@@ -23,6 +23,17 @@ constexpr int kMaxAutoFaceSize = 512;
 
 bool ExplicitOrders(const PrefilterOptions& o) { return o.f >= 0 || o.p >= 0; }
 
+// The synthesis grid's interpolation error allowed (ShrmSynthesizer::InterpolationRows): a tenth of
+// the error the orders were chosen for, the per-direction tolerance or, under the paper's rule,
+// sqrt(epsilon) (the relative RMS of the energy fraction it drops). Explicit orders name no error:
+// BuildCube's fixed rule (0).
+constexpr double kInterpolationShare = 0.1;
+double InterpolationTolerance(const PrefilterOptions& o) {
+  if (o.tolerance > 0) return kInterpolationShare * o.tolerance;
+  if (!ExplicitOrders(o)) return kInterpolationShare * std::sqrt(o.epsilon);
+  return 0;
+}
+
 }  // namespace
 
 absl::Status StageClock::Begin(const char* stage) {
@@ -135,6 +146,7 @@ absl::Status FinishPrefilter(const BrdfStage& brdf, const LightingStage& lightin
   ShrmGridOptions gopt;
   gopt.threads = options.threads;
   gopt.scratch = scratch;
+  gopt.alpha_samples = synth.InterpolationRows(options.kind, InterpolationTolerance(options));
   SHRM_ASSIGN_OR_RETURN(r->cube, synth.BuildCube(options.kind, face_size, gopt));
   clock.End();
   return absl::OkStatus();

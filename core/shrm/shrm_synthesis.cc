@@ -120,25 +120,65 @@ std::complex<double> ShrmSynthesizer::Blmpq(int l, int m, int p, int q, int c) c
          Rho(l, p, q, c);
 }
 
+double ShrmSynthesizer::BandEnergy(int l, int p, int c) const {
+  double light = 0;
+  for (int m = -l; m <= l; ++m)
+    light += std::norm(light_[(static_cast<size_t>(m + lmax_) * (lmax_ + 1) + l) * channels_ + c]);
+  double rho = 0;
+  for (int pp = 0; pp <= p; ++pp)
+    for (int q = -std::min(l, pp); q <= std::min(l, pp); ++q) {
+      const double r = Rho(l, pp, q, c);
+      rho += r * r;
+    }
+  return 4 * kPi / (2 * l + 1) * light * rho;
+}
+
 std::vector<double> ShrmSynthesizer::TruncatedEnergy(int f, int p) const {
   std::vector<double> e(channels_, 0.0);
   f = std::min(f, lmax_);
   p = std::min(p, pmax_);
   for (int c = 0; c < channels_; ++c)
-    for (int l = 0; l <= f; ++l) {
-      double light = 0;
-      for (int m = -l; m <= l; ++m)
-        light +=
-            std::norm(light_[(static_cast<size_t>(m + lmax_) * (lmax_ + 1) + l) * channels_ + c]);
-      double rho = 0;
-      for (int pp = 0; pp <= p; ++pp)
-        for (int q = -std::min(l, pp); q <= std::min(l, pp); ++q) {
-          const double r = Rho(l, pp, q, c);
-          rho += r * r;
-        }
-      e[c] += 4 * kPi / (2 * l + 1) * light * rho;
-    }
+    for (int l = 0; l <= f; ++l) e[c] += BandEnergy(l, p, c);
   return e;
+}
+
+int ShrmSynthesizer::InterpolationRows(ShrmKind kind, double tolerance) const {
+  const int f = lmax_, pm = pmax_;
+  const int generic = FftFriendlyRings(std::max(32, 4 * (f + pm + 1)));
+  if (!(tolerance > 0)) return generic;
+  // The global kind's coefficients are turned by Rot(alpha, beta) (eq. 5.14), which adds up to P
+  // to each frequency in both angles: band l is taken at frequency l + P.
+  const int shift = kind == ShrmKind::kGlobal ? pm : 0;
+  std::vector<double> band(f + 1, 0.0);
+  for (int l = 0; l <= f; ++l)
+    for (int c = 0; c < channels_; ++c) band[l] += BandEnergy(l, pm, c);
+  return CubicGridRows(band, shift, tolerance, f + pm + 1, generic);
+}
+
+int CubicGridRows(std::span<const double> band, int shift, double tolerance, int min_rows,
+                  int max_rows) {
+  // Cubic (4-point Lagrange) interpolation of frequency k on spacing h = pi / na errs by
+  // (k h)^4 |w(x)| / 24 of its amplitude along each axis, w(x) = (x + 1) x (x - 1) (x - 2) the
+  // node polynomial between the middle nodes (RMS over x: 0.404), at most about twice the
+  // amplitude once k h passes ~2; the two axes add, and the bands' errors add as the
+  // truncation's do.
+  constexpr double kCubicRmsPerAxis = 0.404 / 24;
+  constexpr double kLargestBandError = 2;
+  double total = 0;
+  for (double e : band) total += e;
+  if (!(total > 0) || !(tolerance > 0)) return FftFriendlyRings(max_rows);
+  for (int na = FftFriendlyRings(std::max(32, min_rows)); na < max_rows;
+       na = FftFriendlyRings(na + 8)) {
+    const double h = kPi / na;
+    double err = 0;
+    for (size_t l = 1; l < band.size(); ++l) {
+      const double kh = static_cast<double>(l + shift) * h;
+      const double e = std::min(kLargestBandError, 2 * kCubicRmsPerAxis * kh * kh * kh * kh);
+      err += e * e * band[l];
+    }
+    if (err <= tolerance * tolerance * total) return na;
+  }
+  return FftFriendlyRings(max_rows);
 }
 
 void ShrmSynthesizer::LocalComplexAt(double alpha, double beta,

@@ -43,6 +43,13 @@ namespace shrm {
 // factor above 7 (e.g. 232 -> 240: an FFT of 2 x 232 = 16 x 29 costs ~1.7x that of 480).
 int FftFriendlyRings(int na);
 
+// The fewest FFT-friendly grid rows na in [min_rows, max_rows) (at least 32) whose cubic
+// interpolation error stays within `tolerance` of the field's RMS, for a field whose band l
+// carries energy band[l] at frequency l + shift in each angle: the error model of docs/shrm.md
+// ("Grid, interpolation, poles"). FftFriendlyRings(max_rows) when none does.
+int CubicGridRows(std::span<const double> band, int shift, double tolerance, int min_rows,
+                  int max_rows);
+
 // Storage kept by a caller across BuildCube calls (grown as needed, never shrunk): the padded
 // grid and the P = 0 inverse transform's work array, reused instead of allocated (and
 // first-touched: ~17 us a page on this machine) per call. A split-sum chain shares one across its
@@ -122,6 +129,14 @@ class ShrmSynthesizer {
   // Energy of the order-(F, P) truncation in the L2 norm over (R, view) (docs/shrm.md):
   // sum_{l<=F, p<=P} (4 pi / (2l + 1)) |B_lmpq|^2 per channel, for F <= lmax(), P <= pmax().
   std::vector<double> TruncatedEnergy(int f, int p) const;
+  // The fewest grid rows (ShrmGridOptions::alpha_samples: FFT-friendly, >= F + P + 1, at most
+  // BuildCube's automatic max(32, 4 (F + P + 1))) whose cubic interpolation error, estimated per
+  // band from the coefficients' energy, is within `tolerance` (relative RMS over the sphere of
+  // index directions, every coefficient of every channel) of the SHRM's RMS. The automatic rule
+  // bounds the top band's error whatever its energy; a spectrum that falls by orders of magnitude
+  // before F (the BRDF's rho_lpq and the lighting's) needs fewer rows. tolerance <= 0: the
+  // automatic rule's count.
+  int InterpolationRows(ShrmKind kind, double tolerance) const;
 
   // Direct (exact) evaluation at one (alpha, beta), eq. 5.23 with the library's Wigner tables:
   // complex B_pq (local) at out[ShIndex(p, q) * channels + c].
@@ -186,6 +201,8 @@ class ShrmSynthesizer {
 
  private:
   ShrmSynthesizer() = default;
+  // Band l's term of TruncatedEnergy(., p) for channel c.
+  double BandEnergy(int l, int p, int c) const;
   // InvalidArgument when na alpha rows cannot resolve the grid's degree (F, + P when global).
   absl::Status CheckGridRows(ShrmKind kind, int na) const;
   // The padded grid (row r is alpha_{r - 2}, rows 0 .. na + 3) in slabs: slab s holds rows
