@@ -445,14 +445,14 @@ void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int ro
   // every row with one vector FMA.
   //   bm[((m + F) * n + ShIndex(p, q)) * ch + c][r] = sum_l L_lm rho_lpq d^l_mq(alpha_r)
   // (q >= 0 here; the global kind's q < 0 below, by symmetry).
-  tables.ComputeBlock(alphas, rows, scratch.cols.data(), /*nonnegative_q=*/true);
+  tables.ComputeBlock(alphas, rows, scratch.buf->cols.data(), /*nonnegative_q=*/true);
   const size_t nm = 2 * f + 1;  // layout bre[((ShIndex(p, q) * ch + c) * B + r) * nm + m + F]
-  double* bre = scratch.bre.data();
-  double* bim = scratch.bim.data();
+  double* bre = scratch.buf->bre.data();
+  double* bim = scratch.buf->bim.data();
   for (int m = -f; m <= f; ++m) {
     const std::complex<double>* lm = light_.data() + static_cast<size_t>(m + f) * (f + 1) * ch;
     for (int q = 0; q <= qrho; ++q) {
-      const double* d = scratch.cols.data() + WignerColumnIndex(f, qrho, 0, m, q) * B;
+      const double* d = scratch.buf->cols.data() + WignerColumnIndex(f, qrho, 0, m, q) * B;
       const int l0 = std::max(std::abs(m), std::abs(q));
       for (int p = std::abs(q); p <= pm; ++p) {
         const double* rho =
@@ -535,10 +535,10 @@ void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int ro
           }
         }
     } else {
-      ptables.Compute(alphas[r], scratch.dp);
-      const std::span<const double> dp = scratch.dp;
-      double* sre = scratch.sre.data();
-      double* sim = scratch.sim.data();
+      ptables.Compute(alphas[r], scratch.buf->dp);
+      const std::span<const double> dp = scratch.buf->dp;
+      double* sre = scratch.buf->sre.data();
+      double* sim = scratch.buf->sim.data();
       for (int p = 0; p <= pm; ++p)
         for (int s = 0; s <= p; ++s) {
           const int t = p * (p + 1) / 2 + s;
@@ -617,7 +617,8 @@ absl::StatusOr<ShrmSynthesizer::Grid> ShrmSynthesizer::BuildGrid(ShrmKind kind, 
 
 void ShrmSynthesizer::SynthesizeSlabs(ShrmKind kind, int na, int owned, int threads,
                                       int grid_stride, float* out,
-                                      const std::function<void(int, int)>& emit) const {
+                                      const std::function<void(int, int)>& emit,
+                                      SynthesisScratch* keep) const {
   const int nb = 2 * na, rows = na + 4;
   const int nseries = (pmax_ + 1) * (pmax_ + 2) / 2 * channels_;
   const size_t work_size = static_cast<size_t>(nseries) * nb;
@@ -635,6 +636,10 @@ void ShrmSynthesizer::SynthesizeSlabs(ShrmKind kind, int na, int owned, int thre
   const WignerColumnTables tables(lmax_, qrho), ptables(pmax_, pmax_);
   constexpr int B = kWignerBlock;
   std::vector<RowScratch> scratches(std::max(1, threads));
+  SynthesisScratch local;
+  std::vector<SynthesisScratch::RowBuffers>& buffers = (keep != nullptr ? keep : &local)->rows;
+  if (buffers.size() < scratches.size()) buffers.resize(scratches.size());
+  for (size_t i = 0; i < scratches.size(); ++i) scratches[i].buf = &buffers[i];
   for (RowScratch& scratch : scratches) {
     {
       std::lock_guard<std::mutex> lock(FftwPlannerMutex());
@@ -642,13 +647,14 @@ void ShrmSynthesizer::SynthesizeSlabs(ShrmKind kind, int na, int owned, int thre
       scratch.out = reinterpret_cast<std::complex<double>*>(fftw_alloc_complex(work_size));
     }
     std::fill(scratch.work, scratch.work + work_size, std::complex<double>(0, 0));
-    scratch.cols.resize(WignerColumnCount(lmax_, qrho) * B);
-    scratch.dp.resize(WignerColumnCount(pmax_, pmax_));
+    // (Sized only: SynthesizeRows writes every value it reads.)
+    scratch.buf->cols.resize(WignerColumnCount(lmax_, qrho) * B);
+    scratch.buf->dp.resize(WignerColumnCount(pmax_, pmax_));
     const size_t nbm = static_cast<size_t>(2 * lmax_ + 1) * ShCount(pmax_) * channels_ * B;
-    scratch.bre.assign(nbm, 0.0);
-    scratch.bim.assign(nbm, 0.0);
-    scratch.sre.assign(2 * lmax_ + 1, 0.0);
-    scratch.sim.assign(2 * lmax_ + 1, 0.0);
+    scratch.buf->bre.resize(nbm);
+    scratch.buf->bim.resize(nbm);
+    scratch.buf->sre.resize(2 * lmax_ + 1);
+    scratch.buf->sim.resize(2 * lmax_ + 1);
   }
   for (int row_begin = 0; row_begin < rows - 3; row_begin += owned) {
     const int row_end = std::min(row_begin + owned + 3, rows);
@@ -796,10 +802,13 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCube(ShrmKind kind, int face_size
   grid += (kLineFloats - (reinterpret_cast<uintptr_t>(grid) / sizeof(float)) % kLineFloats) %
           kLineFloats;
   ShrmCube cube = NewCube(kind, face_size, options.scratch);
-  SynthesizeSlabs(kind, na, owned, options.threads, grid_stride, grid, [&](int first, int count) {
-    internal::ResampleToCubeFromRows(grid, first, count, na, stride, grid_stride,
-                                     internal::GridColumns::kShrm, options.threads, cube);
-  });
+  SynthesizeSlabs(
+      kind, na, owned, options.threads, grid_stride, grid,
+      [&](int first, int count) {
+        internal::ResampleToCubeFromRows(grid, first, count, na, stride, grid_stride,
+                                         internal::GridColumns::kShrm, options.threads, cube);
+      },
+      options.scratch);
   return cube;
 }
 

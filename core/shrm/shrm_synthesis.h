@@ -63,6 +63,13 @@ struct SynthesisScratch {
   // and zonal_w_pmax (they depend on nothing else): made by the first cube, reused by the next.
   std::vector<float> zonal_w;
   int zonal_w_face_size = 0, zonal_w_pmax = -1;
+  // The P > 0 grid path's per-worker row buffers (Wigner columns, the l-sums per m: 5.4 MB a
+  // worker at (70, 9)), kept across calls instead of allocated and zero-filled per cube; every
+  // value a call reads it writes first.
+  struct RowBuffers {
+    std::vector<double> cols, dp, bre, bim, sre, sim;
+  };
+  std::vector<RowBuffers> rows;
   // A released cube's storage (e.g. a live frame no longer held): BuildCube takes it for its
   // output when its capacity suffices (every value is written again), instead of zero-filling
   // a fresh buffer. Left empty once taken.
@@ -211,7 +218,8 @@ class ShrmSynthesizer {
   // ShCount(P) x channels values first, zeros after them), then emit(first, count) is called.
   // owned >= na + 1 makes one slab of the whole grid.
   void SynthesizeSlabs(ShrmKind kind, int na, int owned, int threads, int grid_stride, float* out,
-                       const std::function<void(int first, int count)>& emit) const;
+                       const std::function<void(int first, int count)>& emit,
+                       SynthesisScratch* keep = nullptr) const;
   // The P = 0 path of BuildCube (ShrmGridOptions::p0_sht_path).
   // A cube of this synthesizer's kind of coefficients, its storage from AllocateCubeData (the
   // scratch's released buffer when large enough).
@@ -240,9 +248,9 @@ class ShrmSynthesizer {
                                                 SynthesisScratch* scratch) const;
   // Per-thread buffers of SynthesizeRows.
   struct RowScratch {
-    std::vector<double> cols, dp, bre, bim, sre, sim;
-    std::complex<double>* work = nullptr;  // FFT input, nseries * nb (FFTW-allocated)
-    std::complex<double>* out = nullptr;   // FFT output, same size
+    SynthesisScratch::RowBuffers* buf = nullptr;  // the worker's (the caller's scratch's or local)
+    std::complex<double>* work = nullptr;         // FFT input, nseries * nb (FFTW-allocated)
+    std::complex<double>* out = nullptr;          // FFT output, same size
   };
   static constexpr int kWignerBlock = WignerColumnTables::kWignerBlock;
   // Coefficients of `rows` <= kWignerBlock consecutive grid rows (alphas[r]) for all nb columns
