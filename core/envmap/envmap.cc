@@ -484,10 +484,9 @@ std::array<float, 3> EnvMap::LatLongRadiance(const Vec3& d) const {
 }
 
 std::array<float, 3> EnvMap::LatLongRadianceAt(double theta, double p) const {
-  const Image& img = images_[0];
-  const double x = (p / (2 * kPi) + 0.5) * img.width - 0.5;
-  const double y = theta / kPi * img.height - 0.5;
-  return Bilinear(img, x, y, /*wrap_x=*/true);
+  std::array<float, 3> v;
+  LatLongRadianceAt(&theta, &p, 0.0, 1, v.data());
+  return v;
 }
 
 void EnvMap::LatLongRadianceAt(const double* theta, const double* phi, double phi_offset, int n,

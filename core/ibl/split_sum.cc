@@ -629,6 +629,23 @@ absl::StatusOr<SpecularLight> SpecularLightFromCoefficients(int degree, const Ma
   return light;
 }
 
+namespace {
+
+// The map's coefficients to `degree` (at most SpecularLightDegree), with the map's degree and
+// `total_energy` (LightMoments::total, 0 when not known). The pixels' own quadrature: the
+// convolution is then the pixel sum with the degree-F kernel. (Rotated: LightingCoefficients'
+// unrotated coefficients turned by SpecularLightFromCoefficients.)
+absl::StatusOr<SpecularLight> LightToDegree(const EnvMap& map, const Mat3& rotation, int degree,
+                                            int threads, double total_energy) {
+  auto coeffs =
+      LightingCoefficients(map, degree, Mat3::Identity(), threads, ShtQuadrature::kPixelSum);
+  if (!coeffs.ok()) return coeffs.status();
+  return SpecularLightFromCoefficients(degree, rotation, std::move(coeffs).value(),
+                                       SpecularLightDegree(map, rotation, 0), total_energy);
+}
+
+}  // namespace
+
 absl::StatusOr<SpecularLight> ComputeSpecularLight(const EnvMap& map, const Mat3& rotation,
                                                    int max_degree, int threads) {
   if (threads < 1) return absl::InvalidArgumentError(absl::StrCat("IBL: threads = ", threads));
@@ -636,16 +653,9 @@ absl::StatusOr<SpecularLight> ComputeSpecularLight(const EnvMap& map, const Mat3
     return absl::InvalidArgumentError(absl::StrCat("IBL: negative degree cap ", max_degree));
   }
   const int limit = SpecularLightDegree(map, rotation, max_degree);
-  // The pixels' own quadrature: the convolution is then the pixel sum with the degree-F kernel.
-  // (Rotated: LightingCoefficients turns the transform's coefficients with RotateLighting, as
-  // SpecularLightFromCoefficients does.)
-  auto coeffs =
-      LightingCoefficients(map, limit, Mat3::Identity(), threads, ShtQuadrature::kPixelSum);
-  if (!coeffs.ok()) return coeffs.status();
-  const int map_degree = SpecularLightDegree(map, rotation, 0);
-  const LightMoments moments = limit < map_degree ? MapLightMoments(map) : LightMoments{};
-  return SpecularLightFromCoefficients(limit, rotation, std::move(coeffs).value(), map_degree,
-                                       moments.total);
+  const LightMoments moments =
+      limit < SpecularLightDegree(map, rotation, 0) ? MapLightMoments(map) : LightMoments{};
+  return LightToDegree(map, rotation, limit, threads, moments.total);
 }
 
 LightMoments MapLightMoments(const EnvMap& map) {
@@ -706,12 +716,8 @@ absl::StatusOr<SpecularLight> ComputeSplitSumLight(const EnvMap& map, const Mat3
                                                    const SplitSumSetOptions& options, int threads) {
   if (threads < 1) return absl::InvalidArgumentError(absl::StrCat("IBL: threads = ", threads));
   const LightMoments moments = MapLightMoments(map);
-  const int degree = SplitSumLightDegree(map, rotation, options, moments);
-  auto coeffs =
-      LightingCoefficients(map, degree, Mat3::Identity(), threads, ShtQuadrature::kPixelSum);
-  if (!coeffs.ok()) return coeffs.status();
-  return SpecularLightFromCoefficients(degree, rotation, std::move(coeffs).value(),
-                                       SpecularLightDegree(map, rotation, 0), moments.total);
+  return LightToDegree(map, rotation, SplitSumLightDegree(map, rotation, options, moments), threads,
+                       moments.total);
 }
 
 absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const SpecularOptions& options,
