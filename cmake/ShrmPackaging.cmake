@@ -153,7 +153,7 @@ foreach(script postinst prerm postrm)
 endforeach()
 # What find_package(shrm) and the pkg-config files find (cmake/shrmConfig.cmake.in).
 set(CPACK_DEBIAN_DEVEL_PACKAGE_DEPENDS
-    "${SHRM_DEB_IMAGEIO_DEPENDS}, libabsl-dev, libfftw3-dev, libopenexr-dev, zlib1g-dev, libssl-dev, nlohmann-json3-dev, pkg-config")
+    "${SHRM_DEB_IMAGEIO_DEPENDS}, libabsl-dev, libfftw3-dev, libopenexr-dev, zlib1g-dev, nlohmann-json3-dev, pkg-config")
 if(TARGET shrm_client)
   string(APPEND CPACK_DEBIAN_DEVEL_PACKAGE_DEPENDS ", libgrpc++-dev, libprotobuf-dev")
 endif()

@@ -236,8 +236,8 @@ else
   echo "ok: module: $SHRM links neither OpenImageIO nor OpenColorIO"
 fi
 # Start-up (docs/architecture.md "Start-up"): the program loads no service client (gRPC,
-# Protobuf: shrm-remote has them, for --server), no shared Abseil and no libcrypto (loaded on the
-# first hash).
+# Protobuf: shrm-remote has them, for --server), no shared Abseil and no libcrypto (SHA-256 is
+# core/io/sha256.cc's own).
 CHECKS=$((CHECKS + 1))
 if readelf -d "$SHRM" | grep -qiE 'NEEDED.*(grpc|protobuf|absl|crypto|ssl|fftw)'; then
   fail "start-up: $SHRM loads $(readelf -d "$SHRM" | grep -ioE '(grpc|protobuf|absl|crypto|ssl|fftw)[^]]*' | tr '\n' ' ')"

@@ -309,16 +309,5 @@ TEST(ImageTest, PreviewPngIsToneMappedSrgb) {
   fs::remove(path);
 }
 
-TEST(Sha256Test, KnownVectors) {
-  // FIPS 180-2 test vectors.
-  EXPECT_EQ(Sha256Hex(""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
-  EXPECT_EQ(Sha256Hex("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
-  const std::string path = TempPath("sha.txt");
-  WriteBytes(path, "abc");
-  EXPECT_EQ(*Sha256OfFile(path), Sha256Hex("abc"));
-  fs::remove(path);
-  EXPECT_EQ(Sha256OfFile(TempPath("missing")).status().code(), absl::StatusCode::kNotFound);
-}
-
 }  // namespace
 }  // namespace shrm

@@ -393,7 +393,7 @@ synopsis=$(dpkg-deb -f "${DEB[shrmd]}" Description | head -n 1)
 [ "$synopsis" = "shrm prefilter service (gRPC)" ] || fail "shrmd: Description synopsis '$synopsis'"
 dev_depends=$(dpkg-deb -f "${DEB[libshrm-dev]}" Depends)
 for d in libgrpc++-dev libprotobuf-dev libabsl-dev shrm-imageio libopenexr-dev zlib1g-dev \
-  libfftw3-dev libssl-dev nlohmann-json3-dev; do
+  libfftw3-dev nlohmann-json3-dev; do
   grep -q "$d" <<<"$dev_depends" || fail "libshrm-dev: Depends lacks $d"
 done
 
