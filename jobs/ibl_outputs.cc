@@ -109,7 +109,8 @@ absl::Status EncodeDfg(const IblJob& job, const IblRun& run, std::vector<IblFile
       ": column i at N.V = (i + 0.5) / n, row j at roughness (j + 0.5) / n (docs/ibl_dfg.md)");
   ktx2::EncodeOptions opt;
   opt.writer = absl::StrCat("shrm ", kVersion);
-  SHRM_ASSIGN_OR_RETURN(std::string exr, EncodeImage(rgb, ImageEncoding::kExrFloat));
+  // Uncompressed: zip shrinks this smooth table by 3% and took 5 ms of a 110 ms `shrm ibl`.
+  SHRM_ASSIGN_OR_RETURN(std::string exr, EncodeImage(rgb, ImageEncoding::kExrFloatUncompressed));
   SHRM_ASSIGN_OR_RETURN(std::string png, EncodeImage(rgb, ImageEncoding::kPng8));
   const std::string what = absl::StrCat("DFG table (", consumer, "), ", lut.size, " x ", lut.size);
   if (HasContainer(job, IblContainer::kKtx2)) {

@@ -88,28 +88,35 @@ TEST(ImageModuleTest, ExrReaderEqualsOpenImageIOOnEveryCompressionAndLayout) {
   }
 }
 
-// Our float EXR encoding, read by OpenImageIO: the values and channel count come back exact.
+// Our float EXR encodings (zip and uncompressed), read by OpenImageIO: the values and channel
+// count come back exact; the uncompressed file holds every value's 4 bytes.
 TEST(ImageModuleTest, EncodedExrReadsBackInOpenImageIO) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> u(-1e4f, 3.4e4f);
-  for (int channels = 1; channels <= 4; ++channels) {
-    SCOPED_TRACE(channels);
-    Image img;
-    img.width = 13;
-    img.height = 5;
-    img.channels = channels;
-    for (int i = 0; i < img.width * img.height * channels; ++i) img.pixels.push_back(u(rng));
-    auto bytes = EncodeImage(img, ImageEncoding::kExrFloat);
-    ASSERT_TRUE(bytes.ok()) << bytes.status();
-    const std::string path = testing::UniqueTempPath("encoded.exr");
-    ASSERT_TRUE(WriteFileAtomically(path, *bytes).ok());
-    ImageHeader header;
-    header.format = "openexr";
-    auto back = Module().read(path, {}, &header, /*unassociated_alpha=*/false);
-    ASSERT_TRUE(back.ok()) << back.status();
-    EXPECT_EQ(header.channels, channels);
-    EXPECT_EQ(*back, img.pixels);
-    fs::remove(path);
+  for (ImageEncoding encoding : {ImageEncoding::kExrFloat, ImageEncoding::kExrFloatUncompressed}) {
+    for (int channels = 1; channels <= 4; ++channels) {
+      SCOPED_TRACE(::testing::Message()
+                   << channels << " channels, encoding " << static_cast<int>(encoding));
+      Image img;
+      img.width = 13;
+      img.height = 5;
+      img.channels = channels;
+      for (int i = 0; i < img.width * img.height * channels; ++i) img.pixels.push_back(u(rng));
+      auto bytes = EncodeImage(img, encoding);
+      ASSERT_TRUE(bytes.ok()) << bytes.status();
+      if (encoding == ImageEncoding::kExrFloatUncompressed) {
+        EXPECT_GT(bytes->size(), img.pixels.size() * sizeof(float));
+      }
+      const std::string path = testing::UniqueTempPath("encoded.exr");
+      ASSERT_TRUE(WriteFileAtomically(path, *bytes).ok());
+      ImageHeader header;
+      header.format = "openexr";
+      auto back = Module().read(path, {}, &header, /*unassociated_alpha=*/false);
+      ASSERT_TRUE(back.ok()) << back.status();
+      EXPECT_EQ(header.channels, channels);
+      EXPECT_EQ(*back, img.pixels);
+      fs::remove(path);
+    }
   }
 }
 

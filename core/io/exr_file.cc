@@ -209,7 +209,7 @@ absl::StatusOr<std::vector<float>> ReadChannels(const std::string& path, const I
   return values;
 }
 
-absl::StatusOr<std::string> EncodeFloat(const Image& image) {
+absl::StatusOr<std::string> EncodeFloat(const Image& image, bool compress) {
   static constexpr const char* kNames[4][4] = {
       {"Y"}, {"Y", "A"}, {"R", "G", "B"}, {"R", "G", "B", "A"}};
   if (image.width <= 0 || image.height <= 0 || image.channels < 1 || image.channels > 4 ||
@@ -222,9 +222,10 @@ absl::StatusOr<std::string> EncodeFloat(const Image& image) {
     StringOStream stream;
     {
       Imf::Header header(image.width, image.height);
-      header.compression() = Imf::ZIP_COMPRESSION;
+      header.compression() = compress ? Imf::ZIP_COMPRESSION : Imf::NO_COMPRESSION;
       // zlib's fastest level: float data compresses little at any level (a 128 x 128 x 3 table:
-      // 191,604 bytes in 7.1 ms at the library's default level, 191,492 bytes in 5.0 ms at 1).
+      // 191,604 bytes in 7.1 ms at the library's default level, 191,492 bytes in 5.0 ms at 1,
+      // 196,956 bytes uncompressed).
       header.zipCompressionLevel() = 1;
       Imf::FrameBuffer fb;
       const size_t xs = sizeof(float) * image.channels;

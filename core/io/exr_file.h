@@ -34,8 +34,9 @@ absl::StatusOr<ImageHeader> Probe(const std::string& path, const ImageLimits& li
 absl::StatusOr<std::vector<float>> ReadChannels(const std::string& path, const ImageLimits& limits,
                                                 ImageHeader* header, int* channels_read);
 
-// A float OpenEXR file (zip compression, no date or software stamp) holding `image`.
-absl::StatusOr<std::string> EncodeFloat(const Image& image);
+// A float OpenEXR file (zip compression at zlib's fastest level, or none; no date or software
+// stamp) holding `image`.
+absl::StatusOr<std::string> EncodeFloat(const Image& image, bool compress = true);
 
 // A multi-part file (SHRM cube files: six parts). Open parses every header and checks each part
 // is flat and within `limits`; Read decodes one part's channels as float into the caller's

@@ -427,6 +427,8 @@ absl::Status WriteImage8Bit(const std::string& path, const Image& image) {
 absl::StatusOr<std::string> EncodeImage(const Image& image, ImageEncoding encoding) {
   SHRM_RETURN_IF_ERROR(CheckConsistent(image, "inconsistent image to encode"));
   if (encoding == ImageEncoding::kExrFloat) return exr::EncodeFloat(image);
+  if (encoding == ImageEncoding::kExrFloatUncompressed)
+    return exr::EncodeFloat(image, /*compress=*/false);
   // The values are stored as given (a 4th channel is not taken as premultiplied alpha: RGBD data
   // in the glTF IBL's PNGs is not premultiplied).
   return png::Encode8(image.width, image.height, image.channels, To8Bit(image));

@@ -100,10 +100,11 @@ Image TonemapPreview(const Image& linear, double exposure = 0);
 absl::Status WriteImage8Bit(const std::string& path, const Image& image);
 
 // The same encodings in memory (for outputs that every front end writes identically): a float
-// OpenEXR file (zip, fixed date) or an 8-bit PNG of values in [0, 1] (clamped, NaN -> 0, no colour
+// OpenEXR file (zip, or uncompressed for data that zip barely shrinks, such as smooth tables of
+// values in [0, 1]; fixed date) or an 8-bit PNG of values in [0, 1] (clamped, NaN -> 0, no colour
 // transform; a 4th channel is stored as given, not as premultiplied alpha). InvalidArgument for
 // an inconsistent image.
-enum class ImageEncoding { kExrFloat, kPng8 };
+enum class ImageEncoding { kExrFloat, kExrFloatUncompressed, kPng8 };
 absl::StatusOr<std::string> EncodeImage(const Image& image, ImageEncoding encoding);
 
 }  // namespace shrm

