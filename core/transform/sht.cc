@@ -7,6 +7,7 @@
 #include <cmath>
 #include <complex>
 #include <map>
+#include <mutex>
 #include <thread>
 #include <tuple>
 #include <utility>
@@ -87,13 +88,37 @@ std::string GridName(const ShtGrid& g) {
 
 }  // namespace
 
+// FFTW plans for one ring pair (2 * channels real rings), each made on its first use: most plans
+// serve one direction only (an analysis, or a synthesis grid), and planning one took about as
+// long as a transform of the split-sum set's rough levels.
 struct ShtPlan::FftwState {
-  fftw_plan r2c = nullptr;  // 2 * channels rings: real [2ch][W] -> complex [2ch][W/2+1]
+  int width = 0, howmany = 0;
+  std::once_flag r2c_once, c2r_once;
+  fftw_plan r2c = nullptr;  // real [2ch][W] -> complex [2ch][W/2+1]
   fftw_plan c2r = nullptr;  // the inverse batch
   ~FftwState() {
     std::lock_guard<std::mutex> lock(FftwPlannerMutex());
     if (r2c) fftw_destroy_plan(r2c);
     if (c2r) fftw_destroy_plan(c2r);
+  }
+  // The plan of a direction (null if FFTW could not make it), planned on buffers of the layout
+  // and alignment that the transforms execute it on.
+  fftw_plan Get(bool forward) {
+    std::call_once(forward ? r2c_once : c2r_once, [&] {
+      const int nc = width / 2 + 1;
+      FftwBuffer<double> re(static_cast<size_t>(howmany) * width);
+      FftwBuffer<fftw_complex> co(static_cast<size_t>(howmany) * nc);
+      int n[1] = {width};
+      std::lock_guard<std::mutex> lock(FftwPlannerMutex());
+      if (forward) {
+        r2c = fftw_plan_many_dft_r2c(1, n, howmany, re.data, nullptr, 1, width, co.data, nullptr, 1,
+                                     nc, FFTW_ESTIMATE);
+      } else {
+        c2r = fftw_plan_many_dft_c2r(1, n, howmany, co.data, nullptr, 1, nc, re.data, nullptr, 1,
+                                     width, FFTW_ESTIMATE);
+      }
+    });
+    return forward ? r2c : c2r;
   }
 };
 
@@ -237,23 +262,9 @@ absl::StatusOr<std::shared_ptr<const ShtPlan>> ShtPlan::CreateImpl(const ShtGrid
     }
   }
 
-  // FFTW plans for one ring pair (2 * channels real rings).
   plan->fftw_ = std::make_unique<FftwState>();
-  {
-    const int howmany = 2 * channels;
-    const int nc = w / 2 + 1;
-    FftwBuffer<double> re(static_cast<size_t>(howmany) * w);
-    FftwBuffer<fftw_complex> co(static_cast<size_t>(howmany) * nc);
-    int n[1] = {w};
-    std::lock_guard<std::mutex> lock(FftwPlannerMutex());
-    plan->fftw_->r2c = fftw_plan_many_dft_r2c(1, n, howmany, re.data, nullptr, 1, w, co.data,
-                                              nullptr, 1, nc, FFTW_ESTIMATE);
-    plan->fftw_->c2r = fftw_plan_many_dft_c2r(1, n, howmany, co.data, nullptr, 1, nc, re.data,
-                                              nullptr, 1, w, FFTW_ESTIMATE);
-    if (plan->fftw_->r2c == nullptr || plan->fftw_->c2r == nullptr) {
-      return absl::InternalError("SHT: FFTW planning failed");
-    }
-  }
+  plan->fftw_->width = w;
+  plan->fftw_->howmany = 2 * channels;
   return std::shared_ptr<const ShtPlan>(std::move(plan));
 }
 
@@ -506,6 +517,8 @@ absl::Status ShtPlan::ForwardImpl(std::span<const T> map, std::span<double> coef
         absl::StrCat("SHT: coefficient array has ", coeffs.size(),
                      " values, expected (lmax+1)^2*channels = ", coeff_size()));
   }
+  const fftw_plan r2c = fftw_->Get(/*forward=*/true);
+  if (r2c == nullptr) return absl::InternalError("SHT: FFTW planning failed");
   const int w = grid_.width, h = grid_.height, ch = channels_, lmax = lmax_;
   const int np = rings_.num_pairs, pp = PadPairs(np);
   const int nc = w / 2 + 1;
@@ -575,7 +588,7 @@ absl::Status ShtPlan::ForwardImpl(std::span<const T> map, std::span<double> coef
           __builtin_prefetch(r2 + b);
         }
       }
-      fftw_execute_dft_r2c(fftw_->r2c, in, out);
+      fftw_execute_dft_r2c(r2c, in, out);
     }
     const int p_pad = std::min(pp, p_begin + kPairsPerTask);  // padding pairs get zeros
     for (int m = 0; m <= lmax; ++m) {
@@ -647,6 +660,8 @@ absl::Status ShtPlan::InverseImpl(std::span<const double> coeffs, std::span<T> m
                                                    " values, expected W*H*channels = ", map_size(),
                                                    " for ", GridName(grid_)));
   }
+  const fftw_plan c2r = fftw_->Get(/*forward=*/false);
+  if (c2r == nullptr) return absl::InternalError("SHT: FFTW planning failed");
   const int w = grid_.width, h = grid_.height, ch = channels_, lmax = lmax_;
   const int np = rings_.num_pairs, pp = PadPairs(np), nv = pp / kLanes;
   const int nc = w / 2 + 1;
@@ -770,7 +785,7 @@ absl::Status ShtPlan::InverseImpl(std::span<const double> coeffs, std::span<T> m
     }
     for (int p = p_begin; p < p_end; ++p) {
       const bool equator = rings_.has_equator && p == np - 1;
-      fftw_execute_dft_c2r(fftw_->c2r, co_block + (p - p_begin) * pair_spectra, re);
+      fftw_execute_dft_c2r(c2r, co_block + (p - p_begin) * pair_spectra, re);
       for (int half = 0; half < (equator ? 1 : 2); ++half) {
         const int j = half == 0 ? p : h - 1 - p;
         T* dst = map.data() + static_cast<size_t>(j) * w * ch;
