@@ -28,14 +28,11 @@ double MsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-absl::Status Measure(const EnvMap& map, const ibl::PixelSumTable& table, const Mat3& rotation,
-                     ibl::SpecularLobe lobe, int count, uint64_t seed, int threads, IblCube& cube) {
-  cube.measured.clear();
-  for (size_t k = 0; k < cube.chain.levels.size(); ++k) {
-    cube.measured.push_back(ibl::MeasureLevelError(map, lobe, cube.chain.levels[k], rotation, count,
-                                                   seed + k, threads, &table));
-  }
-  return absl::OkStatus();
+// The checks of a cube's levels: `count` seeded texels each (seed + level).
+void AddChecks(ibl::SpecularLobe lobe, int count, uint64_t seed, const IblCube& cube,
+               std::vector<ibl::LevelCheck>& checks) {
+  for (size_t k = 0; k < cube.chain.levels.size(); ++k)
+    checks.push_back({lobe, &cube.chain.levels[k], count, seed + k});
 }
 
 // Clamps negatives to 0 and rounds every texel as `format` stores it.
@@ -361,20 +358,29 @@ absl::Status FinishIblRun(const IblJob& job, ibl::SplitSumSet set, const EnvMap*
   if (job.verify > 0 && map != nullptr) {
     SHRM_RETURN_IF_ERROR(stage("verify"));
     t0 = std::chrono::steady_clock::now();
-    // One copy of the map's samples for every check of the job.
-    const ibl::PixelSumTable table(*map);
-    SHRM_RETURN_IF_ERROR(Measure(*map, table, rotation, ibl::SpecularLobe::kGgx, job.verify,
-                                 kSpecularVerifySeed, threads, run.specular));
-    if (job.sheen) {
-      SHRM_RETURN_IF_ERROR(Measure(*map, table, rotation, ibl::SpecularLobe::kCharlie, job.verify,
-                                   kSheenVerifySeed, threads, run.sheen));
-    }
-    SHRM_RETURN_IF_ERROR(Measure(*map, table, rotation, ibl::SpecularLobe::kLambert, job.verify,
-                                 kIrradianceVerifySeed, threads, run.irradiance));
+    // Every check of the job in one pass over the map's pixels.
+    std::vector<ibl::LevelCheck> checks;
+    AddChecks(ibl::SpecularLobe::kGgx, job.verify, kSpecularVerifySeed, run.specular, checks);
+    if (job.sheen)
+      AddChecks(ibl::SpecularLobe::kCharlie, job.verify, kSheenVerifySeed, run.sheen, checks);
+    AddChecks(ibl::SpecularLobe::kLambert, job.verify, kIrradianceVerifySeed, run.irradiance,
+              checks);
     // The check of E_lm = A_l L_lm, the form `shrm irradiance` states.
     SHRM_ASSIGN_OR_RETURN(const std::vector<double> e9,
                           IrradianceCoefficients(2, 3, run.radiance_sh9));
-    run.sh9_measured = MeasureIrradianceSh9(*map, rotation, e9, job.verify, threads, &table);
+    ibl::SpecularLevel sh9_level;
+    SHRM_ASSIGN_OR_RETURN(const ibl::LevelCheck sh9_check,
+                          IrradianceSh9Check(e9, job.verify, &sh9_level));
+    checks.push_back(sh9_check);
+    const std::vector<ibl::LevelError> errors =
+        ibl::MeasureLevelErrors(*map, checks, rotation, threads);
+    auto next = errors.begin();
+    for (IblCube* cube : {&run.specular, &run.sheen, &run.irradiance}) {
+      if (cube == &run.sheen && !job.sheen) continue;
+      cube->measured.assign(next, next + static_cast<std::ptrdiff_t>(cube->chain.levels.size()));
+      next += static_cast<std::ptrdiff_t>(cube->chain.levels.size());
+    }
+    run.sh9_measured = *next;
     run.timings.push_back({"verify", MsSince(t0)});
   }
   run.report = IblReportJson(job, run);

@@ -27,21 +27,26 @@ absl::StatusOr<std::vector<double>> IrradianceSh9(const EnvMap& map, const Mat3&
   return IrradianceCoefficients(2, 3, light);
 }
 
-ibl::LevelError MeasureIrradianceSh9(const EnvMap& map, const Mat3& rotation,
-                                     std::span<const double> e9, int count, int threads,
-                                     const ibl::PixelSumTable* table) {
+absl::StatusOr<ibl::LevelCheck> IrradianceSh9Check(std::span<const double> e9, int count,
+                                                   ibl::SpecularLevel* level) {
   // The check's seed (the IBL job's SH9 check uses the same normals).
   constexpr uint64_t kSeed = 0x5eed'1b10'0003 + 1000;
   constexpr int kFace = 16;
+  level->face_size = kFace;
+  level->roughness = level->alpha = 1;
+  SHRM_ASSIGN_OR_RETURN(RadianceCube cube, IrradianceCube(e9, 3, kFace));
+  level->cube = std::move(cube);
+  for (float& v : level->cube.data) v = static_cast<float>(v / kPi);  // E / pi: the Lambert sum
+  return ibl::LevelCheck{ibl::SpecularLobe::kLambert, level, count, kSeed};
+}
+
+ibl::LevelError MeasureIrradianceSh9(const EnvMap& map, const Mat3& rotation,
+                                     std::span<const double> e9, int count, int threads,
+                                     const ibl::PixelSumTable* table) {
   ibl::SpecularLevel level;
-  level.face_size = kFace;
-  level.roughness = level.alpha = 1;
-  absl::StatusOr<RadianceCube> cube = IrradianceCube(e9, 3, kFace);
-  if (!cube.ok()) return {};  // e9 of the wrong size: nothing measured
-  level.cube = *std::move(cube);
-  for (float& v : level.cube.data) v = static_cast<float>(v / kPi);  // E / pi: the Lambert sum
-  return ibl::MeasureLevelError(map, ibl::SpecularLobe::kLambert, level, rotation, count, kSeed,
-                                threads, table);
+  const absl::StatusOr<ibl::LevelCheck> check = IrradianceSh9Check(e9, count, &level);
+  if (!check.ok()) return {};  // e9 of the wrong size: nothing measured
+  return ibl::MeasureLevelErrors(map, {&*check, 1}, rotation, threads, table)[0];
 }
 
 Image RadianceCrossImage(const RadianceCube& cube) {

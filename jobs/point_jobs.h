@@ -46,6 +46,10 @@ inline constexpr int kMaxIrradianceVerify = 100000;
 ibl::LevelError MeasureIrradianceSh9(const EnvMap& map, const Mat3& rotation,
                                      std::span<const double> e9, int count, int threads,
                                      const ibl::PixelSumTable* table = nullptr);
+// That check as one of ibl::MeasureLevelErrors' (for a job that measures several levels in one
+// pass): the 16 x 16 cube of E / pi into `level`, which must outlive the check.
+absl::StatusOr<ibl::LevelCheck> IrradianceSh9Check(std::span<const double> e9, int count,
+                                                   ibl::SpecularLevel* level);
 
 // A radiance cube as a horizontal-cross image (4S x 3S: [. +Y . .] [-X +Z +X -Z] [. -Y . .], GL
 // face orientation, as core/envmap reads it back; grey cubes repeated in RGB): the file of

@@ -131,16 +131,29 @@ TEST(SplitSumTest, PixelSumTableIsTheReferenceSum) {
                                                    {SpecularLobe::kGgx, 1.0},
                                                    {SpecularLobe::kCharlie, 0.09},
                                                    {SpecularLobe::kLambert, 1.0}};
+  // Each lobe alone, then all of them in one pass (PrefilteredMany, as the jobs' checks call
+  // it), on 1 to 3 threads (whose runs of directions then span queries).
+  std::vector<PixelSumTable::Query> queries;
+  for (const auto& [lobe, alpha] : lobes) queries.push_back({lobe, alpha, dirs});
+  std::vector<std::vector<std::vector<std::array<double, 3>>>> runs;
+  for (const auto& q : queries) runs.push_back({table.Prefiltered(q.lobe, q.alpha, dirs, 2)});
+  for (int threads = 1; threads <= 3; ++threads) {
+    std::vector<std::vector<std::array<double, 3>>> many = table.PrefilteredMany(queries, threads);
+    ASSERT_EQ(many.size(), queries.size());
+    for (size_t q = 0; q < queries.size(); ++q) runs[q].push_back(std::move(many[q]));
+  }
   double worst = 0;
-  for (const auto& [lobe, alpha] : lobes) {
-    const std::vector<std::array<double, 3>> got = table.Prefiltered(lobe, alpha, dirs, 2);
-    ASSERT_EQ(got.size(), dirs.size());
+  for (size_t q = 0; q < queries.size(); ++q) {
+    const auto [lobe, alpha] = lobes[q];
     for (size_t i = 0; i < dirs.size(); ++i) {
       const std::array<double, 3> want = SplitSumReference(*map, lobe, alpha, dirs[i]);
-      for (int c = 0; c < 3; ++c) {
-        const double rel = std::abs(got[i][c] - want[c]) / std::abs(want[c]);
-        worst = std::max(worst, rel);
-        EXPECT_LE(rel, kTableTol) << SpecularLobeName(lobe) << " alpha " << alpha << " dir " << i;
+      for (const auto& got : runs[q]) {
+        ASSERT_EQ(got.size(), dirs.size());
+        for (int c = 0; c < 3; ++c) {
+          const double rel = std::abs(got[i][c] - want[c]) / std::abs(want[c]);
+          worst = std::max(worst, rel);
+          EXPECT_LE(rel, kTableTol) << SpecularLobeName(lobe) << " alpha " << alpha << " dir " << i;
+        }
       }
     }
   }

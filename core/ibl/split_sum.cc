@@ -7,6 +7,10 @@
 #include <optional>
 #include <random>
 
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/cubemap.h"
@@ -466,13 +470,26 @@ void PixelSumTable::MakeLatLongBlock(int blk, BlockData& out) const {
 
 namespace {
 
-// The kernel of SplitSumKernel up to a constant factor, as a function of e = |r - d|^2.
+// The kernel of SplitSumKernel up to a constant factor, as a function of e = |r - d|^2. GGX and
+// Lambert also in 16 lanes (AVX-512), GGX's division there by the reciprocal estimate and one
+// Newton step (within an ulp or two of the quotient: the sums are single precision anyway).
 struct GgxInE {
   float a2, b;  // alpha^2, (1 - alpha^2) / 4
   float operator()(float e) const {
     const float q = a2 + b * e;
     return std::max(0.0f, 1 - 0.5f * e) / (q * q);
   }
+#if defined(__AVX512F__)
+  static constexpr bool kVector = true;
+  __m512 operator()(__m512 e) const {
+    const __m512 q = _mm512_fmadd_ps(_mm512_set1_ps(b), e, _mm512_set1_ps(a2));
+    const __m512 q2 = _mm512_mul_ps(q, q);
+    __m512 r = _mm512_maskz_rcp14_ps(0xFFFF, q2);
+    r = _mm512_fmadd_ps(r, _mm512_fnmadd_ps(q2, r, _mm512_set1_ps(1.0f)), r);
+    const __m512 c = _mm512_fnmadd_ps(_mm512_set1_ps(0.5f), e, _mm512_set1_ps(1.0f));
+    return _mm512_mul_ps(_mm512_maskz_max_ps(0xFFFF, c, _mm512_setzero_ps()), r);
+  }
+#endif
 };
 struct CharlieInE {
   float power;  // 1 / (2 alpha): D ~ (sin^2 theta_h)^power, sin^2 theta_h = e / 4
@@ -483,83 +500,157 @@ struct CharlieInE {
 };
 struct LambertInE {
   float operator()(float e) const { return std::max(0.0f, 1 - 0.5f * e); }
+#if defined(__AVX512F__)
+  static constexpr bool kVector = true;
+  __m512 operator()(__m512 e) const {
+    const __m512 c = _mm512_fnmadd_ps(_mm512_set1_ps(0.5f), e, _mm512_set1_ps(1.0f));
+    return _mm512_maskz_max_ps(0xFFFF, c, _mm512_setzero_ps());
+  }
+#endif
 };
+
+#if defined(__AVX512F__)
+// The sum of the 16 lanes (through memory: GCC 12's reduction and extraction intrinsics leave a
+// vector undefined, which -Wmaybe-uninitialized reports once inlined).
+double SumLanes(__m512 v) {
+  alignas(64) float f[16];
+  _mm512_store_ps(f, v);
+  double s = 0;
+  for (float x : f) s += x;
+  return s;
+}
+#endif
+
+// One block's sums for direction (rx, ry, rz): weight, then the weighted r, g, b, each over
+// `n` members (a multiple of 16) in single precision.
+template <typename Kernel>
+std::array<double, 4> BlockSums(const Kernel& kernel, float rx, float ry, float rz, int n,
+                                const float* px, const float* py, const float* pz, const float* po,
+                                const float* pr, const float* pg, const float* pb) {
+#if defined(__AVX512F__)
+  if constexpr (requires { Kernel::kVector; }) {
+    const __m512 vx = _mm512_set1_ps(rx), vy = _mm512_set1_ps(ry), vz = _mm512_set1_ps(rz);
+    __m512 sw = _mm512_setzero_ps(), sr = sw, sg = sw, sb = sw;
+    for (int j = 0; j < n; j += 16) {
+      const __m512 dx = _mm512_sub_ps(vx, _mm512_loadu_ps(px + j));
+      const __m512 dy = _mm512_sub_ps(vy, _mm512_loadu_ps(py + j));
+      const __m512 dz = _mm512_sub_ps(vz, _mm512_loadu_ps(pz + j));
+      const __m512 e = _mm512_fmadd_ps(dx, dx, _mm512_fmadd_ps(dy, dy, _mm512_mul_ps(dz, dz)));
+      const __m512 w = _mm512_mul_ps(kernel(e), _mm512_loadu_ps(po + j));
+      sw = _mm512_add_ps(sw, w);
+      sr = _mm512_fmadd_ps(w, _mm512_loadu_ps(pr + j), sr);
+      sg = _mm512_fmadd_ps(w, _mm512_loadu_ps(pg + j), sg);
+      sb = _mm512_fmadd_ps(w, _mm512_loadu_ps(pb + j), sb);
+    }
+    return {SumLanes(sw), SumLanes(sr), SumLanes(sg), SumLanes(sb)};
+  }
+#endif
+  constexpr int kLanes = 8;
+  float sw[kLanes] = {}, sr[kLanes] = {}, sg[kLanes] = {}, sb[kLanes] = {};
+  for (int j = 0; j < n; j += kLanes) {
+    for (int k = 0; k < kLanes; ++k) {
+      const float dx = rx - px[j + k], dy = ry - py[j + k], dz = rz - pz[j + k];
+      const float w = kernel(dx * dx + dy * dy + dz * dz) * po[j + k];
+      sw[k] += w;
+      sr[k] += w * pr[j + k];
+      sg[k] += w * pg[j + k];
+      sb[k] += w * pb[j + k];
+    }
+  }
+  std::array<double, 4> t = {0, 0, 0, 0};
+  for (int k = 0; k < kLanes; ++k) {
+    t[0] += sw[k];
+    t[1] += sr[k];
+    t[2] += sg[k];
+    t[3] += sb[k];
+  }
+  return t;
+}
 
 }  // namespace
 
 std::vector<std::array<double, 3>> PixelSumTable::Prefiltered(SpecularLobe lobe, double alpha,
                                                               std::span<const Vec3> dirs,
                                                               int threads) const {
-  std::vector<std::array<double, 3>> out(dirs.size(), {0, 0, 0});
-  auto run = [&](auto kernel) {
-    ParallelChunks(static_cast<int>(dirs.size()), threads, [&](int begin, int end) {
-      constexpr int kLanes = 8;
-      std::vector<std::array<double, 4>> total(end - begin, {0, 0, 0, 0});
-      std::unique_ptr<BlockData> made;
-      if (image_ != nullptr) made = std::make_unique<BlockData>();
-      for (int blk = 0; blk < blocks_; ++blk) {
-        const Cone& cone = cones_[blk];
-        // Every member at least 90 degrees from dir: K = 0 for the whole block.
-        const auto behind = [&cone](const Vec3& dir) {
-          return cone.sin_radius <= 1 && dir.Dot(cone.axis) <= -cone.sin_radius;
-        };
-        const float *px, *py, *pz, *po, *pr, *pg, *pb;
-        if (made) {
-          bool any = false;
-          for (int i = begin; i < end && !any; ++i) any = !behind(dirs[i]);
-          if (!any) continue;
-          MakeLatLongBlock(blk, *made);
-          px = made->x, py = made->y, pz = made->z, po = made->omega;
-          pr = made->r, pg = made->g, pb = made->b;
-        } else {
-          const size_t base = static_cast<size_t>(blk) * kBlock;
-          px = x_.data() + base, py = y_.data() + base, pz = z_.data() + base;
-          po = omega_.data() + base;
-          pr = r_.data() + base, pg = g_.data() + base, pb = b_.data() + base;
-        }
-        for (int i = begin; i < end; ++i) {
-          const Vec3& dir = dirs[i];
-          if (behind(dir)) continue;
-          const float rx = static_cast<float>(dir.x), ry = static_cast<float>(dir.y),
-                      rz = static_cast<float>(dir.z);
-          float sw[kLanes] = {}, sr[kLanes] = {}, sg[kLanes] = {}, sb[kLanes] = {};
-          for (int j = 0; j < kBlock; j += kLanes) {
-            for (int k = 0; k < kLanes; ++k) {
-              const float dx = rx - px[j + k], dy = ry - py[j + k], dz = rz - pz[j + k];
-              const float w = kernel(dx * dx + dy * dy + dz * dz) * po[j + k];
-              sw[k] += w;
-              sr[k] += w * pr[j + k];
-              sg[k] += w * pg[j + k];
-              sb[k] += w * pb[j + k];
-            }
-          }
-          std::array<double, 4>& t = total[i - begin];
-          for (int k = 0; k < kLanes; ++k) {
-            t[0] += sw[k];
-            t[1] += sr[k];
-            t[2] += sg[k];
-            t[3] += sb[k];
-          }
-        }
-      }
-      for (int i = begin; i < end; ++i) {
-        const std::array<double, 4>& t = total[i - begin];
-        if (t[0] > 0) out[i] = {t[1] / t[0], t[2] / t[0], t[3] / t[0]};
-      }
-    });
+  const Query query{lobe, alpha, dirs};
+  return std::move(PrefilteredMany({&query, 1}, threads)[0]);
+}
+
+std::vector<std::vector<std::array<double, 3>>> PixelSumTable::PrefilteredMany(
+    std::span<const Query> queries, int threads) const {
+  // The queries' directions end to end; a worker takes a run of them, which may span queries.
+  std::vector<size_t> first(queries.size() + 1, 0);
+  for (size_t q = 0; q < queries.size(); ++q) first[q + 1] = first[q] + queries[q].dirs.size();
+  std::vector<std::vector<std::array<double, 3>>> out(queries.size());
+  for (size_t q = 0; q < queries.size(); ++q) out[q].assign(queries[q].dirs.size(), {0, 0, 0});
+  const auto dir_at = [&](size_t q, size_t i) -> const Vec3& {
+    return queries[q].dirs[i - first[q]];
   };
-  const float a = static_cast<float>(alpha);
-  switch (lobe) {
-    case SpecularLobe::kGgx:
-      run(GgxInE{a * a, (1 - a * a) / 4});
-      break;
-    case SpecularLobe::kCharlie:
-      run(CharlieInE{0.5f / a});
-      break;
-    case SpecularLobe::kLambert:
-      run(LambertInE{});
-      break;
-  }
+  ParallelChunks(static_cast<int>(first.back()), threads, [&](int begin, int end) {
+    std::vector<std::array<double, 4>> total(end - begin, {0, 0, 0, 0});
+    std::unique_ptr<BlockData> made;
+    if (image_ != nullptr) made = std::make_unique<BlockData>();
+    for (int blk = 0; blk < blocks_; ++blk) {
+      const Cone& cone = cones_[blk];
+      // Every member at least 90 degrees from dir: K = 0 for the whole block.
+      const auto behind = [&cone](const Vec3& dir) {
+        return cone.sin_radius <= 1 && dir.Dot(cone.axis) <= -cone.sin_radius;
+      };
+      const float *px, *py, *pz, *po, *pr, *pg, *pb;
+      if (made) {
+        bool any = false;
+        for (size_t q = 0; q < queries.size() && !any; ++q) {
+          for (size_t i = std::max<size_t>(begin, first[q]);
+               i < std::min<size_t>(end, first[q + 1]) && !any; ++i)
+            any = !behind(dir_at(q, i));
+        }
+        if (!any) continue;
+        MakeLatLongBlock(blk, *made);
+        px = made->x, py = made->y, pz = made->z, po = made->omega;
+        pr = made->r, pg = made->g, pb = made->b;
+      } else {
+        const size_t base = static_cast<size_t>(blk) * kBlock;
+        px = x_.data() + base, py = y_.data() + base, pz = z_.data() + base;
+        po = omega_.data() + base;
+        pr = r_.data() + base, pg = g_.data() + base, pb = b_.data() + base;
+      }
+      for (size_t q = 0; q < queries.size(); ++q) {
+        const size_t i0 = std::max<size_t>(begin, first[q]),
+                     i1 = std::min<size_t>(end, first[q + 1]);
+        if (i0 >= i1) continue;
+        auto sum = [&](const auto& kernel) {
+          for (size_t i = i0; i < i1; ++i) {
+            const Vec3& dir = dir_at(q, i);
+            if (behind(dir)) continue;
+            const std::array<double, 4> sums =
+                BlockSums(kernel, static_cast<float>(dir.x), static_cast<float>(dir.y),
+                          static_cast<float>(dir.z), kBlock, px, py, pz, po, pr, pg, pb);
+            std::array<double, 4>& t = total[i - begin];
+            for (int k = 0; k < 4; ++k) t[k] += sums[k];
+          }
+        };
+        const float a = static_cast<float>(queries[q].alpha);
+        switch (queries[q].lobe) {
+          case SpecularLobe::kGgx:
+            sum(GgxInE{a * a, (1 - a * a) / 4});
+            break;
+          case SpecularLobe::kCharlie:
+            sum(CharlieInE{0.5f / a});
+            break;
+          case SpecularLobe::kLambert:
+            sum(LambertInE{});
+            break;
+        }
+      }
+    }
+    for (size_t q = 0; q < queries.size(); ++q) {
+      const size_t i0 = std::max<size_t>(begin, first[q]), i1 = std::min<size_t>(end, first[q + 1]);
+      for (size_t i = i0; i < i1; ++i) {
+        const std::array<double, 4>& t = total[i - begin];
+        if (t[0] > 0) out[q][i - first[q]] = {t[1] / t[0], t[2] / t[0], t[3] / t[0]};
+      }
+    }
+  });
   return out;
 }
 
@@ -843,52 +934,84 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
 LevelError MeasureLevelError(const EnvMap& map, SpecularLobe lobe, const SpecularLevel& level,
                              const Mat3& rotation, int count, uint64_t seed, int threads,
                              const PixelSumTable* table) {
-  LevelError e;
-  if (count <= 0) return e;
-  const int s = level.cube.face_size;
-  std::mt19937_64 rng(seed);
-  std::vector<std::array<int, 3>> texels(count);
-  const uint64_t n = static_cast<uint64_t>(kCubeFaceCount) * s * s;
-  for (auto& t : texels) {
-    const uint64_t k = rng() % n;  // modulo bias < 2^-40 for these sizes
-    t = {static_cast<int>(k / (static_cast<uint64_t>(s) * s)), static_cast<int>(k % s),
-         static_cast<int>((k / s) % s)};
-  }
+  const LevelCheck check{lobe, &level, count, seed};
+  return MeasureLevelErrors(map, {&check, 1}, rotation, threads, table)[0];
+}
+
+std::vector<LevelError> MeasureLevelErrors(const EnvMap& map, std::span<const LevelCheck> checks,
+                                           const Mat3& rotation, int threads,
+                                           const PixelSumTable* table) {
+  // Each check's seeded texels and their world directions.
+  struct Texels {
+    std::vector<std::array<int, 3>> at;
+    std::vector<Vec3> dirs;
+  };
+  std::vector<Texels> texels(checks.size());
   const Mat3 inverse = rotation.Transposed();
-  std::vector<Vec3> dirs(count);
-  for (int i = 0; i < count; ++i) {
-    const auto [face, x, y] = texels[i];
-    dirs[i] = inverse * CubeTexelDirection(face, x, y, s);
+  for (size_t c = 0; c < checks.size(); ++c) {
+    const int count = std::max(0, checks[c].count);
+    const int s = checks[c].level->cube.face_size;
+    std::mt19937_64 rng(checks[c].seed);
+    const uint64_t n = static_cast<uint64_t>(kCubeFaceCount) * s * s;
+    Texels& t = texels[c];
+    t.at.resize(count);
+    t.dirs.resize(count);
+    for (int i = 0; i < count; ++i) {
+      const uint64_t k = rng() % n;  // modulo bias < 2^-40 for these sizes
+      t.at[i] = {static_cast<int>(k / (static_cast<uint64_t>(s) * s)), static_cast<int>(k % s),
+                 static_cast<int>((k / s) % s)};
+      t.dirs[i] = inverse * CubeTexelDirection(t.at[i][0], t.at[i][1], t.at[i][2], s);
+    }
   }
-  std::vector<std::array<double, 3>> want(count);
-  if (level.alpha <= 0) {
-    for (int i = 0; i < count; ++i) want[i] = SplitSumReference(map, lobe, 0.0, dirs[i]);
-  } else {
+  // The references: the map itself at alpha = 0, else the pixel sums, all in one pass.
+  std::vector<std::vector<std::array<double, 3>>> want(checks.size());
+  std::vector<PixelSumTable::Query> queries;
+  std::vector<size_t> query_of;
+  for (size_t c = 0; c < checks.size(); ++c) {
+    const SpecularLevel& level = *checks[c].level;
+    if (texels[c].dirs.empty()) continue;
+    if (level.alpha <= 0) {
+      for (const Vec3& d : texels[c].dirs)
+        want[c].push_back(SplitSumReference(map, checks[c].lobe, 0.0, d));
+    } else {
+      queries.push_back({checks[c].lobe, level.alpha, texels[c].dirs});
+      query_of.push_back(c);
+    }
+  }
+  if (!queries.empty()) {
     std::optional<PixelSumTable> own;
     if (table == nullptr) table = &own.emplace(map);
-    want = table->Prefiltered(lobe, level.alpha, dirs, threads);
+    std::vector<std::vector<std::array<double, 3>>> sums = table->PrefilteredMany(queries, threads);
+    for (size_t q = 0; q < queries.size(); ++q) want[query_of[q]] = std::move(sums[q]);
   }
-  std::vector<double> got(count), ref(count);
-  for (int i = 0; i < count; ++i) {
-    const auto [face, x, y] = texels[i];
-    double a = 0, b = 0;
-    for (int c = 0; c < 3; ++c) {
-      a += kLuma[c] * level.cube.data[level.cube.Index(face, x, y, c)];
-      b += kLuma[c] * want[i][c];
+  std::vector<LevelError> errors(checks.size());
+  for (size_t c = 0; c < checks.size(); ++c) {
+    const int count = static_cast<int>(texels[c].dirs.size());
+    if (count == 0) continue;
+    const RadianceCube& cube = checks[c].level->cube;
+    std::vector<double> got(count), ref(count);
+    for (int i = 0; i < count; ++i) {
+      const auto [face, x, y] = texels[c].at[i];
+      double a = 0, b = 0;
+      for (int ch = 0; ch < 3; ++ch) {
+        a += kLuma[ch] * cube.data[cube.Index(face, x, y, ch)];
+        b += kLuma[ch] * want[c][i][ch];
+      }
+      got[i] = a;
+      ref[i] = b;
     }
-    got[i] = a;
-    ref[i] = b;
+    double mean = 0;
+    for (double v : ref) mean += std::abs(v) / count;
+    LevelError& e = errors[c];
+    for (int i = 0; i < count; ++i) {
+      const double d = std::abs(got[i] - ref[i]) / std::max(std::abs(ref[i]), 0.01 * mean);
+      e.rms += d * d / count;
+      e.max = std::max(e.max, d);
+    }
+    e.rms = std::sqrt(e.rms);
+    e.count = count;
   }
-  double mean = 0;
-  for (double v : ref) mean += std::abs(v) / count;
-  for (int i = 0; i < count; ++i) {
-    const double d = std::abs(got[i] - ref[i]) / std::max(std::abs(ref[i]), 0.01 * mean);
-    e.rms += d * d / count;
-    e.max = std::max(e.max, d);
-  }
-  e.rms = std::sqrt(e.rms);
-  e.count = count;
-  return e;
+  return errors;
 }
 
 absl::StatusOr<SplitSumSet> PrefilterSplitSumSet(const EnvMap& map, const SpecularLight& light,

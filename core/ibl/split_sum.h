@@ -137,6 +137,15 @@ class PixelSumTable {
   // The prefiltered radiance at each unit world direction (alpha > 0).
   std::vector<std::array<double, 3>> Prefiltered(SpecularLobe lobe, double alpha,
                                                  std::span<const Vec3> dirs, int threads = 1) const;
+  // Prefiltered for several lobes and direction sets in one pass over the map (each block of
+  // pixels made once for all of them): out[q][i] for queries[q].dirs[i].
+  struct Query {
+    SpecularLobe lobe;
+    double alpha;
+    std::span<const Vec3> dirs;
+  };
+  std::vector<std::vector<std::array<double, 3>>> PrefilteredMany(std::span<const Query> queries,
+                                                                  int threads = 1) const;
 
  private:
   static constexpr int kBlock = 256;
@@ -218,6 +227,17 @@ struct LevelError {
 LevelError MeasureLevelError(const EnvMap& map, SpecularLobe lobe, const SpecularLevel& level,
                              const Mat3& rotation, int count, uint64_t seed, int threads = 1,
                              const PixelSumTable* table = nullptr);
+// MeasureLevelError of several levels of one map and rotation, their pixel sums in one pass over
+// the map (PixelSumTable::PrefilteredMany): the same figures as one call per level.
+struct LevelCheck {
+  SpecularLobe lobe;
+  const SpecularLevel* level;
+  int count;
+  uint64_t seed;
+};
+std::vector<LevelError> MeasureLevelErrors(const EnvMap& map, std::span<const LevelCheck> checks,
+                                           const Mat3& rotation, int threads = 1,
+                                           const PixelSumTable* table = nullptr);
 
 // The map's lighting coefficients to the largest degree it resolves (capped by `max_degree` > 0,
 // and by kMaxRotationLmax when rotated), with the luminance energy per degree: computed once and
