@@ -47,12 +47,41 @@ std::shared_ptr<const std::vector<TexelTaps>> GetTexelTaps(int face_size, int na
   auto taps = std::make_shared<std::vector<TexelTaps>>(static_cast<size_t>(kCubeFaceCount) *
                                                        face_size * face_size);
   const int nb = 2 * na;
+  // The texel centres' (alpha, beta) of +X and +Y; the other faces' follow by symmetry
+  // (ShrmAnglesFromWorld, GL faces): the side faces are +X turned about the vertical, alpha the
+  // same and beta + pi (-X), - pi / 2 (+Z), + pi / 2 (-Z); -Y is +Y mirrored, pi - alpha and
+  // -beta, at the same texel. (Within an ulp of the direct angles: the taps are floats.)
+  const size_t per_face = static_cast<size_t>(face_size) * face_size;
+  std::vector<double> side_alpha(per_face), side_beta(per_face), top_alpha(per_face),
+      top_beta(per_face);
+  for (int y = 0; y < face_size; ++y)
+    for (int x = 0; x < face_size; ++x) {
+      const size_t i = static_cast<size_t>(y) * face_size + x;
+      ShrmAnglesFromWorld(CubeTexelDirection(kPosX, x, y, face_size), &side_alpha[i],
+                          &side_beta[i]);
+      ShrmAnglesFromWorld(CubeTexelDirection(kPosY, x, y, face_size), &top_alpha[i], &top_beta[i]);
+    }
   for (int face = 0; face < kCubeFaceCount; ++face)
     for (int y = 0; y < face_size; ++y)
       for (int x = 0; x < face_size; ++x) {
-        TexelTaps& t = (*taps)[(static_cast<size_t>(face) * face_size + y) * face_size + x];
+        const size_t i = static_cast<size_t>(y) * face_size + x;
+        TexelTaps& t = (*taps)[static_cast<size_t>(face) * per_face + i];
         double alpha, beta;
-        ShrmAnglesFromWorld(CubeTexelDirection(face, x, y, face_size), &alpha, &beta);
+        switch (face) {
+          case kPosY:
+            alpha = top_alpha[i], beta = top_beta[i];
+            break;
+          case kNegY:
+            alpha = kPi - top_alpha[i], beta = -top_beta[i];
+            break;
+          default:
+            alpha = side_alpha[i];
+            beta = side_beta[i] + (face == kNegX   ? kPi
+                                   : face == kPosZ ? -0.5 * kPi
+                                   : face == kNegZ ? 0.5 * kPi
+                                                   : 0.0);
+            break;
+        }
         const double u = alpha * na / kPi - 0.5;
         const int j0 = std::clamp(static_cast<int>(std::floor(u)), -1, na - 1);
         t.ta = static_cast<float>(u - j0);
