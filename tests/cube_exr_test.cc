@@ -5,6 +5,10 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <string>
+#include <string_view>
+#include <vector>
 
 #include "gtest/gtest.h"
 #include "tests/test_paths.h"
@@ -40,6 +44,39 @@ TEST(CubeExrTest, FloatRoundTripIsExact) {
   EXPECT_EQ(back->data, c.data);
   EXPECT_EQ(back->attributes.at("shrm:kind"), "global");
   EXPECT_EQ(back->attributes.at("shrm:brdf"), "phong:s=32");
+  fs::remove(path);
+}
+
+// A cube of several of the streamed writer's ~1 MB pieces (2.9 MB of values), given as a
+// separate span: the file WriteCubeExr streams is EncodeCubeExr's bytes, and OpenEXR reads it
+// back exactly.
+TEST(CubeExrTest, StreamedFileIsTheEncodedBytesAndReadsBack) {
+  CubeExr layout = MakeCube(64, 10);
+  const std::vector<float> values = std::move(layout.data);
+  layout.data.clear();
+  const std::string path = Temp("streamed.exr");
+  ASSERT_TRUE(WriteCubeExr(path, layout, values).ok());
+  const absl::StatusOr<std::string> encoded = EncodeCubeExr(layout, path, values);
+  ASSERT_TRUE(encoded.ok()) << encoded.status();
+  std::ifstream in(path, std::ios::binary);
+  const std::string file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(file.size(), encoded->size());
+  EXPECT_TRUE(file == *encoded);
+  auto back = ReadCubeExr(path);
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->data, values);
+  size_t pieces = 0, total = 0, sunk = 0;
+  ASSERT_TRUE(EncodeCubeExrTo(
+                  layout, path, values,
+                  [&](std::string_view piece) {
+                    ++pieces;
+                    sunk += piece.size();
+                  },
+                  &total)
+                  .ok());
+  EXPECT_GE(pieces, 4u);  // the header and at least three runs of lines
+  EXPECT_EQ(sunk, total);
+  EXPECT_EQ(total, encoded->size());
   fs::remove(path);
 }
 

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 
@@ -33,17 +34,33 @@ absl::Status CommitTempFile(const std::string& tmp, const std::string& path) {
 }
 
 absl::Status WriteFileAtomically(const std::string& path, std::string_view bytes) {
-  const std::string tmp = TempPathFor(path);
-  {
-    std::ofstream out(tmp, std::ios::binary);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    out.close();
-    if (!out) {
-      DiscardTempFile(tmp);
-      return absl::UnavailableError(absl::StrCat(path, ": cannot write"));
-    }
+  AtomicFileWriter out(path);
+  out.Append(bytes);
+  return out.Commit();
+}
+
+AtomicFileWriter::AtomicFileWriter(std::string path)
+    : path_(std::move(path)), tmp_(TempPathFor(path_)), out_(tmp_, std::ios::binary) {}
+
+AtomicFileWriter::~AtomicFileWriter() {
+  if (!done_) {
+    out_.close();
+    DiscardTempFile(tmp_);
   }
-  return CommitTempFile(tmp, path);
+}
+
+void AtomicFileWriter::Append(std::string_view bytes) {
+  out_.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+absl::Status AtomicFileWriter::Commit() {
+  done_ = true;
+  out_.close();
+  if (!out_) {
+    DiscardTempFile(tmp_);
+    return absl::UnavailableError(absl::StrCat(path_, ": cannot write"));
+  }
+  return CommitTempFile(tmp_, path_);
 }
 
 }  // namespace shrm

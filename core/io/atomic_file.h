@@ -4,6 +4,7 @@
 #ifndef SHRM_CORE_IO_ATOMIC_FILE_H_
 #define SHRM_CORE_IO_ATOMIC_FILE_H_
 
+#include <fstream>
 #include <string>
 #include <string_view>
 
@@ -20,6 +21,25 @@ absl::Status CommitTempFile(const std::string& tmp, const std::string& path);
 void DiscardTempFile(const std::string& tmp);
 // Writes `bytes` to `path` atomically.
 absl::Status WriteFileAtomically(const std::string& path, std::string_view bytes);
+
+// The same for a file written piece by piece (a large output streamed from its encoder instead of
+// held whole in memory): Append, then Commit once; destroyed uncommitted, the temporary file is
+// removed and `path` is left as it was.
+class AtomicFileWriter {
+ public:
+  explicit AtomicFileWriter(std::string path);
+  ~AtomicFileWriter();
+  AtomicFileWriter(const AtomicFileWriter&) = delete;
+  AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
+  void Append(std::string_view bytes);
+  // Unavailable naming the path when any write failed or the rename does.
+  absl::Status Commit();
+
+ private:
+  std::string path_, tmp_;
+  std::ofstream out_;
+  bool done_ = false;
+};
 
 }  // namespace shrm
 

@@ -71,8 +71,9 @@ class ExrWriter {
 
 }  // namespace
 
-absl::StatusOr<std::string> EncodeCubeExr(const CubeExr& cube, const std::string& name,
-                                          std::span<const float> values) {
+absl::Status EncodeCubeExrTo(const CubeExr& cube, const std::string& name,
+                             std::span<const float> values,
+                             absl::FunctionRef<void(std::string_view)> sink, size_t* total_bytes) {
   const std::span<const float> data =
       cube.data.empty() ? values : std::span<const float>(cube.data);
   if (cube.face_size < 1 || cube.groups() < 1 || cube.groups() > kMaxGroups ||
@@ -157,12 +158,15 @@ absl::StatusOr<std::string> EncodeCubeExr(const CubeExr& cube, const std::string
   for (int f = 0; f < kCubeFaceCount; ++f)
     for (int y = 0; y < s; ++y) out.Uint64(first_chunk + (size_t{1} * f * s + y) * chunk_bytes);
   const size_t texel_values = size_t{1} * groups * 3;
-  std::string& bytes = out.bytes();
-  size_t pos = bytes.size();
-  bytes.resize(first_chunk + size_t{1} * kCubeFaceCount * s * chunk_bytes);
-  char* dst = bytes.data();
+  if (total_bytes != nullptr)
+    *total_bytes = first_chunk + size_t{1} * kCubeFaceCount * s * chunk_bytes;
+  sink(out.bytes());
+  // The chunks, a run of lines at a time (about 1 MB) through one reused buffer.
+  const size_t lines_per_piece = std::max<size_t>(1, (size_t{1} << 20) / chunk_bytes);
+  std::string piece(std::min(lines_per_piece, size_t{1} * kCubeFaceCount * s) * chunk_bytes, '\0');
+  size_t pos = 0;
   auto put = [&](const void* p, size_t n) {
-    std::memcpy(dst + pos, p, n);
+    std::memcpy(piece.data() + pos, p, n);
     pos += n;
   };
   for (int f = 0; f < kCubeFaceCount; ++f) {
@@ -181,14 +185,36 @@ absl::StatusOr<std::string> EncodeCubeExr(const CubeExr& cube, const std::string
           }
         }
       }
+      if (pos + chunk_bytes > piece.size()) {
+        sink(std::string_view(piece.data(), pos));
+        pos = 0;
+      }
     }
   }
-  return out.Take();
+  if (pos > 0) sink(std::string_view(piece.data(), pos));
+  return absl::OkStatus();
 }
 
-absl::Status WriteCubeExr(const std::string& path, const CubeExr& cube) {
-  SHRM_ASSIGN_OR_RETURN(std::string bytes, EncodeCubeExr(cube, path));
-  return WriteFileAtomically(path, bytes);
+absl::StatusOr<std::string> EncodeCubeExr(const CubeExr& cube, const std::string& name,
+                                          std::span<const float> values) {
+  std::string bytes;
+  size_t total = 0;
+  SHRM_RETURN_IF_ERROR(EncodeCubeExrTo(
+      cube, name, values,
+      [&](std::string_view piece) {
+        if (bytes.empty()) bytes.reserve(total);  // one allocation, not zero-filled
+        bytes.append(piece);
+      },
+      &total));
+  return bytes;
+}
+
+absl::Status WriteCubeExr(const std::string& path, const CubeExr& cube,
+                          std::span<const float> values) {
+  AtomicFileWriter out(path);
+  SHRM_RETURN_IF_ERROR(
+      EncodeCubeExrTo(cube, path, values, [&](std::string_view piece) { out.Append(piece); }));
+  return out.Commit();
 }
 
 absl::StatusOr<CubeExr> ReadCubeExr(const std::string& path, const ImageLimits& limits) {

@@ -10,11 +10,14 @@
 #ifndef SHRM_CORE_IO_CUBE_EXR_H_
 #define SHRM_CORE_IO_CUBE_EXR_H_
 
+#include <cstddef>
 #include <map>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
+#include "absl/functional/function_ref.h"
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "core/io/image.h"
@@ -38,8 +41,16 @@ struct CubeExr {
 // With `cube.data` empty, `values` (same layout) are encoded instead, without a copy.
 absl::StatusOr<std::string> EncodeCubeExr(const CubeExr& cube, const std::string& name,
                                           std::span<const float> values = {});
-// EncodeCubeExr, then written atomically (temporary file + rename).
-absl::Status WriteCubeExr(const std::string& path, const CubeExr& cube);
+// The same bytes handed to `sink` in pieces (the header, then runs of lines of about 1 MB), so a
+// large cube is never held encoded whole; an invalid cube is refused before anything is sunk.
+// `total_bytes` (optional) gets the file's size before the first piece.
+absl::Status EncodeCubeExrTo(const CubeExr& cube, const std::string& name,
+                             std::span<const float> values,
+                             absl::FunctionRef<void(std::string_view)> sink,
+                             size_t* total_bytes = nullptr);
+// Streamed into `path` atomically (temporary file + rename).
+absl::Status WriteCubeExr(const std::string& path, const CubeExr& cube,
+                          std::span<const float> values = {});
 
 // Reads a file written by WriteCubeExr (or any six-part EXR with the same part and channel
 // structure). The header is validated against `limits` before any pixel is decoded; deep parts

@@ -136,9 +136,11 @@ absl::Status ParseShrmConventionAttributes(const std::string& label,
 
 std::string ShrmChannelGroup(int p, int q) { return absl::StrCat("Y_", p, "_", q); }
 
-absl::StatusOr<std::string> EncodeShrmFile(const std::string& path, const ShrmCube& cube,
-                                           const std::map<std::string, std::string>& extra,
-                                           bool half) {
+namespace {
+
+// The cube file's layout and attributes (the values stay in `cube`).
+absl::StatusOr<CubeExr> ShrmCubeExr(const std::string& path, const ShrmCube& cube,
+                                    const std::map<std::string, std::string>& extra, bool half) {
   if (cube.face_size < 1 || cube.pmax < 0 || cube.channels != 3 ||
       cube.data.size() != cube.size()) {
     return absl::InvalidArgumentError(
@@ -157,6 +159,15 @@ absl::StatusOr<std::string> EncodeShrmFile(const std::string& path, const ShrmCu
     exr.attributes[k] = v;
   }
   for (auto& [k, v] : ShrmConventionAttributes(cube)) exr.attributes[k] = std::move(v);
+  return exr;
+}
+
+}  // namespace
+
+absl::StatusOr<std::string> EncodeShrmFile(const std::string& path, const ShrmCube& cube,
+                                           const std::map<std::string, std::string>& extra,
+                                           bool half) {
+  SHRM_ASSIGN_OR_RETURN(const CubeExr exr, ShrmCubeExr(path, cube, extra, half));
   // cube.data has the file's layout (texel-major, then coefficient, then channel): encoded in
   // place rather than copied (a large SHRM is hundreds of MB).
   return EncodeCubeExr(exr, path, cube.data);
@@ -164,8 +175,10 @@ absl::StatusOr<std::string> EncodeShrmFile(const std::string& path, const ShrmCu
 
 absl::Status WriteShrmFile(const std::string& path, const ShrmCube& cube,
                            const std::map<std::string, std::string>& extra, bool half) {
-  SHRM_ASSIGN_OR_RETURN(std::string bytes, EncodeShrmFile(path, cube, extra, half));
-  return WriteFileAtomically(path, bytes);
+  SHRM_ASSIGN_OR_RETURN(const CubeExr exr, ShrmCubeExr(path, cube, extra, half));
+  // Streamed: the encoded file is never held whole (a default job's 233 MB file cost as much
+  // again in fresh memory, zeroed by the kernel page by page).
+  return WriteCubeExr(path, exr, cube.data);
 }
 
 absl::StatusOr<ShrmFile> ReadShrmFile(const std::string& path, const ImageLimits& limits) {
