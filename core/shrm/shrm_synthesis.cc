@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <functional>
 #include <mutex>
 #include <string>
@@ -106,6 +107,9 @@ absl::StatusOr<ShrmSynthesizer> ShrmSynthesizer::Create(int light_lmax, int chan
           s.rho_[((static_cast<size_t>(pp) * (p + 1) + q) * (f + 1) + l) * channels + c] =
               brdf.at(l, pp, q, brdf.channels == 1 ? 0 : c);
     }
+  s.rho_pairs_.resize(2 * s.rho_.size());
+  for (size_t i = 0; i < s.rho_.size(); ++i)
+    s.rho_pairs_[2 * i] = s.rho_pairs_[2 * i + 1] = s.rho_[i];
   return s;
 }
 
@@ -445,18 +449,61 @@ void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int ro
   // every row with one vector FMA.
   //   bm[((m + F) * n + ShIndex(p, q)) * ch + c][r] = sum_l L_lm rho_lpq d^l_mq(alpha_r)
   // (q >= 0 here; the global kind's q < 0 below, by symmetry).
-  tables.ComputeBlock(alphas, rows, scratch.buf->cols.data(), /*nonnegative_q=*/true);
+  // Each column d^l_mq (l >= max(|m|, q)) is made just before its sums, into one (F + 1) x B
+  // buffer that stays in cache: all of them made first (WignerColumnTables::ComputeBlock) are
+  // megabytes, written and read back through memory once per block.
+  const WignerColumnTables::BlockAngles angles = tables.Angles(alphas, rows);
+  double* col = scratch.buf->cols.data();
   const size_t nm = 2 * f + 1;  // layout bre[((ShIndex(p, q) * ch + c) * B + r) * nm + m + F]
   double* bre = scratch.buf->bre.data();
   double* bim = scratch.buf->bim.data();
-  for (int m = -f; m <= f; ++m) {
-    const std::complex<double>* lm = light_.data() + static_cast<size_t>(m + f) * (f + 1) * ch;
-    for (int q = 0; q <= qrho; ++q) {
-      const double* d = scratch.buf->cols.data() + WignerColumnIndex(f, qrho, 0, m, q) * B;
+  // q outside m: the rho_lpq of one q (p >= q, every l) stay in cache across the m loop (all of
+  // them, re-read per m, are megabytes at the default job's orders).
+  for (int q = 0; q <= qrho; ++q) {
+    for (int m = -f; m <= f; ++m) {
+      const std::complex<double>* lm = light_.data() + static_cast<size_t>(m + f) * (f + 1) * ch;
+      tables.VisitColumn(angles, m, q, [&](int l, const WignerColumnTables::Lanes& v) {
+        std::memcpy(col + l * B, &v, sizeof v);
+      });
+      const double* d = col;
       const int l0 = std::max(std::abs(m), std::abs(q));
       for (int p = std::abs(q); p <= pm; ++p) {
         const double* rho =
             rho_.data() + (static_cast<size_t>(p) * (pm + 1) + std::abs(q)) * (f + 1) * ch;
+#if defined(__AVX512F__)
+        if (ch == 3) {
+          // The three channels at once: w[l] = (Re, Im) L_lm rho_lpq per channel, six products
+          // a degree formed together, then six independent FMA chains over the degrees (the
+          // chain per channel and part alone waits on the FMA's latency every step).
+          double* w = scratch.buf->w.data();
+          const double* lv = reinterpret_cast<const double*>(lm) + l0 * 6;
+          const double* r2 = rho_pairs_.data() + 2 * (rho - rho_.data()) + l0 * 6;
+          for (int i = 0; i < (f + 1 - l0) * 6; ++i) w[i] = lv[i] * r2[i];
+          __m512d a0 = _mm512_setzero_pd(), a1 = a0, a2 = a0, a3 = a0, a4 = a0, a5 = a0;
+          for (int l = l0; l <= f; ++l) {
+            const __m512d dl = _mm512_loadu_pd(d + l * B);
+            const double* wl = w + (l - l0) * 6;
+            a0 = _mm512_fmadd_pd(_mm512_set1_pd(wl[0]), dl, a0);
+            a1 = _mm512_fmadd_pd(_mm512_set1_pd(wl[1]), dl, a1);
+            a2 = _mm512_fmadd_pd(_mm512_set1_pd(wl[2]), dl, a2);
+            a3 = _mm512_fmadd_pd(_mm512_set1_pd(wl[3]), dl, a3);
+            a4 = _mm512_fmadd_pd(_mm512_set1_pd(wl[4]), dl, a4);
+            a5 = _mm512_fmadd_pd(_mm512_set1_pd(wl[5]), dl, a5);
+          }
+          const __m512d acc[6] = {a0, a1, a2, a3, a4, a5};
+          for (int c = 0; c < 3; ++c) {
+            alignas(64) double re[B], im[B];
+            _mm512_store_pd(re, acc[2 * c]);
+            _mm512_store_pd(im, acc[2 * c + 1]);
+            const size_t o = ((static_cast<size_t>(ShIndex(p, q)) * ch + c) * B) * nm + (m + f);
+            for (int r = 0; r < B; ++r) {
+              bre[o + r * nm] = re[r];
+              bim[o + r * nm] = im[r];
+            }
+          }
+          continue;
+        }
+#endif
         for (int c = 0; c < ch; ++c) {
           alignas(64) double re[B], im[B];
 #if defined(__AVX512F__)
@@ -543,8 +590,36 @@ void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int ro
         for (int s = 0; s <= p; ++s) {
           const int t = p * (p + 1) / 2 + s;
           for (int c = 0; c < ch; ++c) {
+            const int qn = std::min(p, qrho);
+#if defined(__AVX512F__)
+            // 32 of the nm sums at a time in registers (eight FMA chains), the same products
+            // in the same order as the loop below.
+            for (size_t i0 = 0; i0 < nm; i0 += 32) {
+              __mmask8 keep[4];
+              __m512d ar[4], ai[4];
+              for (int j = 0; j < 4; ++j) {
+                const size_t i = i0 + 8 * j;
+                const size_t lanes = i < nm ? std::min<size_t>(8, nm - i) : 0;
+                keep[j] = static_cast<__mmask8>((1u << lanes) - 1);
+                ar[j] = ai[j] = _mm512_setzero_pd();
+              }
+              for (int q = -qn; q <= qn; ++q) {
+                const __m512d w = _mm512_set1_pd(dp[WignerColumnIndex(pm, pm, p, s, q)]);
+                const double* re = bre + bm_at(p, q, c) + i0;
+                const double* im = bim + bm_at(p, q, c) + i0;
+                for (int j = 0; j < 4; ++j) {
+                  ar[j] = _mm512_fmadd_pd(w, _mm512_maskz_loadu_pd(keep[j], re + 8 * j), ar[j]);
+                  ai[j] = _mm512_fmadd_pd(w, _mm512_maskz_loadu_pd(keep[j], im + 8 * j), ai[j]);
+                }
+              }
+              for (int j = 0; j < 4; ++j) {
+                _mm512_mask_storeu_pd(sre + i0 + 8 * j, keep[j], ar[j]);
+                _mm512_mask_storeu_pd(sim + i0 + 8 * j, keep[j], ai[j]);
+              }
+            }
+#else
             for (size_t i = 0; i < nm; ++i) sre[i] = sim[i] = 0.0;
-            for (int q = -std::min(p, qrho); q <= std::min(p, qrho); ++q) {
+            for (int q = -qn; q <= qn; ++q) {
               const double w = dp[WignerColumnIndex(pm, pm, p, s, q)];
               const double* re = bre + bm_at(p, q, c);
               const double* im = bim + bm_at(p, q, c);
@@ -553,6 +628,7 @@ void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int ro
                 sim[i] += w * im[i];
               }
             }
+#endif
             std::complex<double>* w = work + static_cast<size_t>(t * ch + c) * nb;
             for (int m = -f; m <= f; ++m) w[bin(m - s)] = {sre[m + f], sim[m + f]};
           }
@@ -648,13 +724,14 @@ void ShrmSynthesizer::SynthesizeSlabs(ShrmKind kind, int na, int owned, int thre
     }
     std::fill(scratch.work, scratch.work + work_size, std::complex<double>(0, 0));
     // (Sized only: SynthesizeRows writes every value it reads.)
-    scratch.buf->cols.resize(WignerColumnCount(lmax_, qrho) * B);
+    scratch.buf->cols.resize(static_cast<size_t>(lmax_ + 1) * B);
     scratch.buf->dp.resize(WignerColumnCount(pmax_, pmax_));
     const size_t nbm = static_cast<size_t>(2 * lmax_ + 1) * ShCount(pmax_) * channels_ * B;
     scratch.buf->bre.resize(nbm);
     scratch.buf->bim.resize(nbm);
     scratch.buf->sre.resize(2 * lmax_ + 1);
     scratch.buf->sim.resize(2 * lmax_ + 1);
+    scratch.buf->w.resize(static_cast<size_t>(lmax_ + 1) * 2 * channels_);
   }
   for (int row_begin = 0; row_begin < rows - 3; row_begin += owned) {
     const int row_end = std::min(row_begin + owned + 3, rows);

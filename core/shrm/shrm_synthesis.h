@@ -67,7 +67,7 @@ struct SynthesisScratch {
   // worker at (70, 9)), kept across calls instead of allocated and zero-filled per cube; every
   // value a call reads it writes first.
   struct RowBuffers {
-    std::vector<double> cols, dp, bre, bim, sre, sim;
+    std::vector<double> cols, dp, bre, bim, sre, sim, w;
   };
   std::vector<RowBuffers> rows;
   // A released cube's storage (e.g. a live frame no longer held): BuildCube takes it for its
@@ -288,6 +288,10 @@ class ShrmSynthesizer {
   // rho_lpq per channel (grey BRDFs expanded): rho_[((p * (P + 1) + q) * (F + 1) + l) * ch + c],
   // q >= 0 (rho_{l,p,-q} = rho_lpq); zero for q > min(l, p) and for q != 0 with kTangent.
   std::vector<double> rho_;
+  // rho_ with every value twice, rho_pairs_[2 i] = rho_pairs_[2 i + 1] = rho_[i]: the factor of
+  // each (Re, Im) pair of the complex lighting's layout, so the grid's l-sums form their
+  // products L_lm rho_lpq as one flat vector product.
+  std::vector<double> rho_pairs_;
   double Rho(int l, int p, int q, int c) const {
     return rho_[((static_cast<size_t>(p) * (pmax_ + 1) + (q < 0 ? -q : q)) * (lmax_ + 1) + l) *
                     channels_ +
