@@ -343,6 +343,8 @@ BENCHMARK(BM_SynthesisGlobal)
     ->Args({14, 5})
     ->Args({22, 2})
     ->Args({21, 2})
+    ->Args({70, 9})   // GGX alpha 0.1 f0 0.04 at epsilon 0.03 (the automatic 4 (F + P + 1) rows)
+    ->Args({56, 24})  // courtyard microfacet sigma 0.2, the tolerance rule's default orders
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

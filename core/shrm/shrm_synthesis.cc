@@ -916,7 +916,7 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeDirect(ShrmKind kind, int fac
   const int count = ShCount(pm);
   const size_t row = ch;
   ParallelChunks((n + B - 1) / B, threads, [&](int begin, int end) {
-    std::vector<Lanes> sre, sim;
+    std::vector<Lanes> sre, sim, bre(static_cast<size_t>(count) * ch), bim(bre.size());
     std::vector<std::complex<double>> cplx(count);
     std::vector<double> real(count), rotated(count);
     for (int b = begin; b < end; ++b) {
@@ -929,23 +929,33 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeDirect(ShrmKind kind, int fac
                             &beta[r]);
       }
       LSumsBlock(alpha, beta, nb, sre, sim);
+      // Eq. 5.23 at the block's texels side by side (lane r): B_pq = sum_l rho_lpq S_lq for
+      // q >= 0 (all ComplexToReal reads: the real field has B_p,-q = (-1)^q conj(B_pq)).
+      for (int p = 0; p <= pm; ++p)
+        for (int q = 0; q <= std::min(p, qr); ++q)
+          for (int c = 0; c < ch; ++c) {
+            Lanes re{}, im{};
+            const double* rho =
+                rho_.data() + (static_cast<size_t>(p) * (pm + 1) + q) * (f + 1) * ch + c;
+            const Lanes* sr = sre.data() + static_cast<size_t>(q) * (f + 1) * row + c;
+            const Lanes* si = sim.data() + static_cast<size_t>(q) * (f + 1) * row + c;
+            for (int l = q; l <= f; ++l) {
+              const double w = rho[l * ch];
+              re += w * sr[l * row];
+              im += w * si[l * row];
+            }
+            bre[static_cast<size_t>(ShIndex(p, q)) * ch + c] = re;
+            bim[static_cast<size_t>(ShIndex(p, q)) * ch + c] = im;
+          }
       for (int r = 0; r < nb; ++r) {
         const int t = t0 + r, face = t / (size * size), rem = t % (size * size);
         for (int c = 0; c < ch; ++c) {
-          // Eq. 5.23 at the texel: B_pq = sum_l rho_lpq S_lq for q >= 0 (all ComplexToReal reads:
-          // the real field has B_p,-q = (-1)^q conj(B_pq)), then real SH (and the global
-          // rotation).
+          // Then per texel, real SH (and the global rotation).
           std::fill(cplx.begin(), cplx.end(), std::complex<double>(0, 0));
           for (int p = 0; p <= pm; ++p)
             for (int q = 0; q <= std::min(p, qr); ++q) {
-              double re = 0, im = 0;
-              for (int l = q; l <= f; ++l) {
-                const size_t i = (static_cast<size_t>(q) * (f + 1) + l) * row + c;
-                const double w = Rho(l, p, q, c);
-                re += w * sre[i][r];
-                im += w * sim[i][r];
-              }
-              cplx[ShIndex(p, q)] = {re, im};
+              const size_t i = static_cast<size_t>(ShIndex(p, q)) * ch + c;
+              cplx[ShIndex(p, q)] = {bre[i][r], bim[i][r]};
             }
           ComplexToReal(pm, cplx, real);
           const std::vector<double>* src = &real;
