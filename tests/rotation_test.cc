@@ -286,6 +286,36 @@ TEST(ZxzxzRotationTest, EqualsExactRotation) {
   }
 }
 
+// ApplyMany (k vectors, each its own rotation, interleaved) against the exact rotation of each
+// vector alone (ShRotation's Wigner-D blocks).
+TEST(ZxzxzRotationTest, ManyRotationsAtOnceEqualTheExactOnes) {
+  std::mt19937_64 rng(11);
+  for (int lmax : {0, 1, 9, 24, 31}) {
+    const ZxzxzRotation z = *ZxzxzRotation::Create(lmax);
+    for (int k : {1, 3, 24}) {
+      const int n = ShCount(lmax);
+      std::vector<Mat3> rots;
+      std::vector<ZyzCosSin> angles;
+      std::vector<std::vector<double>> vecs;
+      std::vector<double> in(static_cast<size_t>(n) * k), out(in.size());
+      for (int j = 0; j < k; ++j) {
+        // Every fourth rotation at the gimbal point beta = pi.
+        rots.push_back(j % 4 == 3 ? RotationZ(0.1 * j) * RotationY(kPi) : RandomRotation(rng));
+        angles.push_back(ZyzCosSinFromMatrix(rots.back()));
+        vecs.push_back(RandomCoeffs(lmax, rng));
+        for (int i = 0; i < n; ++i) in[static_cast<size_t>(i) * k + j] = vecs.back()[i];
+      }
+      z.ApplyMany(angles, in.data(), out.data());
+      for (int j = 0; j < k; ++j) {
+        std::vector<double> want(n), got(n);
+        ShRotation::Create(lmax, rots[j]).Apply(vecs[j], want);
+        for (int i = 0; i < n; ++i) got[i] = out[static_cast<size_t>(i) * k + j];
+        EXPECT_LT(MaxDiff(got, want), kChainTol) << "lmax=" << lmax << " k=" << k << " j=" << j;
+      }
+    }
+  }
+}
+
 TEST(ZxzxzRotationTest, XMatrixIsQuarterDense) {
   // Paper sec. 3.2: N_x(n) = n (n^2 + 2) / 3 nonzeros of x(pi/2) for order n.
   for (int lmax : {4, 9, 20}) {

@@ -431,6 +431,99 @@ __attribute__((optimize("no-tree-vectorize"))) void ZxzxzRotation::ApplyX(bool t
   }
 }
 
+namespace {
+
+// RotateShZ for k vectors in ApplyMany's layout (x may be y), vector j by its own angle
+// (cos_angle[j], sin_angle[j]): the same recurrence and products per vector.
+void RotateShZMany(int lmax, int k, const double* cos_angle, const double* sin_angle,
+                   const double* x, double* y) {
+  if (x != y) {
+    for (int l = 0; l <= lmax; ++l)
+      for (int j = 0; j < k; ++j) y[l * (l + 1) * k + j] = x[l * (l + 1) * k + j];
+  }
+  thread_local std::vector<double> state;
+  state.resize(5 * static_cast<size_t>(k));
+  double* c2 = state.data();
+  double* cm = c2 + k;
+  double* sm = cm + k;
+  double* cprev = sm + k;
+  double* sprev = cprev + k;
+  for (int j = 0; j < k; ++j) {
+    c2[j] = 2 * cos_angle[j];
+    cm[j] = cos_angle[j];
+    sm[j] = sin_angle[j];
+    cprev[j] = 1;
+    sprev[j] = 0;
+  }
+  for (int m = 1; m <= lmax; ++m) {
+    for (int l = m; l <= lmax; ++l) {
+      const int c = l * (l + 1);
+      const double* xp = x + (c + m) * k;
+      const double* xq = x + (c - m) * k;
+      double* yp = y + (c + m) * k;
+      double* yq = y + (c - m) * k;
+      for (int j = 0; j < k; ++j) {
+        const double p = xp[j], q = xq[j];
+        yp[j] = cm[j] * p - sm[j] * q;
+        yq[j] = sm[j] * p + cm[j] * q;
+      }
+    }
+    for (int j = 0; j < k; ++j) {
+      const double cn = c2[j] * cm[j] - cprev[j], sn = c2[j] * sm[j] - sprev[j];
+      cprev[j] = cm[j], sprev[j] = sm[j], cm[j] = cn, sm[j] = sn;
+    }
+  }
+}
+
+}  // namespace
+
+void ZxzxzRotation::ApplyXMany(bool transposed, int k, const double* in, double* out) const {
+  const double* values = transposed ? values_t_.data() : values_.data();
+  for (const SubBlock& b : blocks_) {
+    const double* v = values + b.value_offset;
+    const int* src =
+        transposed ? row_index_.data() + b.row_offset : col_index_.data() + b.col_offset;
+    const int* dst =
+        transposed ? col_index_.data() + b.col_offset : row_index_.data() + b.row_offset;
+    const int ns = transposed ? b.rows : b.cols;
+    const int nd = transposed ? b.cols : b.rows;
+    for (int i = 0; i < nd; ++i) {
+      const double* row = v + i * ns;
+      double* o = out + static_cast<size_t>(dst[i]) * k;
+      for (int j = 0; j < k; ++j) o[j] = 0;
+      for (int s = 0; s < ns; ++s) {
+        const double w = row[s];
+        const double* x = in + static_cast<size_t>(src[s]) * k;
+        for (int j = 0; j < k; ++j) o[j] += w * x[j];
+      }
+    }
+  }
+}
+
+void ZxzxzRotation::ApplyMany(std::span<const ZyzCosSin> angles, const double* in,
+                              double* out) const {
+  const int k = static_cast<int>(angles.size());
+  thread_local std::vector<double> t, cs;
+  t.resize(static_cast<size_t>(ShCount(lmax_)) * k);
+  cs.resize(6 * static_cast<size_t>(k));
+  double* cg = cs.data();
+  double* sg = cg + k;
+  double* cb = sg + k;
+  double* sb = cb + k;
+  double* ca = sb + k;
+  double* sa = ca + k;
+  for (int j = 0; j < k; ++j) {
+    cg[j] = angles[j].cos_gamma, sg[j] = angles[j].sin_gamma;
+    cb[j] = angles[j].cos_beta, sb[j] = angles[j].sin_beta;
+    ca[j] = angles[j].cos_alpha, sa[j] = angles[j].sin_alpha;
+  }
+  RotateShZMany(lmax_, k, cg, sg, in, out);
+  ApplyXMany(false, k, out, t.data());
+  RotateShZMany(lmax_, k, cb, sb, t.data(), t.data());
+  ApplyXMany(true, k, t.data(), out);
+  RotateShZMany(lmax_, k, ca, sa, out, out);
+}
+
 void ZxzxzRotation::ApplyY(double cos_beta, double sin_beta, std::span<const double> in,
                            std::span<double> out) const {
   thread_local std::vector<double> t;

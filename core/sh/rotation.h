@@ -135,6 +135,10 @@ class ZxzxzRotation {
   // out = D(rot) in (rot a rotation matrix); in/out may not alias.
   void Apply(const Mat3& rot, std::span<const double> in, std::span<double> out) const;
   void Apply(const ZyzCosSin& angles, std::span<const double> in, std::span<double> out) const;
+  // Apply for k vectors at once, each with its own rotation (angles[j], Apply's form), in the
+  // layout in[i * k + j] = coefficient i of vector j (out likewise; they may not alias): the
+  // same arithmetic per vector, run across the vectors (the fixed X read once for all of them).
+  void ApplyMany(std::span<const ZyzCosSin> angles, const double* in, double* out) const;
   // out = Yr(beta) in, exact, through X^T Zr(beta) X.
   void ApplyY(double cos_beta, double sin_beta, std::span<const double> in,
               std::span<double> out) const;
@@ -150,6 +154,8 @@ class ZxzxzRotation {
   ZxzxzRotation() = default;
   // out[rows] = (transposed ? B^T : B) in[cols] over all sub-blocks of X.
   void ApplyX(bool transposed, const double* in, double* out) const;
+  // The same for k vectors in ApplyMany's layout.
+  void ApplyXMany(bool transposed, int k, const double* in, double* out) const;
 
   int lmax_ = 0;
   std::vector<SubBlock> blocks_;

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <string>
 
 #if defined(__AVX512F__)
@@ -918,7 +919,10 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeDirect(ShrmKind kind, int fac
   ParallelChunks((n + B - 1) / B, threads, [&](int begin, int end) {
     std::vector<Lanes> sre, sim, bre(static_cast<size_t>(count) * ch), bim(bre.size());
     std::vector<std::complex<double>> cplx(count);
-    std::vector<double> real(count), rotated(count);
+    std::vector<double> real(count), batch_in, batch_out;
+    std::vector<ZyzCosSin> angles;
+    std::optional<ZxzxzRotation> rotation;
+    if (kind == ShrmKind::kGlobal) rotation = *ZxzxzRotation::Create(pm);
     for (int b = begin; b < end; ++b) {
       const int t0 = b * B, nb = std::min(B, n - t0);
       double alpha[B], beta[B];
@@ -947,10 +951,17 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeDirect(ShrmKind kind, int fac
             bre[static_cast<size_t>(ShIndex(p, q)) * ch + c] = re;
             bim[static_cast<size_t>(ShIndex(p, q)) * ch + c] = im;
           }
+      // Then real SH per texel and channel, and the global kind's rotations of the block's
+      // nb x ch vectors at once.
+      const int k = nb * ch;
+      batch_in.resize(static_cast<size_t>(count) * k);
+      batch_out.resize(batch_in.size());
+      angles.resize(k);
       for (int r = 0; r < nb; ++r) {
-        const int t = t0 + r, face = t / (size * size), rem = t % (size * size);
+        const ZyzCosSin frame = kind == ShrmKind::kGlobal
+                                    ? ZyzCosSinFromMatrix(ShrmLocalFrame(alpha[r], beta[r]))
+                                    : ZyzCosSin{};
         for (int c = 0; c < ch; ++c) {
-          // Then per texel, real SH (and the global rotation).
           std::fill(cplx.begin(), cplx.end(), std::complex<double>(0, 0));
           for (int p = 0; p <= pm; ++p)
             for (int q = 0; q <= std::min(p, qr); ++q) {
@@ -958,15 +969,22 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCubeDirect(ShrmKind kind, int fac
               cplx[ShIndex(p, q)] = {bre[i][r], bim[i][r]};
             }
           ComplexToReal(pm, cplx, real);
-          const std::vector<double>* src = &real;
-          if (kind == ShrmKind::kGlobal) {
-            RotateSh(pm, ShrmLocalFrame(alpha[r], beta[r]), real, rotated);
-            src = &rotated;
-          }
-          for (int k = 0; k < count; ++k)
-            cube.data[cube.Index(face, rem % size, rem / size, k, c)] =
-                static_cast<float>((*src)[k]);
+          for (int i = 0; i < count; ++i)
+            batch_in[static_cast<size_t>(i) * k + r * ch + c] = real[i];
+          angles[r * ch + c] = frame;
         }
+      }
+      const double* src = batch_in.data();
+      if (kind == ShrmKind::kGlobal) {
+        rotation->ApplyMany(angles, batch_in.data(), batch_out.data());
+        src = batch_out.data();
+      }
+      for (int r = 0; r < nb; ++r) {
+        const int t = t0 + r, face = t / (size * size), rem = t % (size * size);
+        for (int c = 0; c < ch; ++c)
+          for (int i = 0; i < count; ++i)
+            cube.data[cube.Index(face, rem % size, rem / size, i, c)] =
+                static_cast<float>(src[static_cast<size_t>(i) * k + r * ch + c]);
       }
     }
   });
