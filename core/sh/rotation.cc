@@ -405,22 +405,23 @@ long ZxzxzRotation::NonZeros() const {
   return n;
 }
 
+ZxzxzRotation::BlockView ZxzxzRotation::View(const SubBlock& b, bool transposed) const {
+  const double* values = transposed ? values_t_.data() : values_.data();
+  return {values + b.value_offset,
+          transposed ? row_index_.data() + b.row_offset : col_index_.data() + b.col_offset,
+          transposed ? col_index_.data() + b.col_offset : row_index_.data() + b.row_offset,
+          transposed ? b.rows : b.cols, transposed ? b.cols : b.rows};
+}
+
 // Dot-product form in both directions (X^T uses the transposed copy). Vectorizing these short
 // loops (a few entries per sub-block row) costs more in prologues than it saves: measured 20%
 // slower at n = 10, hence the attribute.
 __attribute__((optimize("no-tree-vectorize"))) void ZxzxzRotation::ApplyX(bool transposed,
                                                                           const double* in,
                                                                           double* out) const {
-  const double* values = transposed ? values_t_.data() : values_.data();
   double tmp[2 * kMaxRotationLmax + 1];
   for (const SubBlock& b : blocks_) {
-    const double* v = values + b.value_offset;
-    const int* src =
-        transposed ? row_index_.data() + b.row_offset : col_index_.data() + b.col_offset;
-    const int* dst =
-        transposed ? col_index_.data() + b.col_offset : row_index_.data() + b.row_offset;
-    const int ns = transposed ? b.rows : b.cols;
-    const int nd = transposed ? b.cols : b.rows;
+    const auto [v, src, dst, ns, nd] = View(b, transposed);
     for (int j = 0; j < ns; ++j) tmp[j] = in[src[j]];
     for (int i = 0; i < nd; ++i) {
       const double* row = v + i * ns;
@@ -478,15 +479,8 @@ void RotateShZMany(int lmax, int k, const double* cos_angle, const double* sin_a
 }  // namespace
 
 void ZxzxzRotation::ApplyXMany(bool transposed, int k, const double* in, double* out) const {
-  const double* values = transposed ? values_t_.data() : values_.data();
   for (const SubBlock& b : blocks_) {
-    const double* v = values + b.value_offset;
-    const int* src =
-        transposed ? row_index_.data() + b.row_offset : col_index_.data() + b.col_offset;
-    const int* dst =
-        transposed ? col_index_.data() + b.col_offset : row_index_.data() + b.row_offset;
-    const int ns = transposed ? b.rows : b.cols;
-    const int nd = transposed ? b.cols : b.rows;
+    const auto [v, src, dst, ns, nd] = View(b, transposed);
     for (int i = 0; i < nd; ++i) {
       const double* row = v + i * ns;
       double* o = out + static_cast<size_t>(dst[i]) * k;

@@ -152,6 +152,15 @@ class ZxzxzRotation {
     int value_offset = 0;                // into values_ (rows x cols, row-major)
   };
   ZxzxzRotation() = default;
+  // A sub-block in the direction applied: its rows (ns values each), the source and destination
+  // coefficient indices.
+  struct BlockView {
+    const double* values;
+    const int* src;
+    const int* dst;
+    int ns, nd;
+  };
+  BlockView View(const SubBlock& b, bool transposed) const;
   // out[rows] = (transposed ? B^T : B) in[cols] over all sub-blocks of X.
   void ApplyX(bool transposed, const double* in, double* out) const;
   // The same for k vectors in ApplyMany's layout.
