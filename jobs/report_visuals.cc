@@ -183,7 +183,7 @@ absl::StatusOr<nlohmann::json> PrefilterVisuals(const EnvMap& env, const Brdf& b
                                                 const Mat3& rotation, const ShrmCube& cube,
                                                 int threads) {
   threads = std::max(threads, 1);
-  SHRM_ASSIGN_OR_RETURN(FastReference reference, FastReference::Create(env.samples()));
+  SHRM_ASSIGN_OR_RETURN(FastReference reference, FastReference::Create(env));
   nlohmann::json out;
   SHRM_ASSIGN_OR_RETURN(out["map"], MapJson(env, threads));
   out["lobe"] = LobeJson(brdf);

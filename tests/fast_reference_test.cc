@@ -207,7 +207,8 @@ TEST(FastReferenceTest, WhiteFurnaceGivesTheConstant) {
 }
 
 TEST(FastReferenceTest, CreateRejectsBadSamples) {
-  EXPECT_EQ(FastReference::Create({}).status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(FastReference::Create(std::span<const EnvSample>()).status().code(),
+            absl::StatusCode::kInvalidArgument);
   const std::vector<EnvSample> good = testing::LatLongSamples(ConstantLatLong(16, {1, 1, 1}));
   ASSERT_TRUE(FastReference::Create(good).ok());
   const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -249,6 +250,24 @@ TEST(FastReferenceTest, RadianceManyIsTheSameForAnyThreadCount) {
       }
     }
   }
+}
+
+// The reference of a lat-long EnvMap, its samples computed as they are read (LatLongSampler),
+// is the one of the map's stored samples (EnvMap::samples()), bit for bit.
+TEST(FastReferenceTest, ALatLongMapGivesTheReferenceOfItsSamples) {
+  const EnvMap map = EnvMap::FromLatLong(testing::LoadBundledMap("city.exr", 128));
+  auto from_map = FastReference::Create(map);
+  auto from_samples = FastReference::Create(map.samples());
+  ASSERT_TRUE(from_map.ok()) << from_map.status();
+  ASSERT_TRUE(from_samples.ok()) << from_samples.status();
+  ASSERT_EQ(from_map->sample_count(), map.sample_count());
+  const std::unique_ptr<Brdf> brdf = ParseOrDie("ggx:alpha=0.2,f0=0.04");
+  std::vector<Vec3> index, view;
+  DrawDirections(17, 13, &index, &view);
+  const std::vector<Rgb> a = from_map->RadianceMany(*brdf, Mat3::Identity(), index, view, 1);
+  const std::vector<Rgb> b = from_samples->RadianceMany(*brdf, Mat3::Identity(), index, view, 1);
+  for (size_t i = 0; i < index.size(); ++i)
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(a[i][c], b[i][c]) << i;
 }
 
 }  // namespace

@@ -400,29 +400,30 @@ double EnvMap::TotalSolidAngle() const {
   return sum;
 }
 
+LatLongSampler::LatLongSampler(const EnvMap& map) {
+  const Image& img = *map.lat_long_image();
+  pixels_ = img.pixels.data();
+  width_ = img.width;
+  height_ = img.height;
+  const RingQuadrature q = FejerFirstRule(height_);
+  row_sin_ = q.sin_theta;
+  row_cos_ = q.cos_theta;
+  row_omega_.resize(height_);
+  for (int j = 0; j < height_; ++j) row_omega_[j] = q.weight[j] * 2 * kPi / width_;
+  col_sin_.resize(width_);
+  col_cos_.resize(width_);
+  for (int i = 0; i < width_; ++i) {
+    const double p = 2 * kPi * ((i + 0.5) / width_ - 0.5);
+    col_sin_[i] = std::sin(p);
+    col_cos_[i] = std::cos(p);
+  }
+}
+
 void EnvMap::ForEachSample(absl::FunctionRef<void(const EnvSample&)> fn) const {
   if (layout_ == EnvLayout::kLatLong) {
-    const Image& img = images_[0];
-    const int w = img.width, h = img.height;
-    const RingQuadrature q = FejerFirstRule(h);
-    std::vector<double> sin_p(w), cos_p(w);
-    for (int i = 0; i < w; ++i) {
-      const double p = 2 * kPi * ((i + 0.5) / w - 0.5);
-      sin_p[i] = std::sin(p);
-      cos_p[i] = std::cos(p);
-    }
-    for (int j = 0; j < h; ++j) {
-      const double st = q.sin_theta[j], ct = q.cos_theta[j];
-      const double omega = q.weight[j] * 2 * kPi / w;
-      for (int i = 0; i < w; ++i) {
-        EnvSample s;
-        s.dir = {st * sin_p[i], ct, -st * cos_p[i]};
-        s.solid_angle = omega;
-        const float* px = PixelPtr(img, i, j);
-        s.rgb = {px[0], px[1], px[2]};
-        fn(s);
-      }
-    }
+    const LatLongSampler sampler(*this);
+    for (int j = 0; j < height_; ++j)
+      for (int i = 0; i < width_; ++i) fn(sampler.At(i, j));
     return;
   }
   if (layout_ == EnvLayout::kAngular) {

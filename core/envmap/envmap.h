@@ -188,6 +188,32 @@ class EnvMap {
 std::array<double, 2> AngularMapCoordinates(const Vec3& world_dir);
 std::optional<Vec3> AngularMapDirection(double u, double v);
 
+// The samples of a lat-long map by index (EnvMap::ForEachSample's order and values, computed
+// when asked from per-row and per-column tables), for a caller that visits them out of order
+// without the 48 bytes per pixel of EnvMap::samples(). `map` must be lat-long (3 channels) and
+// outlive the sampler.
+class LatLongSampler {
+ public:
+  explicit LatLongSampler(const EnvMap& map);
+  size_t size() const { return static_cast<size_t>(width_) * height_; }
+  EnvSample At(size_t i) const {
+    return At(static_cast<int>(i % width_), static_cast<int>(i / width_));
+  }
+  EnvSample At(int col, int row) const {
+    EnvSample s;
+    s.dir = {row_sin_[row] * col_sin_[col], row_cos_[row], -row_sin_[row] * col_cos_[col]};
+    s.solid_angle = row_omega_[row];
+    const float* px = pixels_ + (static_cast<size_t>(row) * width_ + col) * 3;
+    s.rgb = {px[0], px[1], px[2]};
+    return s;
+  }
+
+ private:
+  const float* pixels_;
+  int width_, height_;
+  std::vector<double> row_sin_, row_cos_, row_omega_, col_sin_, col_cos_;
+};
+
 }  // namespace shrm
 
 #endif  // SHRM_CORE_ENVMAP_ENVMAP_H_

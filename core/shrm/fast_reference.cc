@@ -316,14 +316,26 @@ struct FastReference::QueryStats {
 };
 
 absl::StatusOr<FastReference> FastReference::Create(std::span<const EnvSample> samples) {
-  if (samples.empty()) return absl::InvalidArgumentError("fast reference: no environment samples");
-  const size_t n = samples.size();
+  return CreateFrom(samples.size(), [samples](size_t i) { return samples[i]; });
+}
+
+absl::StatusOr<FastReference> FastReference::Create(const EnvMap& env) {
+  if (env.lat_long_image() != nullptr) {
+    const LatLongSampler sampler(env);
+    return CreateFrom(sampler.size(), [&sampler](size_t i) { return sampler.At(i); });
+  }
+  return Create(env.samples());
+}
+
+absl::StatusOr<FastReference> FastReference::CreateFrom(
+    size_t n, absl::FunctionRef<EnvSample(size_t)> sample_at) {
+  if (n == 0) return absl::InvalidArgumentError("fast reference: no environment samples");
   if (n > static_cast<size_t>(INT32_MAX)) {
     return absl::InvalidArgumentError(absl::StrCat("fast reference: ", n, " samples (too many)"));
   }
   std::vector<uint64_t> key(n);
   for (size_t i = 0; i < n; ++i) {
-    const EnvSample& s = samples[i];
+    const EnvSample s = sample_at(i);
     const double norm = s.dir.Norm();
     if (!std::isfinite(norm) || std::abs(norm - 1) > kUnitTolerance) {
       return absl::InvalidArgumentError(absl::StrCat(
@@ -356,7 +368,7 @@ absl::StatusOr<FastReference> FastReference::Create(std::span<const EnvSample> s
   Rgb total{0, 0, 0}, total_abs{0, 0, 0};
   double solid_angle = 0;
   for (size_t k = 0; k < n; ++k) {
-    const EnvSample& s = samples[order[k]];
+    const EnvSample s = sample_at(order[k]);
     sorted_key[k] = key[order[k]];
     r.samples_[k].dir = s.dir;
     for (int c = 0; c < 3; ++c) {
@@ -450,7 +462,11 @@ absl::StatusOr<FastReference> FastReference::Create(std::span<const EnvSample> s
     r.nodes_[i].child_count = groups;
     for (int g = 0; g < groups; ++g) self(self, first + g, bounds[g], bounds[g + 1], level + 1);
   };
+  // Room for every node up front (untouched pages cost nothing): the per-node arrays grown
+  // as the tree is built were reallocated and copied into fresh memory time and again.
   r.nodes_.reserve(n / 2 + 16);
+  offset.reserve(r.nodes_.capacity());
+  moment.reserve(r.nodes_.capacity());
   int32_t begin = 0;
   while (begin < static_cast<int32_t>(n)) {
     const uint64_t face = sorted_key[begin] >> (2 * kMortonBits);

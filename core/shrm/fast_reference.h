@@ -58,6 +58,7 @@
 #include <span>
 #include <vector>
 
+#include "absl/functional/function_ref.h"
 #include "absl/status/statusor.h"
 #include "core/base/geometry.h"
 #include "core/brdf/brdf.h"
@@ -86,6 +87,9 @@ class FastReference {
   // Errors (InvalidArgument): no samples; non-finite or non-unit (|norm - 1| > 1e-6) directions;
   // negative or non-finite solid angles; non-finite radiance.
   static absl::StatusOr<FastReference> Create(std::span<const EnvSample> samples);
+  // The same for the samples of `env`: a lat-long map's are computed as they are read
+  // (LatLongSampler), never stored whole (EnvMap::samples() would keep 48 bytes per pixel).
+  static absl::StatusOr<FastReference> Create(const EnvMap& env);
 
   // BrdfReferenceRadiance(samples, brdf, rotation, index, view) to `relative_tolerance`
   // (per channel, relative to max(|B|, floor)): index = N (or T for kTangent models), view V,
@@ -135,6 +139,9 @@ class FastReference {
   };
 
  private:
+  // Create() over n samples read by index.
+  static absl::StatusOr<FastReference> CreateFrom(size_t n,
+                                                  absl::FunctionRef<EnvSample(size_t)> sample_at);
   FastReference() = default;
   struct QueryStats;
   std::array<double, 3> Query(const Brdf& brdf, const Vec3& n, const Vec3& v, double tolerance,

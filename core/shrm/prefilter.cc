@@ -249,7 +249,7 @@ absl::StatusOr<DirectionalError> MeasureCubeError(const EnvMap& env, const Brdf&
                                                   const Mat3& rotation, const ShrmCube& cube,
                                                   int pairs, int threads) {
   // The arguments are checked by the overload (the reference costs ~0.3 s; errors are rare).
-  SHRM_ASSIGN_OR_RETURN(FastReference reference, FastReference::Create(env.samples()));
+  SHRM_ASSIGN_OR_RETURN(FastReference reference, FastReference::Create(env));
   return MeasureCubeError(reference, brdf, rotation, cube, pairs, threads);
 }
 
