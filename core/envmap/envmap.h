@@ -199,6 +199,15 @@ class LatLongSampler {
   EnvSample At(size_t i) const {
     return At(static_cast<int>(i % width_), static_cast<int>(i / width_));
   }
+  int width() const { return width_; }
+  int height() const { return height_; }
+  const float* pixels() const { return pixels_; }  // RGB, row-major
+  // A sample's direction is (RowSin(row) ColSin(col), RowCos(row), -RowSin(row) ColCos(col)).
+  double RowSin(int row) const { return row_sin_[row]; }
+  double RowCos(int row) const { return row_cos_[row]; }
+  double RowSolidAngle(int row) const { return row_omega_[row]; }
+  double ColSin(int col) const { return col_sin_[col]; }
+  double ColCos(int col) const { return col_cos_[col]; }
   EnvSample At(int col, int row) const {
     EnvSample s;
     s.dir = {row_sin_[row] * col_sin_[col], row_cos_[row], -row_sin_[row] * col_cos_[col]};

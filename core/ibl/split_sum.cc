@@ -384,20 +384,8 @@ Cone BoundingCone(const Vec3& sum, int n, DirAt dir_at) {
 PixelSumTable::PixelSumTable(const EnvMap& map) {
   if (const Image* img = map.lat_long_image(); img != nullptr && img->channels >= 3) {
     // The directions and solid angles of EnvMap::ForEachSample, as tables.
-    image_ = img;
+    lat_long_.emplace(map);
     const int w = img->width, h = img->height;
-    const RingQuadrature q = FejerFirstRule(h);
-    row_sin_ = q.sin_theta;
-    row_cos_ = q.cos_theta;
-    row_omega_.resize(h);
-    for (int j = 0; j < h; ++j) row_omega_[j] = q.weight[j] * 2 * kPi / w;
-    col_sin_.resize(w);
-    col_cos_.resize(w);
-    for (int i = 0; i < w; ++i) {
-      const double p = 2 * kPi * ((i + 0.5) / w - 0.5);
-      col_sin_[i] = std::sin(p);
-      col_cos_[i] = std::cos(p);
-    }
     blocks_per_row_ = (w + kBlock - 1) / kBlock;
     blocks_ = blocks_per_row_ * h;
     cones_.resize(blocks_);
@@ -444,18 +432,18 @@ PixelSumTable::PixelSumTable(const EnvMap& map) {
 }
 
 void PixelSumTable::MakeLatLongBlock(int blk, BlockData& out) const {
-  const int w = image_->width;
+  const LatLongSampler& ll = *lat_long_;
+  const int w = ll.width();
   const int j = blk / blocks_per_row_, c0 = (blk % blocks_per_row_) * kBlock;
   const int n = std::min(kBlock, w - c0);
-  const double st = row_sin_[j], ct = row_cos_[j];
-  const float omega = static_cast<float>(row_omega_[j]);
-  const float* px = image_->pixels.data() +
-                    (static_cast<size_t>(j) * w + c0) * static_cast<size_t>(image_->channels);
-  const int ch = image_->channels;
+  const double st = ll.RowSin(j), ct = ll.RowCos(j);
+  const float omega = static_cast<float>(ll.RowSolidAngle(j));
+  const float* px = ll.pixels() + (static_cast<size_t>(j) * w + c0) * 3;
+  constexpr int ch = 3;
   for (int k = 0; k < n; ++k) {
-    out.x[k] = static_cast<float>(st * col_sin_[c0 + k]);
+    out.x[k] = static_cast<float>(st * ll.ColSin(c0 + k));
     out.y[k] = static_cast<float>(ct);
-    out.z[k] = static_cast<float>(-st * col_cos_[c0 + k]);
+    out.z[k] = static_cast<float>(-st * ll.ColCos(c0 + k));
     out.omega[k] = omega;
     out.r[k] = px[k * ch];
     out.g[k] = px[k * ch + 1];
@@ -589,7 +577,7 @@ std::vector<std::vector<std::array<double, 3>>> PixelSumTable::PrefilteredMany(
   ParallelChunks(static_cast<int>(first.back()), threads, [&](int begin, int end) {
     std::vector<std::array<double, 4>> total(end - begin, {0, 0, 0, 0});
     std::unique_ptr<BlockData> made;
-    if (image_ != nullptr) made = std::make_unique<BlockData>();
+    if (lat_long_) made = std::make_unique<BlockData>();
     for (int blk = 0; blk < blocks_; ++blk) {
       const Cone& cone = cones_[blk];
       // Every member at least 90 degrees from dir: K = 0 for the whole block.

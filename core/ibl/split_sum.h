@@ -56,6 +56,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -163,9 +164,8 @@ class PixelSumTable {
   int blocks_ = 0;
   std::vector<Cone> cones_;
   // Lat-long maps.
-  const Image* image_ = nullptr;
+  std::optional<LatLongSampler> lat_long_;
   int blocks_per_row_ = 0;
-  std::vector<double> row_sin_, row_cos_, row_omega_, col_sin_, col_cos_;
   // Other layouts: per block, kBlock entries each (the last block padded with zero solid angles).
   std::vector<float> x_, y_, z_, omega_, r_, g_, b_;
 };
