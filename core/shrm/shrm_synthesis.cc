@@ -902,9 +902,15 @@ bool ShrmSynthesizer::DirectCubeIsCheaper(ShrmKind kind, int face_size, int na) 
   const double pairs = q == 1 ? p : p * (p + 1) / 2;
   const double texels = 6.0 * face_size * face_size;
   const double grid = 2.17e-6 * na * (2 * f) * f * pairs / 2 + 8.4e-7 * 2.0 * na * na * p * p * p;
+  // The direct path's terms as fitted, times kDirectSpeedup: session 27 vectorized its rho sums
+  // and batched its rotations, and the three configurations of tolerance_bench BM_CubePath then
+  // took 0.54, 0.55 and 0.74 of the estimate ((36, 31) S 40: 608 ms; (56, 24) S 72: 2,028 ms;
+  // (14, 5) S 64: 54 ms), the grid's unchanged or less.
+  constexpr double kDirectSpeedup = 0.55;
   const double direct =
-      1.3e-5 * texels / kWignerBlock * f * f * q / 2 + 8.7e-7 * texels * f * p * q / 2 +
-      (kind == ShrmKind::kGlobal ? 6.5e-7 * texels * p * p * p : 0.0) + 4.2e-5 * texels * p * p;
+      kDirectSpeedup *
+      (1.3e-5 * texels / kWignerBlock * f * f * q / 2 + 8.7e-7 * texels * f * p * q / 2 +
+       (kind == ShrmKind::kGlobal ? 6.5e-7 * texels * p * p * p : 0.0) + 4.2e-5 * texels * p * p);
   return direct < grid;
 }
 
