@@ -4,7 +4,6 @@
 #include <cassert>
 #include <cmath>
 #include <cstdlib>
-#include <cstring>
 
 namespace shrm {
 namespace {
@@ -122,24 +121,6 @@ WignerColumnTables::Lanes WignerColumnTables::StartColumn(const BlockAngles& a, 
   }
   if (q > 0) return b * a.cpow[l0 + m] * a.spow[l0 - m];
   return ((m + l0) & 1 ? -b : b) * a.cpow[l0 - m] * a.spow[l0 + m];
-}
-
-void WignerColumnTables::ComputeBlock(const double* alpha, int n, double* out,
-                                      bool nonnegative_q) const {
-  // The recurrence of Compute() run on kWignerBlock angles at once (lane r = alpha[r]; lanes
-  // r >= n repeat alpha[n - 1]): the coefficients do not depend on alpha, so the recurrence
-  // vectorizes across the lanes.
-  constexpr int B = kWignerBlock;
-  const BlockAngles angles = Angles(alpha, n);
-  for (int q = nonnegative_q ? 0 : -qmax_; q <= qmax_; ++q) {
-    for (int m = -lmax_; m <= lmax_; ++m) {
-      double* col = out + WignerColumnIndex(lmax_, qmax_, 0, m, q) * B;
-      const int l0 = std::max(std::abs(m), std::abs(q));
-      for (int i = 0; i < std::min(l0, lmax_ + 1) * B; ++i) col[i] = 0.0;
-      VisitColumn(angles, m, q,
-                  [&](int l, const Lanes& d) { std::memcpy(col + l * B, &d, sizeof d); });
-    }
-  }
 }
 
 void WignerColumns(int lmax, int qmax, double alpha, std::span<double> out) {

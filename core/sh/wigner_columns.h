@@ -38,12 +38,8 @@ class WignerColumnTables {
  public:
   WignerColumnTables(int lmax, int qmax);
   void Compute(double alpha, std::span<double> out) const;
-  // The columns of kWignerBlock angles at once (n <= kWignerBlock of them; the other lanes repeat
-  // alpha[n - 1]), interleaved: out[WignerColumnIndex(...) * kWignerBlock + r] for angle r;
-  // out holds WignerColumnCount(lmax, qmax) * kWignerBlock doubles. nonnegative_q: only the
-  // columns q >= 0 are written (a caller that derives q < 0 by symmetry).
+  // Angles per block (Angles, VisitColumn below): the recurrence runs on this many at once.
   static constexpr int kWignerBlock = 8;
-  void ComputeBlock(const double* alpha, int n, double* out, bool nonnegative_q = false) const;
 
   // kWignerBlock doubles, one per angle (a GCC/Clang vector: one AVX-512 register, or split by
   // the compiler on narrower machines).

@@ -451,7 +451,7 @@ void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int ro
   //   bm[((m + F) * n + ShIndex(p, q)) * ch + c][r] = sum_l L_lm rho_lpq d^l_mq(alpha_r)
   // (q >= 0 here; the global kind's q < 0 below, by symmetry).
   // Each column d^l_mq (l >= max(|m|, q)) is made just before its sums, into one (F + 1) x B
-  // buffer that stays in cache: all of them made first (WignerColumnTables::ComputeBlock) are
+  // buffer that stays in cache: all of them made first (as before session 27) are
   // megabytes, written and read back through memory once per block.
   const WignerColumnTables::BlockAngles angles = tables.Angles(alphas, rows);
   double* col = scratch.buf->cols.data();
