@@ -16,6 +16,7 @@
 #include "core/base/constants.h"
 #include "core/sh/quadrature.h"
 #include "core/sh/sh.h"
+#include "core/transform/fftw_wisdom.h"
 
 namespace shrm {
 namespace {
@@ -102,21 +103,14 @@ struct ShtPlan::FftwState {
     if (c2r) fftw_destroy_plan(c2r);
   }
   // The plan of a direction (null if FFTW could not make it), planned on buffers of the layout
-  // and alignment that the transforms execute it on.
+  // and alignment that the transforms execute it on, from the build's wisdom where it has some
+  // for the size (core/transform/fftw_wisdom.h: the same plan without the planner's search).
   fftw_plan Get(bool forward) {
     std::call_once(forward ? r2c_once : c2r_once, [&] {
-      const int nc = width / 2 + 1;
-      FftwBuffer<double> re(static_cast<size_t>(howmany) * width);
-      FftwBuffer<fftw_complex> co(static_cast<size_t>(howmany) * nc);
-      int n[1] = {width};
+      const internal::RingFft fft{width, howmany, forward};
       std::lock_guard<std::mutex> lock(FftwPlannerMutex());
-      if (forward) {
-        r2c = fftw_plan_many_dft_r2c(1, n, howmany, re.data, nullptr, 1, width, co.data, nullptr, 1,
-                                     nc, FFTW_ESTIMATE);
-      } else {
-        c2r = fftw_plan_many_dft_c2r(1, n, howmany, co.data, nullptr, 1, nc, re.data, nullptr, 1,
-                                     width, FFTW_ESTIMATE);
-      }
+      if (const char* wisdom = internal::BuiltInWisdom(fft)) fftw_import_wisdom_from_string(wisdom);
+      (forward ? r2c : c2r) = internal::PlanRingFft(fft);
     });
     return forward ? r2c : c2r;
   }
