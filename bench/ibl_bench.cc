@@ -118,6 +118,19 @@ void BM_GgxChainFromLighting(benchmark::State& state) {
 BENCHMARK(BM_GgxChainFromLighting)->Unit(benchmark::kMillisecond)->Iterations(2)->UseRealTime();
 
 // The job's irradiance cube (jobs/ibl_job.cc): one Lambert level of 32 x 32 from the lighting.
+// The base level alone (roughness 0: the map resampled at every texel centre of 6 x S^2).
+void BM_BaseLevel(benchmark::State& state) {
+  SpecularOptions opt;
+  const double zero[] = {0.0};
+  opt.chain = *MakeMipChain(RoughnessPreset::kExplicit, g_size, 1, zero);
+  for (auto _ : state) {
+    auto chain = PrefilterSpecular(Map(), opt);
+    if (!chain.ok()) std::abort();
+    benchmark::DoNotOptimize(chain->levels[0].cube.data.data());
+  }
+}
+BENCHMARK(BM_BaseLevel)->Unit(benchmark::kMillisecond);
+
 void BM_IrradianceCubeFromLighting(benchmark::State& state) {
   auto light = ComputeSplitSumLight(Map(), Mat3::Identity(), SetOptions(), 1);
   if (!light.ok()) std::abort();

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <mutex>
 #include <numeric>
@@ -493,13 +494,51 @@ std::array<float, 3> EnvMap::LatLongRadianceAt(double theta, double p) const {
 void EnvMap::LatLongRadianceAt(const double* theta, const double* phi, double phi_offset, int n,
                                float* out) const {
   const Image& img = images_[0];
+  const int w = img.width, h = img.height;
+  if (img.channels != 3 || w < 2) {
+    for (int k = 0; k < n; ++k) {
+      const double x = ((phi[k] + phi_offset) / (2 * kPi) + 0.5) * w - 0.5;
+      const double y = theta[k] / kPi * h - 0.5;
+      const std::array<float, 3> v = Bilinear(img, x, y, /*wrap_x=*/true);
+      std::copy(v.begin(), v.end(), out + 3 * k);
+    }
+    return;
+  }
+  // Bilinear()'s lookup with its arithmetic, the three channels at once: each corner's pixel
+  // loaded as four floats (its three and the next pixel's first, unused), widened to double and
+  // blended in one vector, the three floats stored. Only the map's last pixel has no float after
+  // it: lookups that touch it take Bilinear() itself.
+  using F4 = float __attribute__((vector_size(16), aligned(4)));
+  using D4 = double __attribute__((vector_size(32)));
+  const float* pixels = img.pixels.data();
+  const size_t row = static_cast<size_t>(w) * 3;
+  const auto corner = [](const float* p) {
+    F4 v;
+    std::memcpy(&v, p, sizeof(v));
+    return __builtin_convertvector(v, D4);
+  };
   for (int k = 0; k < n; ++k) {
-    const double x = ((phi[k] + phi_offset) / (2 * kPi) + 0.5) * img.width - 0.5;
-    const double y = theta[k] / kPi * img.height - 0.5;
-    const std::array<float, 3> v = Bilinear(img, x, y, /*wrap_x=*/true);
-    out[3 * k] = v[0];
-    out[3 * k + 1] = v[1];
-    out[3 * k + 2] = v[2];
+    const double x = ((phi[k] + phi_offset) / (2 * kPi) + 0.5) * w - 0.5;
+    const double y = std::clamp(theta[k] / kPi * h - 0.5, 0.0, static_cast<double>(h - 1));
+    const double fx0 = std::floor(x), fy0 = std::floor(y);
+    int x0 = static_cast<int>(fx0);
+    const int y0 = static_cast<int>(fy0), y1 = std::min(y0 + 1, h - 1);
+    if (x0 < 0) x0 += w;
+    if (x0 < 0 || x0 >= w || (y1 == h - 1 && x0 >= w - 2)) {
+      const std::array<float, 3> v = Bilinear(img, x, y, /*wrap_x=*/true);
+      std::copy(v.begin(), v.end(), out + 3 * k);
+      continue;
+    }
+    const int x1 = x0 + 1 < w ? x0 + 1 : 0;
+    const double ax = x - fx0, ay = y - fy0;
+    const float* r0 = pixels + static_cast<size_t>(y0) * row;
+    const float* r1 = pixels + static_cast<size_t>(y1) * row;
+    const D4 top = (1 - ax) * corner(r0 + 3 * x0) + ax * corner(r0 + 3 * x1);
+    const D4 bottom = (1 - ax) * corner(r1 + 3 * x0) + ax * corner(r1 + 3 * x1);
+    const D4 v = (1 - ay) * top + ay * bottom;
+    out[3 * k] = static_cast<float>(v[0]);
+    out[3 * k + 1] = static_cast<float>(v[1]);
+    out[3 * k + 2] = static_cast<float>(v[2]);
   }
 }
 
