@@ -365,12 +365,14 @@ absl::Status FinishIblRun(const IblJob& job, ibl::SplitSumSet set, const EnvMap*
       AddChecks(ibl::SpecularLobe::kCharlie, job.verify, kSheenVerifySeed, run.sheen, checks);
     AddChecks(ibl::SpecularLobe::kLambert, job.verify, kIrradianceVerifySeed, run.irradiance,
               checks);
-    // The check of E_lm = A_l L_lm, the form `shrm irradiance` states.
+    // The check of E_lm = A_l L_lm, the form `shrm irradiance` states, at the irradiance cube
+    // check's normals: MeasureLevelErrors makes their pixel sums once for both.
     SHRM_ASSIGN_OR_RETURN(const std::vector<double> e9,
                           IrradianceCoefficients(2, 3, run.radiance_sh9));
     ibl::SpecularLevel sh9_level;
-    SHRM_ASSIGN_OR_RETURN(const ibl::LevelCheck sh9_check,
-                          IrradianceSh9Check(e9, job.verify, &sh9_level));
+    SHRM_ASSIGN_OR_RETURN(
+        const ibl::LevelCheck sh9_check,
+        IrradianceSh9Check(e9, job.verify, &sh9_level, job.irradiance_size, kIrradianceVerifySeed));
     checks.push_back(sh9_check);
     const std::vector<ibl::LevelError> errors =
         ibl::MeasureLevelErrors(*map, checks, rotation, threads);

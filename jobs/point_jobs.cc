@@ -28,16 +28,14 @@ absl::StatusOr<std::vector<double>> IrradianceSh9(const EnvMap& map, const Mat3&
 }
 
 absl::StatusOr<ibl::LevelCheck> IrradianceSh9Check(std::span<const double> e9, int count,
-                                                   ibl::SpecularLevel* level) {
-  // The check's seed (the IBL job's SH9 check uses the same normals).
-  constexpr uint64_t kSeed = 0x5eed'1b10'0003 + 1000;
-  constexpr int kFace = 16;
-  level->face_size = kFace;
+                                                   ibl::SpecularLevel* level, int face_size,
+                                                   uint64_t seed) {
+  level->face_size = face_size;
   level->roughness = level->alpha = 1;
-  SHRM_ASSIGN_OR_RETURN(RadianceCube cube, IrradianceCube(e9, 3, kFace));
+  SHRM_ASSIGN_OR_RETURN(RadianceCube cube, IrradianceCube(e9, 3, face_size));
   level->cube = std::move(cube);
   for (float& v : level->cube.data) v = static_cast<float>(v / kPi);  // E / pi: the Lambert sum
-  return ibl::LevelCheck{ibl::SpecularLobe::kLambert, level, count, kSeed};
+  return ibl::LevelCheck{ibl::SpecularLobe::kLambert, level, count, seed};
 }
 
 ibl::LevelError MeasureIrradianceSh9(const EnvMap& map, const Mat3& rotation,

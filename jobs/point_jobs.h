@@ -5,6 +5,7 @@
 #ifndef SHRM_JOBS_POINT_JOBS_H_
 #define SHRM_JOBS_POINT_JOBS_H_
 
+#include <cstdint>
 #include <span>
 #include <string_view>
 #include <vector>
@@ -47,9 +48,13 @@ ibl::LevelError MeasureIrradianceSh9(const EnvMap& map, const Mat3& rotation,
                                      std::span<const double> e9, int count, int threads,
                                      const ibl::PixelSumTable* table = nullptr);
 // That check as one of ibl::MeasureLevelErrors' (for a job that measures several levels in one
-// pass): the 16 x 16 cube of E / pi into `level`, which must outlive the check.
+// pass): the cube of E / pi into `level`, which must outlive the check; by default the 16 x 16
+// cube and normals of MeasureIrradianceSh9. The IBL job gives its irradiance cube's face size and
+// check seed instead: the same normals, whose pixel sums its irradiance check then shares.
+inline constexpr uint64_t kIrradianceSh9Seed = 0x5eed'1b10'0003 + 1000;
 absl::StatusOr<ibl::LevelCheck> IrradianceSh9Check(std::span<const double> e9, int count,
-                                                   ibl::SpecularLevel* level);
+                                                   ibl::SpecularLevel* level, int face_size = 16,
+                                                   uint64_t seed = kIrradianceSh9Seed);
 
 // A radiance cube as a horizontal-cross image (4S x 3S: [. +Y . .] [-X +Z +X -Z] [. -Y . .], GL
 // face orientation, as core/envmap reads it back; grey cubes repeated in RGB): the file of

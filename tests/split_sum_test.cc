@@ -108,6 +108,40 @@ TEST(SplitSumTest, ZonalFactorsAtHighDegreeMatchAFineMidpointRule) {
   }
 }
 
+TEST(SplitSumTest, ChecksAtTheSameNormalsShareTheirSumsAndKeepTheirOwnErrors) {
+  // Two Lambert levels of the same face size checked with the same seed (the IBL job's irradiance
+  // cube and its SH9): one pixel sum per normal for both, and each level's errors those it gets
+  // alone; a third with another seed has its own normals.
+  auto map = LoadBundled("city.exr");
+  ASSERT_TRUE(map.ok()) << map.status();
+  constexpr int kFace = 8, kCount = 12;
+  SpecularLevel levels[3];
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0.5f, 2.0f);
+  for (SpecularLevel& level : levels) {
+    level.face_size = kFace;
+    level.roughness = level.alpha = 1;
+    level.cube.face_size = kFace;
+    level.cube.channels = 3;
+    level.cube.data.resize(level.cube.size());
+    for (float& v : level.cube.data) v = u(rng);
+  }
+  const LevelCheck checks[] = {{SpecularLobe::kLambert, &levels[0], kCount, 41},
+                               {SpecularLobe::kLambert, &levels[1], kCount, 41},
+                               {SpecularLobe::kLambert, &levels[2], kCount, 42}};
+  const std::vector<LevelError> together = MeasureLevelErrors(*map, checks, Mat3::Identity(), 1);
+  ASSERT_EQ(together.size(), 3u);
+  for (int k = 0; k < 3; ++k) {
+    const LevelError alone = MeasureLevelError(*map, SpecularLobe::kLambert, levels[k],
+                                               Mat3::Identity(), kCount, checks[k].seed, 1);
+    EXPECT_EQ(together[k].count, kCount);
+    EXPECT_EQ(together[k].rms, alone.rms) << k;
+    EXPECT_EQ(together[k].max, alone.max) << k;
+  }
+  // Different cubes: different errors (the sharing did not hand one level's result to another).
+  EXPECT_NE(together[0].rms, together[1].rms);
+}
+
 TEST(SplitSumTest, PixelSumTableIsTheReferenceSum) {
   // The jobs' batched single-precision sum against SplitSumReference (double, one sample at a
   // time) on a real map with a sun (courtyard, full size): single-precision directions and

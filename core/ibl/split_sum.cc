@@ -953,24 +953,41 @@ std::vector<LevelError> MeasureLevelErrors(const EnvMap& map, std::span<const Le
   }
   // The references: the map itself at alpha = 0, else the pixel sums, all in one pass.
   std::vector<std::vector<std::array<double, 3>>> want(checks.size());
+  // One query per distinct (lobe, alpha, directions): checks of the same sums at the same
+  // directions (the IBL job's irradiance cube and its SH9, both Lambert at one set of normals)
+  // share it.
   std::vector<PixelSumTable::Query> queries;
-  std::vector<size_t> query_of;
+  std::vector<int> query_of(checks.size(), -1);
   for (size_t c = 0; c < checks.size(); ++c) {
     const SpecularLevel& level = *checks[c].level;
     if (texels[c].dirs.empty()) continue;
     if (level.alpha <= 0) {
       for (const Vec3& d : texels[c].dirs)
         want[c].push_back(SplitSumReference(map, checks[c].lobe, 0.0, d));
-    } else {
+      continue;
+    }
+    for (size_t q = 0; q < queries.size() && query_of[c] < 0; ++q) {
+      const PixelSumTable::Query& other = queries[q];
+      if (other.lobe == checks[c].lobe && other.alpha == level.alpha &&
+          std::equal(other.dirs.begin(), other.dirs.end(), texels[c].dirs.begin(),
+                     texels[c].dirs.end(), [](const Vec3& a, const Vec3& b) {
+                       return a.x == b.x && a.y == b.y && a.z == b.z;
+                     })) {
+        query_of[c] = static_cast<int>(q);
+      }
+    }
+    if (query_of[c] < 0) {
+      query_of[c] = static_cast<int>(queries.size());
       queries.push_back({checks[c].lobe, level.alpha, texels[c].dirs});
-      query_of.push_back(c);
     }
   }
   if (!queries.empty()) {
     std::optional<PixelSumTable> own;
     if (table == nullptr) table = &own.emplace(map);
-    std::vector<std::vector<std::array<double, 3>>> sums = table->PrefilteredMany(queries, threads);
-    for (size_t q = 0; q < queries.size(); ++q) want[query_of[q]] = std::move(sums[q]);
+    const std::vector<std::vector<std::array<double, 3>>> sums =
+        table->PrefilteredMany(queries, threads);
+    for (size_t c = 0; c < checks.size(); ++c)
+      if (query_of[c] >= 0) want[c] = sums[query_of[c]];
   }
   std::vector<LevelError> errors(checks.size());
   for (size_t c = 0; c < checks.size(); ++c) {
