@@ -517,7 +517,16 @@ void EnvMap::LatLongRadianceAt(const double* theta, const double* phi, double ph
     std::memcpy(&v, p, sizeof(v));
     return __builtin_convertvector(v, D4);
   };
+  constexpr int kAhead = 8;
   for (int k = 0; k < n; ++k) {
+    if (k + kAhead < n) {
+      const double xa = ((phi[k + kAhead] + phi_offset) / (2 * kPi) + 0.5) * w - 0.5;
+      const double ya =
+          std::clamp(theta[k + kAhead] / kPi * h - 0.5, 0.0, static_cast<double>(h - 1));
+      const int xi = std::clamp(static_cast<int>(xa), 0, w - 1), yi = static_cast<int>(ya);
+      __builtin_prefetch(pixels + static_cast<size_t>(yi) * row + 3 * xi);
+      __builtin_prefetch(pixels + static_cast<size_t>(std::min(yi + 1, h - 1)) * row + 3 * xi);
+    }
     const double x = ((phi[k] + phi_offset) / (2 * kPi) + 0.5) * w - 0.5;
     const double y = std::clamp(theta[k] / kPi * h - 0.5, 0.0, static_cast<double>(h - 1));
     const double fx0 = std::floor(x), fy0 = std::floor(y);

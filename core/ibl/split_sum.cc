@@ -79,7 +79,7 @@ int GridRings(const std::vector<double>& g, const std::vector<double>& energy, i
 }
 
 // The base level of a lat-long map without rotation, or turned about the vertical by a yaw:
-// Radiance() at every texel centre, with the polar angle and azimuth from tables instead of two
+// Radiance() at every texel centre, with the polar angle and azimuth from row tables instead of two
 // atan2 and a hypot per texel. The four side faces share one polar-angle table (their
 // unnormalized directions all have hypot(x, z) = hypot(1, sc) and y = -tc) and one azimuth per
 // column; the caps have a table each. The angles equal Radiance()'s up to the rounding of the
@@ -89,43 +89,16 @@ int GridRings(const std::vector<double>& g, const std::vector<double>& energy, i
 void ResampleLatLongBase(const EnvMap& map, int s, int threads, double phi_offset,
                          RadianceCube& cube) {
   const auto coord = [s](int i) { return 2 * (i + 0.5) / s - 1; };
-  const size_t n = static_cast<size_t>(s) * s;
-  std::vector<double> side_theta(n), up_theta(n), up_phi(n), down_theta(n), down_phi(n);
-  std::vector<double> side_phi(static_cast<size_t>(4) * s);
   // Mirror images are exact: coord(s - 1 - i) = -coord(i) bit for bit (s >= 2 a power of two), and
-  // hypot ignores signs. The polar angles are computed on the rows y < s / 2 and the columns
-  // x < s / 2 and mirrored; +Y's azimuth on the columns x < s / 2 and mirrored with its sign
-  // changed (atan2(-a, b) = -atan2(a, b) bit for bit: glibc's atan2 works on |a| and sets the
-  // sign last); -Y's azimuth atan2(sc, tc) is +Y's atan2(sc, -tc) a row mirrored.
+  // hypot ignores signs. The polar angles of the caps are computed on the columns x < s / 2 and
+  // mirrored, and serve rows y and s - 1 - y alike; +Y's azimuth on the columns x < s / 2 and
+  // mirrored with its sign changed (atan2(-a, b) = -atan2(a, b) bit for bit: glibc's atan2 works
+  // on |a| and sets the sign last); -Y's azimuth atan2(sc, tc) is +Y's atan2(sc, -tc) a row
+  // mirrored. So each task takes a pair of rows (y, s - 1 - y) of every face, with the angles of
+  // those two rows in buffers of its own (a few KB, where tables of every texel took 2.6 MB of
+  // fresh memory at S = 256).
   const int half = (s + 1) / 2;
-  ParallelChunks(s, threads, [&](int begin, int end) {
-    for (int y = begin; y < end; ++y) {
-      const double tc = coord(y);
-      const size_t row = static_cast<size_t>(y) * s;
-      for (int x = 0; x < s; ++x) {
-        const double sc = coord(x);
-        side_theta[row + x] =
-            x < half ? std::atan2(std::hypot(1.0, sc), -tc) : side_theta[row + s - 1 - x];
-        // +Y: (sc, 1, tc); atan2 is odd in its first argument, exactly.
-        up_phi[row + x] = x < half ? std::atan2(sc, -tc) : -up_phi[row + s - 1 - x];
-        if (y < half) {
-          const double r = std::hypot(sc, tc);
-          up_theta[row + x] = x < half ? std::atan2(r, 1.0) : up_theta[row + s - 1 - x];
-          down_theta[row + x] = x < half ? std::atan2(r, -1.0) : down_theta[row + s - 1 - x];
-        }
-      }
-    }
-  });
-  for (int y = 0; y < s; ++y) {
-    const size_t row = static_cast<size_t>(y) * s, mirror = static_cast<size_t>(s - 1 - y) * s;
-    for (int x = 0; x < s; ++x) {
-      if (y >= half) {
-        up_theta[row + x] = up_theta[mirror + x];
-        down_theta[row + x] = down_theta[mirror + x];
-      }
-      down_phi[row + x] = up_phi[mirror + x];  // -Y: (sc, -1, -tc)
-    }
-  }
+  std::vector<double> side_phi(static_cast<size_t>(4) * s);
   for (int x = 0; x < s; ++x) {
     const double sc = coord(x);
     side_phi[0 * s + x] = std::atan2(1.0, sc);    // +X: (1, -tc, -sc)
@@ -133,19 +106,49 @@ void ResampleLatLongBase(const EnvMap& map, int s, int threads, double phi_offse
     side_phi[2 * s + x] = std::atan2(sc, -1.0);   // +Z: (sc, -tc, 1)
     side_phi[3 * s + x] = std::atan2(-sc, 1.0);   // -Z: (-sc, -tc, -1)
   }
-  ParallelChunks(kCubeFaceCount * s, threads, [&](int begin, int end) {
-    for (int row = begin; row < end; ++row) {
-      const int face = row / s, y = row % s;
-      const int side = face == kPosX ? 0 : face == kNegX ? 1 : face == kPosZ ? 2 : 3;
-      const size_t i = static_cast<size_t>(y) * s;
-      float* out = cube.data.data() + cube.Index(face, 0, y, 0);
-      if (face == kPosY) {
-        map.LatLongRadianceAt(&up_theta[i], &up_phi[i], phi_offset, s, out);
-      } else if (face == kNegY) {
-        map.LatLongRadianceAt(&down_theta[i], &down_phi[i], phi_offset, s, out);
-      } else {
-        map.LatLongRadianceAt(&side_theta[i], &side_phi[static_cast<size_t>(side) * s], phi_offset,
-                              s, out);
+  ParallelChunks(half, threads, [&](int begin, int end) {
+    // [0]: row y, [1]: row s - 1 - y.
+    std::vector<double> side_theta(2 * static_cast<size_t>(s)), up_phi(2 * static_cast<size_t>(s));
+    std::vector<double> up_theta(s), down_theta(s);
+    for (int y = begin; y < end; ++y) {
+      const int rows[2] = {y, s - 1 - y};
+      const int pair = rows[1] != y ? 2 : 1;  // s odd: the middle row alone
+      for (int r = 0; r < pair; ++r) {
+        const double tc = coord(rows[r]);
+        double* st = side_theta.data() + static_cast<size_t>(r) * s;
+        double* up = up_phi.data() + static_cast<size_t>(r) * s;
+        for (int x = 0; x < s; ++x) {
+          const double sc = coord(x);
+          st[x] = x < half ? std::atan2(std::hypot(1.0, sc), -tc) : st[s - 1 - x];
+          // +Y: (sc, 1, tc); atan2 is odd in its first argument, exactly.
+          up[x] = x < half ? std::atan2(sc, -tc) : -up[s - 1 - x];
+        }
+      }
+      const double tc = coord(y);
+      for (int x = 0; x < s; ++x) {
+        const double sc = coord(x);
+        const double r = std::hypot(sc, tc);
+        up_theta[x] = x < half ? std::atan2(r, 1.0) : up_theta[s - 1 - x];
+        down_theta[x] = x < half ? std::atan2(r, -1.0) : down_theta[s - 1 - x];
+      }
+      for (int r = 0; r < pair; ++r) {
+        const int row = rows[r];
+        const double* st = side_theta.data() + static_cast<size_t>(r) * s;
+        for (int face = 0; face < kCubeFaceCount; ++face) {
+          float* out = cube.data.data() + cube.Index(face, 0, row, 0);
+          if (face == kPosY) {
+            map.LatLongRadianceAt(up_theta.data(), up_phi.data() + static_cast<size_t>(r) * s,
+                                  phi_offset, s, out);
+          } else if (face == kNegY) {
+            // -Y's azimuth at row `row` is +Y's at the mirrored row: the pair's other one.
+            map.LatLongRadianceAt(down_theta.data(),
+                                  up_phi.data() + static_cast<size_t>(pair - 1 - r) * s, phi_offset,
+                                  s, out);
+          } else {
+            const int side = face == kPosX ? 0 : face == kNegX ? 1 : face == kPosZ ? 2 : 3;
+            map.LatLongRadianceAt(st, &side_phi[static_cast<size_t>(side) * s], phi_offset, s, out);
+          }
+        }
       }
     }
   });
