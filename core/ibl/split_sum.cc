@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <random>
 
@@ -279,7 +280,40 @@ double SplitSumKernel(SpecularLobe lobe, double alpha, double cos_theta) {
   return LobeNdf(lobe, alpha, std::sqrt(0.5 * (1 + std::min(1.0, cos_theta)))) * cos_theta;
 }
 
+namespace {
+
+std::vector<double> ComputeSplitSumZonal(SpecularLobe lobe, double alpha, int lmax);
+
+}  // namespace
+
 std::vector<double> SplitSumZonal(SpecularLobe lobe, double alpha, int lmax) {
+  // Kept for the process (a job asks for each level's lobe twice: the light's degree, then the
+  // level's; a live session for the same lobes every frame), the last kKept of them.
+  constexpr size_t kKept = 32;
+  struct Entry {
+    SpecularLobe lobe;
+    double alpha;
+    int lmax;
+    std::shared_ptr<const std::vector<double>> g;
+  };
+  static std::mutex mu;
+  static std::vector<Entry> kept;
+  {
+    std::lock_guard<std::mutex> lock(mu);
+    for (const Entry& e : kept) {
+      if (e.lobe == lobe && e.alpha == alpha && e.lmax == lmax) return *e.g;
+    }
+  }
+  auto g = std::make_shared<const std::vector<double>>(ComputeSplitSumZonal(lobe, alpha, lmax));
+  std::lock_guard<std::mutex> lock(mu);
+  if (kept.size() >= kKept) kept.erase(kept.begin());
+  kept.push_back({lobe, alpha, lmax, g});
+  return *g;
+}
+
+namespace {
+
+std::vector<double> ComputeSplitSumZonal(SpecularLobe lobe, double alpha, int lmax) {
   std::vector<double> g(lmax + 1, 0.0);
   const double scale =
       lobe == SpecularLobe::kLambert ? 0.25 : std::max(1e-6, std::min(alpha, 1.0) / 4);
@@ -346,6 +380,8 @@ std::vector<double> SplitSumZonal(SpecularLobe lobe, double alpha, int lmax) {
   }
   return g;
 }
+
+}  // namespace
 
 std::array<double, 3> SplitSumReference(const EnvMap& map, SpecularLobe lobe, double alpha,
                                         const Vec3& r) {

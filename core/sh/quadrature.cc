@@ -1,12 +1,17 @@
 #include "core/sh/quadrature.h"
 
 #include <cmath>
+#include <map>
+#include <memory>
+#include <mutex>
 
 #include "core/base/geometry.h"
 
 namespace shrm {
 
-RingQuadrature FejerFirstRule(int n) {
+namespace {
+
+RingQuadrature ComputeFejerFirstRule(int n) {
   RingQuadrature q;
   q.theta.resize(n);
   q.cos_theta.resize(n);
@@ -33,6 +38,29 @@ RingQuadrature FejerFirstRule(int n) {
     q.weight[j] = 2.0 / n * (1.0 - 2.0 * sum);
   }
   return q;
+}
+
+}  // namespace
+
+RingQuadrature FejerFirstRule(int n) {
+  // Each rule computed once per process (O(n^2): 0.3 ms at n = 512, and a job asks for its map's
+  // several times: the transform's plan, the light's moments, the check's pixel weights). A few
+  // dozen sizes at most in a process; the cache forgets them all past kSizes.
+  constexpr size_t kSizes = 64;
+  static std::mutex mu;
+  static std::map<int, std::shared_ptr<const RingQuadrature>> cache;
+  std::shared_ptr<const RingQuadrature> rule;
+  {
+    std::lock_guard<std::mutex> lock(mu);
+    if (auto it = cache.find(n); it != cache.end()) rule = it->second;
+  }
+  if (rule == nullptr) {
+    rule = std::make_shared<const RingQuadrature>(ComputeFejerFirstRule(n));
+    std::lock_guard<std::mutex> lock(mu);
+    if (cache.size() >= kSizes) cache.clear();
+    cache.emplace(n, rule);
+  }
+  return *rule;
 }
 
 namespace {

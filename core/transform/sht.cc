@@ -69,12 +69,15 @@ ShtPlan::RingSet MakeRingSet(const RingQuadrature& q, int lmax) {
   const int pp = PadPairs(r.num_pairs);
   r.x.assign(pp, 0.0);
   r.sectoral.assign(static_cast<size_t>(lmax + 1) * pp, 0.0);
+  // The recurrence's factors, the same for every pair.
+  std::vector<double> factor(lmax + 1, 0.0);
+  for (int m = 1; m <= lmax; ++m) factor[m] = -std::sqrt((2.0 * m + 1.0) / (2.0 * m));
   for (int p = 0; p < r.num_pairs; ++p) {
     r.x[p] = q.cos_theta[p];
     const double s = q.sin_theta[p];
     double v = std::sqrt(1.0 / (4.0 * kPi));  // lambda_0^0
     for (int m = 0; m <= lmax; ++m) {
-      if (m > 0) v *= -std::sqrt((2.0 * m + 1.0) / (2.0 * m)) * s;
+      if (m > 0) v *= factor[m] * s;
       if (std::abs(v) < kSectoralFlush) v = 0.0;
       r.sectoral[static_cast<size_t>(m) * pp + p] = v;
     }
