@@ -12,6 +12,7 @@ __m512d _ZGVeN8v_asin(__m512d);
 __m512d _ZGVeN8vv_pow(__m512d, __m512d);
 __m512d _ZGVeN8v_sin(__m512d);
 __m512d _ZGVeN8v_cos(__m512d);
+__m512d _ZGVeN8vv_atan2(__m512d, __m512d);
 }
 #endif
 
@@ -73,6 +74,24 @@ void VectorSinCos(const double* x, double* s, double* c, int n) {
   Lanes(x, c, n, 0.0, [](__m512d v) { return _ZGVeN8v_cos(v); });
 #else
   for (int i = 0; i < n; ++i) ::sincos(x[i], &s[i], &c[i]);
+#endif
+}
+
+void VectorAtan2(const double* y, const double* x, double* out, int n) {
+#if defined(SHRM_LIBMVEC)
+  int i = 0;
+  for (; i + 8 <= n; i += 8) {
+    _mm512_storeu_pd(out + i, _ZGVeN8vv_atan2(_mm512_loadu_pd(y + i), _mm512_loadu_pd(x + i)));
+  }
+  if (i < n) {
+    const __mmask8 m = static_cast<__mmask8>((1u << (n - i)) - 1);
+    const __m512d one = _mm512_set1_pd(1.0);
+    _mm512_mask_storeu_pd(
+        out + i, m,
+        _ZGVeN8vv_atan2(_mm512_mask_loadu_pd(one, m, y + i), _mm512_mask_loadu_pd(one, m, x + i)));
+  }
+#else
+  for (int i = 0; i < n; ++i) out[i] = std::atan2(y[i], x[i]);
 #endif
 }
 

@@ -1,6 +1,7 @@
-// Elementwise exp, asin, pow and sine/cosine over arrays of doubles, for the BRDF models'
-// evaluation along a quadrature arc (core/brdf/brdf_models.cc) and the arc's azimuths
-// (core/brdf/brdf_projection.cc). Built for AVX-512 (SHRM_NATIVE on such a machine) they call
+// Elementwise exp, asin, pow, sine/cosine and atan2 over arrays of doubles, for the BRDF models'
+// evaluation along a quadrature arc (core/brdf/brdf_models.cc), the arc's azimuths
+// (core/brdf/brdf_projection.cc) and the angles of cube texels (the split-sum base level, the
+// synthesis grids' interpolation taps). Built for AVX-512 (SHRM_NATIVE on such a machine) they call
 // glibc's vector math library libmvec, 8 lanes at a time (its documented accuracy: within 4 ulp
 // of the exact value); otherwise the scalar libm functions. x and y may be the same array
 // (not x and s or c).
@@ -18,6 +19,8 @@ void VectorAsin(const double* x, double* y, int n);
 // y[i] = x[i]^e, x[i] >= 0.
 void VectorPow(const double* x, double e, double* y, int n);
 void VectorSinCos(const double* x, double* s, double* c, int n);
+// out[i] = atan2(y[i], x[i]); out may be y or x.
+void VectorAtan2(const double* y, const double* x, double* out, int n);
 
 }  // namespace shrm::internal
 

@@ -17,6 +17,7 @@
 #include "core/base/cubemap.h"
 #include "core/base/parallel.h"
 #include "core/base/status_macros.h"
+#include "core/brdf/vector_math.h"
 #include "core/envmap/lighting.h"
 #include "core/sh/quadrature.h"
 #include "core/sh/rotation.h"
@@ -93,11 +94,10 @@ void ResampleLatLongBase(const EnvMap& map, int s, int threads, double phi_offse
   // Mirror images are exact: coord(s - 1 - i) = -coord(i) bit for bit (s >= 2 a power of two), and
   // hypot ignores signs. The polar angles of the caps are computed on the columns x < s / 2 and
   // mirrored, and serve rows y and s - 1 - y alike; +Y's azimuth on the columns x < s / 2 and
-  // mirrored with its sign changed (atan2(-a, b) = -atan2(a, b) bit for bit: glibc's atan2 works
-  // on |a| and sets the sign last); -Y's azimuth atan2(sc, tc) is +Y's atan2(sc, -tc) a row
-  // mirrored. So each task takes a pair of rows (y, s - 1 - y) of every face, with the angles of
-  // those two rows in buffers of its own (a few KB, where tables of every texel took 2.6 MB of
-  // fresh memory at S = 256).
+  // mirrored with its sign changed (atan2 is odd in its first argument); -Y's azimuth
+  // atan2(sc, tc) is +Y's atan2(sc, -tc) a row mirrored. So each task takes a pair of rows (y, s -
+  // 1 - y) of every face, with the angles of those two rows in buffers of its own (a few KB, where
+  // tables of every texel took 2.6 MB of fresh memory at S = 256).
   const int half = (s + 1) / 2;
   std::vector<double> side_phi(static_cast<size_t>(4) * s);
   for (int x = 0; x < s; ++x) {
@@ -107,10 +107,13 @@ void ResampleLatLongBase(const EnvMap& map, int s, int threads, double phi_offse
     side_phi[2 * s + x] = std::atan2(sc, -1.0);   // +Z: (sc, -tc, 1)
     side_phi[3 * s + x] = std::atan2(-sc, 1.0);   // -Z: (-sc, -tc, -1)
   }
+  // hypot(1, sc) of the side faces' columns; the atan2 calls of a row at once (VectorAtan2).
+  std::vector<double> side_run(half);
+  for (int x = 0; x < half; ++x) side_run[x] = std::hypot(1.0, coord(x));
   ParallelChunks(half, threads, [&](int begin, int end) {
     // [0]: row y, [1]: row s - 1 - y.
     std::vector<double> side_theta(2 * static_cast<size_t>(s)), up_phi(2 * static_cast<size_t>(s));
-    std::vector<double> up_theta(s), down_theta(s);
+    std::vector<double> up_theta(s), down_theta(s), num(half), den(half);
     for (int y = begin; y < end; ++y) {
       const int rows[2] = {y, s - 1 - y};
       const int pair = rows[1] != y ? 2 : 1;  // s odd: the middle row alone
@@ -118,19 +121,25 @@ void ResampleLatLongBase(const EnvMap& map, int s, int threads, double phi_offse
         const double tc = coord(rows[r]);
         double* st = side_theta.data() + static_cast<size_t>(r) * s;
         double* up = up_phi.data() + static_cast<size_t>(r) * s;
-        for (int x = 0; x < s; ++x) {
-          const double sc = coord(x);
-          st[x] = x < half ? std::atan2(std::hypot(1.0, sc), -tc) : st[s - 1 - x];
-          // +Y: (sc, 1, tc); atan2 is odd in its first argument, exactly.
-          up[x] = x < half ? std::atan2(sc, -tc) : -up[s - 1 - x];
+        std::fill(den.begin(), den.end(), -tc);
+        internal::VectorAtan2(side_run.data(), den.data(), st, half);
+        for (int x = 0; x < half; ++x) num[x] = coord(x);
+        // +Y: (sc, 1, tc).
+        internal::VectorAtan2(num.data(), den.data(), up, half);
+        for (int x = half; x < s; ++x) {
+          st[x] = st[s - 1 - x];
+          up[x] = -up[s - 1 - x];  // atan2 is odd in its first argument
         }
       }
       const double tc = coord(y);
-      for (int x = 0; x < s; ++x) {
-        const double sc = coord(x);
-        const double r = std::hypot(sc, tc);
-        up_theta[x] = x < half ? std::atan2(r, 1.0) : up_theta[s - 1 - x];
-        down_theta[x] = x < half ? std::atan2(r, -1.0) : down_theta[s - 1 - x];
+      for (int x = 0; x < half; ++x) num[x] = std::hypot(coord(x), tc);
+      std::fill(den.begin(), den.end(), 1.0);
+      internal::VectorAtan2(num.data(), den.data(), up_theta.data(), half);
+      std::fill(den.begin(), den.end(), -1.0);
+      internal::VectorAtan2(num.data(), den.data(), down_theta.data(), half);
+      for (int x = half; x < s; ++x) {
+        up_theta[x] = up_theta[s - 1 - x];
+        down_theta[x] = down_theta[s - 1 - x];
       }
       for (int r = 0; r < pair; ++r) {
         const int row = rows[r];

@@ -20,6 +20,8 @@
 #include "core/base/cubemap.h"
 #include "core/base/geometry.h"
 #include "core/base/parallel.h"
+#include "core/brdf/vector_math.h"
+#include "core/sh/sh.h"
 #include "core/shrm/shrm_eval.h"
 
 namespace shrm::internal {
@@ -50,17 +52,31 @@ std::shared_ptr<const std::vector<TexelTaps>> GetTexelTaps(int face_size, int na
   // The texel centres' (alpha, beta) of +X and +Y; the other faces' follow by symmetry
   // (ShrmAnglesFromWorld, GL faces): the side faces are +X turned about the vertical, alpha the
   // same and beta + pi (-X), - pi / 2 (+Z), + pi / 2 (-Z); -Y is +Y mirrored, pi - alpha and
-  // -beta, at the same texel. (Within an ulp of the direct angles: the taps are floats.)
+  // -beta, at the same texel. (Within a few ulp of the direct angles: the taps are floats.)
+  // ShrmAnglesFromWorld's angles, their atan2 calls over whole faces at once (VectorAtan2).
   const size_t per_face = static_cast<size_t>(face_size) * face_size;
   std::vector<double> side_alpha(per_face), side_beta(per_face), top_alpha(per_face),
       top_beta(per_face);
-  for (int y = 0; y < face_size; ++y)
-    for (int x = 0; x < face_size; ++x) {
-      const size_t i = static_cast<size_t>(y) * face_size + x;
-      ShrmAnglesFromWorld(CubeTexelDirection(kPosX, x, y, face_size), &side_alpha[i],
-                          &side_beta[i]);
-      ShrmAnglesFromWorld(CubeTexelDirection(kPosY, x, y, face_size), &top_alpha[i], &top_beta[i]);
+  {
+    std::vector<double> polar_y(per_face), polar_x(per_face), azimuth_y(per_face),
+        azimuth_x(per_face);
+    for (const int face : {kPosX, kPosY}) {
+      for (int y = 0; y < face_size; ++y)
+        for (int x = 0; x < face_size; ++x) {
+          const size_t i = static_cast<size_t>(y) * face_size + x;
+          const Vec3 d = ShFrameFromWorld(CubeTexelDirection(face, x, y, face_size));
+          polar_y[i] = std::hypot(d.x, d.y);
+          polar_x[i] = d.z;
+          azimuth_y[i] = d.y;
+          azimuth_x[i] = d.x;
+        }
+      const int n = static_cast<int>(per_face);
+      VectorAtan2(polar_y.data(), polar_x.data(), (face == kPosX ? side_alpha : top_alpha).data(),
+                  n);
+      VectorAtan2(azimuth_y.data(), azimuth_x.data(), (face == kPosX ? side_beta : top_beta).data(),
+                  n);
     }
+  }
   for (int face = 0; face < kCubeFaceCount; ++face)
     for (int y = 0; y < face_size; ++y)
       for (int x = 0; x < face_size; ++x) {
