@@ -566,12 +566,17 @@ std::array<double, 4> BlockSums(const Kernel& kernel, float rx, float ry, float 
 #if defined(__AVX512F__)
   if constexpr (requires { Kernel::kVector; }) {
     const __m512 vx = _mm512_set1_ps(rx), vy = _mm512_set1_ps(ry), vz = _mm512_set1_ps(rz);
+    const __m512 two = _mm512_set1_ps(2.0f);
     __m512 sw = _mm512_setzero_ps(), sr = sw, sg = sw, sb = sw;
     for (int j = 0; j < n; j += 16) {
       const __m512 dx = _mm512_sub_ps(vx, _mm512_loadu_ps(px + j));
       const __m512 dy = _mm512_sub_ps(vy, _mm512_loadu_ps(py + j));
       const __m512 dz = _mm512_sub_ps(vz, _mm512_loadu_ps(pz + j));
       const __m512 e = _mm512_fmadd_ps(dx, dx, _mm512_fmadd_ps(dy, dy, _mm512_mul_ps(dz, dz)));
+      // Both vector kernels are 0 from e = 2 on (r.d <= 0, behind the normal): sixteen pixels there
+      // add zeros, skipped. (Blocks are rows of 256 pixels, up to 90 degrees of azimuth: many
+      // straddle the horizon that their bounding cone cannot cull.)
+      if (_mm512_cmp_ps_mask(e, two, _CMP_LT_OQ) == 0) continue;
       const __m512 w = _mm512_mul_ps(kernel(e), _mm512_loadu_ps(po + j));
       sw = _mm512_add_ps(sw, w);
       sr = _mm512_fmadd_ps(w, _mm512_loadu_ps(pr + j), sr);
