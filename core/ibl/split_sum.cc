@@ -844,12 +844,95 @@ int SplitSumLightDegree(const EnvMap& map, const Mat3& rotation, const SplitSumS
   return std::min(need, limit);
 }
 
+namespace {
+
+// A level's degree (PrefilterSpecular): the smallest F <= limit whose dropped energy, the bands
+// F < l <= limit of g_l^2 E_l plus the bound of what lies above `limit` (the map's energy there,
+// light.total_energy less what the light holds, times the largest g_j^2 it may meet), is within
+// tolerance^2 of the level's total; F = limit when none is. `above` is that bound; g runs to the
+// map's own degree when the light stops short of it.
+struct LevelDegree {
+  std::vector<double> g;
+  int degree = 0;
+  double estimate = 0;  // sqrt(dropped / total)
+  double total = 0, above = 0;
+};
+LevelDegree ChooseLevelDegree(SpecularLobe lobe, double alpha, const SpecularLight& light,
+                              int limit, double tolerance) {
+  LevelDegree out;
+  const int top = light.total_energy > 0 ? std::max(limit, light.map_degree) : limit;
+  out.g = SplitSumZonal(lobe, alpha, top);
+  const std::vector<double>& g = out.g;
+  const std::vector<double>& energy = light.energy;
+  double total = 0, kept = 0;
+  for (int l = 0; l <= limit; ++l) {
+    total += g[l] * g[l] * energy[l];
+    kept += energy[l];
+  }
+  double above = 0;
+  if (top > limit) {
+    double largest = 0;
+    for (int j = limit + 1; j <= top; ++j) largest = std::max(largest, g[j] * g[j]);
+    above = largest * std::max(0.0, light.total_energy - kept);
+  }
+  double tail = total;
+  int f = limit;
+  for (int l = 0; l <= limit; ++l) {
+    tail -= g[l] * g[l] * energy[l];
+    if (tail + above <= tolerance * tolerance * total) {
+      f = l;
+      break;
+    }
+  }
+  out.degree = f;
+  out.estimate = total > 0 ? std::sqrt(std::max(0.0, tail) + above) / std::sqrt(total) : 0.0;
+  out.total = total;
+  out.above = above;
+  return out;
+}
+
+}  // namespace
+
+bool SplitSumLightSuffices(const SpecularLight& light, const SplitSumSetOptions& options) {
+  const double share = kFirstTryShare * options.tolerance * options.tolerance;
+  const auto meets = [&](SpecularLobe lobe, double alpha) {
+    if (!(alpha > 0)) return true;
+    const LevelDegree d = ChooseLevelDegree(lobe, alpha, light, light.degree, options.tolerance);
+    return d.above <= share * d.total;
+  };
+  for (double r : options.chain.roughness) {
+    if (!meets(SpecularLobe::kGgx, r * r)) return false;
+    if (options.sheen && !meets(SpecularLobe::kCharlie, r * r)) return false;
+  }
+  return meets(SpecularLobe::kLambert, 1.0);
+}
+
+SplitSumLightTry SplitSumLightTries(const EnvMap& map, const Mat3& rotation,
+                                    const SplitSumSetOptions& options,
+                                    const LightMoments& moments) {
+  SplitSumLightTry t;
+  t.full = SplitSumLightDegree(map, rotation, options, moments);
+  // (Not with the sheen lobes: on the four bundled maps their bands reach the map's limit, and a
+  // first try would only add a transform.)
+  if (moments.known && !options.sheen && t.full - kFirstTryBelow >= kFirstTryBelow) {
+    t.first = t.full - kFirstTryBelow;
+  }
+  return t;
+}
+
 absl::StatusOr<SpecularLight> ComputeSplitSumLight(const EnvMap& map, const Mat3& rotation,
                                                    const SplitSumSetOptions& options, int threads) {
   if (threads < 1) return absl::InvalidArgumentError(absl::StrCat("IBL: threads = ", threads));
   const LightMoments moments = MapLightMoments(map);
-  return LightToDegree(map, rotation, SplitSumLightDegree(map, rotation, options, moments), threads,
-                       moments.total);
+  // SplitSumLightDegree's bound counts all the map's spread as possibly above D; the light's own
+  // energies show how much is: the first try is kept when every level leaves little above it.
+  const SplitSumLightTry tries = SplitSumLightTries(map, rotation, options, moments);
+  if (tries.first > 0) {
+    SHRM_ASSIGN_OR_RETURN(SpecularLight light,
+                          LightToDegree(map, rotation, tries.first, threads, moments.total));
+    if (SplitSumLightSuffices(light, options)) return light;
+  }
+  return LightToDegree(map, rotation, tries.full, threads, moments.total);
 }
 
 absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const SpecularOptions& options,
@@ -922,36 +1005,12 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
       out.levels.push_back(std::move(level));
       continue;
     }
-    // g to the map's own degree when the light stops short of it (the bound of what lies above).
-    const int top = light->total_energy > 0 ? std::max(limit, light->map_degree) : limit;
-    const std::vector<double> g = SplitSumZonal(options.lobe, level.alpha, top);
-    const std::vector<double>& energy = light->energy;
-    double total = 0, kept = 0;
-    for (int l = 0; l <= limit; ++l) {
-      total += g[l] * g[l] * energy[l];
-      kept += energy[l];
-    }
-    // The dropped energy above `limit`, bounded (SplitSumLightDegree): the map's energy there
-    // times the largest g_j^2 it may meet.
-    double above = 0;
-    if (top > limit) {
-      double largest = 0;
-      for (int j = limit + 1; j <= top; ++j) largest = std::max(largest, g[j] * g[j]);
-      above = largest * std::max(0.0, light->total_energy - kept);
-    }
-    // Smallest F whose dropped energy is within tolerance^2 of the total.
-    double tail = total;
-    int f = limit;
-    for (int l = 0; l <= limit; ++l) {
-      tail -= g[l] * g[l] * energy[l];
-      if (tail + above <= options.tolerance * options.tolerance * total) {
-        f = l;
-        break;
-      }
-    }
+    const LevelDegree choice =
+        ChooseLevelDegree(options.lobe, level.alpha, *light, limit, options.tolerance);
+    const std::vector<double>& g = choice.g;
+    const int f = choice.degree;
     level.degree = f;
-    level.truncation_estimate =
-        total > 0 ? std::sqrt(std::max(0.0, tail) + above) / std::sqrt(total) : 0.0;
+    level.truncation_estimate = choice.estimate;
     // The level's coefficients g_l L_lm, synthesized by the P = 0 SHRM path.
     std::vector<double> real(static_cast<size_t>(ShCount(f)) * 3);
     for (int l = 0; l <= f; ++l) {

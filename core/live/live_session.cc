@@ -340,23 +340,28 @@ absl::Status LiveSession::ComputeSplitSum(const State& state, const LiveFrame* p
     split_sum_map_ = state.map;
     split_sum_moments_ = ibl::MapLightMoments(*state.map);
   }
-  // The degree `shrm ibl` uses (ibl::ComputeSplitSumLight): what the set's lobes need.
-  const int degree =
-      ibl::SplitSumLightDegree(*state.map, state.rotation, *split_sum_, split_sum_moments_);
-  auto it = split_sum_unrotated_.find(degree);
-  if (it == split_sum_unrotated_.end()) {
-    SHRM_ASSIGN_OR_RETURN(std::vector<double> unrotated,
-                          LightingCoefficients(*state.map, degree, Mat3::Identity(),
-                                               options_.threads, ShtQuadrature::kPixelSum));
-    it = split_sum_unrotated_
-             .emplace(degree, std::make_shared<const std::vector<double>>(std::move(unrotated)))
-             .first;
+  // The degrees `shrm ibl` tries (ibl::ComputeSplitSumLight), each map's coefficients kept per
+  // degree: the first try when it suffices, else what the set's lobes need.
+  const ibl::SplitSumLightTry tries =
+      ibl::SplitSumLightTries(*state.map, state.rotation, *split_sum_, split_sum_moments_);
+  ibl::SpecularLight light;
+  for (const int degree : {tries.first, tries.full}) {
+    if (degree <= 0 && degree != tries.full) continue;
+    auto it = split_sum_unrotated_.find(degree);
+    if (it == split_sum_unrotated_.end()) {
+      SHRM_ASSIGN_OR_RETURN(std::vector<double> unrotated,
+                            LightingCoefficients(*state.map, degree, Mat3::Identity(),
+                                                 options_.threads, ShtQuadrature::kPixelSum));
+      it = split_sum_unrotated_
+               .emplace(degree, std::make_shared<const std::vector<double>>(std::move(unrotated)))
+               .first;
+    }
+    SHRM_ASSIGN_OR_RETURN(light, ibl::SpecularLightFromCoefficients(
+                                     degree, state.rotation, *it->second,
+                                     ibl::SpecularLightDegree(*state.map, state.rotation, 0),
+                                     split_sum_moments_.total));
+    if (degree == tries.full || ibl::SplitSumLightSuffices(light, *split_sum_)) break;
   }
-  SHRM_ASSIGN_OR_RETURN(
-      const ibl::SpecularLight light,
-      ibl::SpecularLightFromCoefficients(degree, state.rotation, *it->second,
-                                         ibl::SpecularLightDegree(*state.map, state.rotation, 0),
-                                         split_sum_moments_.total));
   clock.End();
   SHRM_ASSIGN_OR_RETURN(ibl::SplitSumSet set,
                         ibl::PrefilterSplitSumSet(*state.map, light, *split_sum_, options_.threads,
