@@ -337,6 +337,7 @@ absl::Status LiveSession::ComputeSplitSum(const State& state, const LiveFrame* p
   SHRM_RETURN_IF_ERROR(clock.Begin("split-sum lighting"));
   if (split_sum_map_ != state.map) {  // one map (its pointer keeps it alive)
     split_sum_unrotated_.clear();
+    split_sum_first_failed_ = false;
     split_sum_map_ = state.map;
     split_sum_moments_ = ibl::MapLightMoments(*state.map);
   }
@@ -346,7 +347,7 @@ absl::Status LiveSession::ComputeSplitSum(const State& state, const LiveFrame* p
       ibl::SplitSumLightTries(*state.map, state.rotation, *split_sum_, split_sum_moments_);
   ibl::SpecularLight light;
   for (const int degree : {tries.first, tries.full}) {
-    if (degree <= 0 && degree != tries.full) continue;
+    if (degree != tries.full && (degree <= 0 || split_sum_first_failed_)) continue;
     auto it = split_sum_unrotated_.find(degree);
     if (it == split_sum_unrotated_.end()) {
       SHRM_ASSIGN_OR_RETURN(std::vector<double> unrotated,
@@ -361,6 +362,7 @@ absl::Status LiveSession::ComputeSplitSum(const State& state, const LiveFrame* p
                                      ibl::SpecularLightDegree(*state.map, state.rotation, 0),
                                      split_sum_moments_.total));
     if (degree == tries.full || ibl::SplitSumLightSuffices(light, *split_sum_)) break;
+    split_sum_first_failed_ = true;
   }
   clock.End();
   SHRM_ASSIGN_OR_RETURN(ibl::SplitSumSet set,

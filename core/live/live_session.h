@@ -182,12 +182,16 @@ class LiveSession {
   std::shared_ptr<const EnvMap> lighting_map_;             // the map of the entries below
   std::map<int, std::vector<double>> lighting_unrotated_;  // by degree
   std::array<double, 3> lighting_energy_{};
-  // The split-sum set's coefficients of split_sum_map_, unrotated, by degree (what the set's
-  // lobes need, ibl::SplitSumLightDegree: at most the map's own limit unrotated,
+  // The split-sum set's coefficients of split_sum_map_, unrotated, by degree (the degrees
+  // ibl::SplitSumLightTries gives: at most the map's own limit unrotated,
   // kMaxRotationLmax rotated), and the map's luminance moments that choose it.
   std::shared_ptr<const EnvMap> split_sum_map_;
   ibl::LightMoments split_sum_moments_;
   std::map<int, std::shared_ptr<const std::vector<double>>> split_sum_unrotated_;
+  // The map's first-try degree did not suffice (ibl::SplitSumLightSuffices: rotation keeps each
+  // band's energy): later frames go straight to the full degree instead of turning a light only
+  // to drop it.
+  bool split_sum_first_failed_ = false;
   SynthesisScratch split_sum_scratch_;  // the chain's grids, reused frame after frame
   SynthesisScratch shrm_scratch_;       // the SHRM's synthesis grid, the same
   // Cube storage of released frames, handed to the next synthesis (SynthesisScratch::cube): no
