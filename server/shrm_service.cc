@@ -300,6 +300,14 @@ void ShrmServiceImpl::TestStageHooks(std::string_view stage) const {
   if (options_.test_stage_hook) options_.test_stage_hook(stage);
 }
 
+void ShrmServiceImpl::HoldUntilDrain() const {
+  // A bound, so that a test whose SIGTERM never comes fails instead of hanging: far beyond the
+  // few seconds deploy_test takes between the job's first progress event and its SIGTERM.
+  constexpr absl::Duration kTestHoldLimit = absl::Seconds(120);
+  const absl::Time until = absl::Now() + kTestHoldLimit;
+  while (!draining_ && absl::Now() < until) absl::SleepFor(absl::Milliseconds(10));
+}
+
 grpc::Status ShrmServiceImpl::HasBlob(grpc::ServerContext* context,
                                       const v1::HasBlobRequest* request,
                                       v1::HasBlobResponse* response) {
@@ -426,6 +434,10 @@ absl::Status ShrmServiceImpl::RunPrefilterCall(grpc::ServerContext* context,
           call->slot->Reserve(jobs::ReferenceBytes(pixels), "the job's check (verify)"));
     }
     TestStageHooks(stage);
+    if (stage == "write" && !options_.test_hold_brdf.empty() &&
+        call->request.brdf.spec == options_.test_hold_brdf) {
+      HoldUntilDrain();
+    }
     WriteProgress(writer, stage, std::min(stage_index++, 5) / kStages);
     return CheckStage(context, stage);
   };

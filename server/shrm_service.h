@@ -48,6 +48,10 @@ struct ServiceOptions {
   // Testing only: called at the start of every Prefilter and Ibl stage, after the delay (tests
   // hold a job in its slot with it: tests/stage_gate.h).
   std::function<void(std::string_view stage)> test_stage_hook;
+  // Testing only (shrmd --test-hold-brdf; tests/deploy_test.sh's drain): a Prefilter job whose
+  // brdf spec, as the request spelled it, is this one waits before its write stage until the
+  // server begins draining (at most 120 s), so that it is surely in flight at SIGTERM.
+  std::string test_hold_brdf;
 };
 
 class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
@@ -124,6 +128,8 @@ class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
                             const std::function<absl::Status(IdleWatchdog::Call*)>& transfer);
   // The testing hooks (ServiceOptions::test_stage_delay, test_stage_hook) at `stage`.
   void TestStageHooks(std::string_view stage) const;
+  // Waits until BeginDrain (ServiceOptions::test_hold_brdf), at most 120 s.
+  void HoldUntilDrain() const;
 
   const ServiceOptions options_;
   std::unique_ptr<BlobStore> blobs_;

@@ -109,6 +109,9 @@ int main(int argc, char** argv) {
   // Testing only (tests/deploy_test.sh): files starting with SHRM-TEST-POISON crash the isolated
   // decoder, SHRM-TEST-HANG make it hang.
   app.add_flag("--test-decoder-hooks", opt.service.decode_limits.test_hooks)->group("");
+  // Testing only (tests/deploy_test.sh): Prefilter jobs with this brdf spec wait before writing
+  // their result until the daemon begins draining.
+  app.add_option("--test-hold-brdf", opt.service.test_hold_brdf)->group("");
   app.add_flag("--reflection", opt.reflection, "enable gRPC server reflection");
   app.add_option("--metrics-port", opt.metrics_port,
                  "serve Prometheus metrics on GET /metrics at this port (-1: off, 0: any)")
