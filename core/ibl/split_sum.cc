@@ -969,7 +969,22 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
   const Mat3 inverse = options.rotation.Transposed();
   SynthesisScratch local;
   SynthesisScratch* scratch = options.scratch != nullptr ? options.scratch : &local;
-  for (int k = 0; k < chain.levels(); ++k) {
+  // The convolved levels first, the resampled ones (roughness 0) after, with the synthesis's
+  // working storage released in between when it serves this job only: the base cube then takes
+  // those freed blocks instead of fresh memory, each fresh huge page of which the kernel zeroes
+  // on first touch (about 1.5 ms a 2 MiB page in a paravirtualized VM; docs/architecture.md
+  // "Start-up"). The levels are independent: the order changes no value.
+  std::vector<int> order;
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int k = 0; k < chain.levels(); ++k) {
+      if ((chain.roughness[k] > 0) == (pass == 0)) order.push_back(k);
+    }
+  }
+  std::vector<SpecularLevel> levels(chain.levels());
+  for (const int k : order) {
+    if (chain.roughness[k] <= 0 && (scratch == &local || options.release_scratch_before_base)) {
+      *scratch = SynthesisScratch();
+    }
     SpecularLevel level;
     level.face_size = chain.face_size[k];
     level.roughness = chain.roughness[k];
@@ -987,7 +1002,7 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
       // R = RotationY(psi) moves azimuth atan2(x, -z) by -psi; the lookup R^-1 d adds psi.
       const double psi = options.rotation.IsIdentity() ? 0.0 : std::atan2(yaw->sin, yaw->cos);
       ResampleLatLongBase(map, level.face_size, options.threads, psi, cube);
-      out.levels.push_back(std::move(level));
+      levels[k] = std::move(level);
       continue;
     }
     if (level.alpha <= 0) {
@@ -1002,7 +1017,7 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
           }
         }
       });
-      out.levels.push_back(std::move(level));
+      levels[k] = std::move(level);
       continue;
     }
     const LevelDegree choice =
@@ -1026,8 +1041,9 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
     auto built = ShrmSynthesizer::RealZonalCube(f, 3, real, level.face_size, grid);
     if (!built.ok()) return built.status();
     cube.data = std::move(built->data);
-    out.levels.push_back(std::move(level));
+    levels[k] = std::move(level);
   }
+  out.levels = std::move(levels);
   return out;
 }
 
@@ -1140,6 +1156,7 @@ absl::StatusOr<SplitSumSet> PrefilterSplitSumSet(const EnvMap& map, const Specul
   SynthesisScratch local;
   SpecularOptions opt;
   opt.scratch = scratch != nullptr ? scratch : &local;
+  opt.release_scratch_before_base = scratch == nullptr;
   opt.chain = options.chain;
   opt.tolerance = options.tolerance;
   opt.rotation = light.rotation;

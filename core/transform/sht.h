@@ -103,7 +103,8 @@ std::mutex& FftwPlannerMutex();
 
 // Work storage of ShtPlan::Inverse kept by a caller across calls (grown as needed, never shrunk):
 // a caller that synthesizes again and again (a live session's frames, a chain's levels) reuses
-// it instead of allocating, and first-touching, the theta stage's array on every call.
+// it instead of allocating, and first-touching, the theta stage's array (one block of ring
+// pairs: 32 pairs x every m) on every call.
 struct ShtScratch {
   std::vector<double> theta;
 };
@@ -178,8 +179,10 @@ class ShtPlan {
                                                                    int channels, bool synthesis,
                                                                    ShtQuadrature quadrature);
   // Analysis / synthesis for float and double maps: a phi stage (one r2c / c2r FFT batch per ring
-  // pair, parallel over pairs) and a theta stage (Legendre recurrences, parallel over m), with the
-  // per-m buffer E/O[m][parity][channel][re, im][pair] between them.
+  // pair) and a theta stage (Legendre recurrences), with the per-m buffer
+  // E/O[m][parity][channel][re, im][pair] between them. The analysis runs each stage whole
+  // (parallel over pairs, then over m); the synthesis runs both per block of 32 ring pairs
+  // (parallel over blocks), so that its buffer holds one block.
   template <typename T>
   absl::Status ForwardImpl(std::span<const T> map, std::span<double> coeffs, int num_threads) const;
   template <typename T>
