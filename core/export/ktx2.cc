@@ -266,8 +266,9 @@ std::string Where(const Ktx2Image& im, size_t p, size_t i) {
                       i % channels);
 }
 
-// Level p's bytes (the levelImages of "Mip Level Array"), or the first unrepresentable value.
-absl::StatusOr<std::string> EncodeLevel(const Ktx2Image& im, size_t p, Negatives negatives) {
+// Level p's values against the format's rules (finite; unsigned formats: negatives as
+// `negatives` says).
+absl::Status CheckLevelValues(const Ktx2Image& im, size_t p, Negatives negatives) {
   const FormatInfo info = Info(im.format);
   const std::vector<float>& v = im.levels[p].pixels;
   for (size_t i = 0; i < v.size(); ++i) {
@@ -280,9 +281,22 @@ absl::StatusOr<std::string> EncodeLevel(const Ktx2Image& im, size_t p, Negatives
                                   " is unsigned; EncodeOptions::negatives can clamp to 0)"));
     }
   }
-  std::string out;
+  return absl::OkStatus();
+}
+
+// The size of level p's bytes (the levelImages of "Mip Level Array").
+size_t LevelBytes(const Ktx2Image& im, size_t p) {
+  const FormatInfo info = Info(im.format);
+  return im.levels[p].pixels.size() / info.channels * info.block_bytes;
+}
+// Level p's bytes appended to `out`, whose capacity the caller has reserved: the file is made in
+// one buffer, without a buffer and a copy per level. Its values must have passed
+// CheckLevelValues.
+void AppendLevel(const Ktx2Image& im, size_t p, std::string* out_ptr) {
+  std::string& out = *out_ptr;
+  const FormatInfo info = Info(im.format);
+  const std::vector<float>& v = im.levels[p].pixels;
   const size_t texels = v.size() / info.channels;
-  out.reserve(texels * info.block_bytes);
   switch (im.format) {
     case Format::kR16G16Sfloat:
     case Format::kR16G16B16Sfloat:
@@ -321,7 +335,6 @@ absl::StatusOr<std::string> EncodeLevel(const Ktx2Image& im, size_t p, Negatives
       }
       break;
   }
-  return out;
 }
 
 // One Key/Value Data entry: keyAndValueByteLength, key NUL value NUL, valuePadding.
@@ -516,11 +529,10 @@ absl::StatusOr<std::string> EncodeKtx2(const Ktx2Image& image, const EncodeOptio
   const FormatInfo info = Info(image.format);
   const size_t num_levels = image.levels.size();
 
-  std::vector<std::string> level_bytes(num_levels);
+  std::vector<size_t> level_bytes(num_levels);
   for (size_t p = 0; p < num_levels; ++p) {
-    absl::StatusOr<std::string> bytes = EncodeLevel(image, p, options.negatives);
-    if (!bytes.ok()) return bytes.status();
-    level_bytes[p] = *std::move(bytes);
+    if (absl::Status s = CheckLevelValues(image, p, options.negatives); !s.ok()) return s;
+    level_bytes[p] = LevelBytes(image, p);
   }
 
   // Data Format Descriptor: dfdTotalSize, then one basic descriptor block.
@@ -564,7 +576,7 @@ absl::StatusOr<std::string> EncodeKtx2(const Ktx2Image& image, const EncodeOptio
   for (size_t p = num_levels; p-- > 0;) {
     end = (end + alignment - 1) / alignment * alignment;
     offsets[p] = end;
-    end += level_bytes[p].size();
+    end += level_bytes[p];
   }
 
   std::string out;
@@ -587,14 +599,14 @@ absl::StatusOr<std::string> EncodeKtx2(const Ktx2Image& image, const EncodeOptio
   PutU64(&out, 0);  // sgdByteLength
   for (size_t p = 0; p < num_levels; ++p) {
     PutU64(&out, offsets[p]);
-    PutU64(&out, level_bytes[p].size());  // byteLength
-    PutU64(&out, level_bytes[p].size());  // uncompressedByteLength
+    PutU64(&out, level_bytes[p]);  // byteLength
+    PutU64(&out, level_bytes[p]);  // uncompressedByteLength
   }
   out += dfd;
   out += kvd;
   for (size_t p = num_levels; p-- > 0;) {
     out.resize(offsets[p], '\0');  // mipPadding
-    out += level_bytes[p];
+    AppendLevel(image, p, &out);
   }
   return out;
 }
