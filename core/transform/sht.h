@@ -107,6 +107,7 @@ std::mutex& FftwPlannerMutex();
 // pairs: 32 pairs x every m) on every call.
 struct ShtScratch {
   std::vector<double> theta;
+  std::vector<double> coeffs;  // the coefficients in the theta stage's order
 };
 
 // Precomputed state of the transforms on one grid at one degree for one channel count: FFTW
