@@ -101,6 +101,12 @@ TEST(ShtTest, RoundTripEquiangular512x256Degree64) {
   CheckRoundTrip({512, 256, ShtGridKind::kEquiangular}, 64, 2, 1, false);
 }
 
+TEST(ShtTest, RoundTripThreeChannelsOverSeveralBlocks) {
+  // 64 ring pairs: Inverse's two blocks of pairs, the coefficients packed by m, and the
+  // three-channel kernels of both directions, against the slow synthesis.
+  CheckRoundTrip({256, 128, ShtGridKind::kEquiangular}, 40, 3, 6, false);
+}
+
 TEST(ShtTest, RoundTripEquiangularAtGridLimit) {
   // F = H - 1 needs the exact theta resampling (Fejer-1 alone is exact only for 2F < H).
   CheckRoundTrip({64, 32, ShtGridKind::kEquiangular}, 31, 3, 2, true);
