@@ -716,7 +716,13 @@ absl::Status ShtPlan::InverseImpl(std::span<const double> coeffs, std::span<T> m
   // first touch. Each (m, pair)'s sums are those of the whole-sphere order: the same values.
   constexpr int kBlockPairs = 32;  // a multiple of kLanes and of kPairsPerTask below
   constexpr int kPairsPerTask = 8;
-  const int num_blocks = (pp + kBlockPairs - 1) / kBlockPairs;
+  // Smaller blocks (down to one task of pairs) when there would be fewer blocks than threads:
+  // the blocks are the unit of parallel work. The values do not depend on the block size.
+  int block_pairs = kBlockPairs;
+  while (block_pairs > kPairsPerTask && (pp + block_pairs - 1) / block_pairs < num_threads) {
+    block_pairs -= kPairsPerTask;
+  }
+  const int num_blocks = (pp + block_pairs - 1) / block_pairs;
   const int workers = std::max(1, std::min(num_threads, num_blocks));
   ShtScratch local;
   ShtScratch& work = scratch != nullptr ? *scratch : local;
@@ -760,8 +766,8 @@ absl::Status ShtPlan::InverseImpl(std::span<const double> coeffs, std::span<T> m
   std::vector<std::unique_ptr<FftwBuffer<double>>> re_bufs(workers);
   std::vector<std::unique_ptr<FftwBuffer<fftw_complex>>> co_bufs(workers);
   ParallelFor(num_blocks, workers, [&](int block, int worker) {
-    const int v_first = block * kBlockPairs;             // the block's first pair
-    const int bp = std::min(kBlockPairs, pp - v_first);  // its pairs, padding included
+    const int v_first = block * block_pairs;             // the block's first pair
+    const int bp = std::min(block_pairs, pp - v_first);  // its pairs, padding included
     const int nv = bp / kLanes;
     const size_t m_stride = static_cast<size_t>(2) * ch * 2 * bp;
     std::vector<double>& eo = worker == 0 ? eo_first : eo_more[worker - 1];
