@@ -300,12 +300,14 @@ void ShrmServiceImpl::TestStageHooks(std::string_view stage) const {
   if (options_.test_stage_hook) options_.test_stage_hook(stage);
 }
 
-void ShrmServiceImpl::HoldUntilDrain() const {
+void ShrmServiceImpl::HoldUntilDrain(grpc::ServerContext* context) const {
   // A bound, so that a test whose SIGTERM never comes fails instead of hanging: far beyond the
   // few seconds deploy_test takes between the job's first progress event and its SIGTERM.
   constexpr absl::Duration kTestHoldLimit = absl::Seconds(120);
   const absl::Time until = absl::Now() + kTestHoldLimit;
-  while (!draining_ && absl::Now() < until) absl::SleepFor(absl::Milliseconds(10));
+  while (!draining_ && !context->IsCancelled() && absl::Now() < until) {
+    absl::SleepFor(absl::Milliseconds(10));
+  }
 }
 
 grpc::Status ShrmServiceImpl::HasBlob(grpc::ServerContext* context,
@@ -436,7 +438,7 @@ absl::Status ShrmServiceImpl::RunPrefilterCall(grpc::ServerContext* context,
     TestStageHooks(stage);
     if (stage == "write" && !options_.test_hold_brdf.empty() &&
         call->request.brdf.spec == options_.test_hold_brdf) {
-      HoldUntilDrain();
+      HoldUntilDrain(context);
     }
     WriteProgress(writer, stage, std::min(stage_index++, 5) / kStages);
     return CheckStage(context, stage);

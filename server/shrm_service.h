@@ -128,8 +128,9 @@ class ShrmServiceImpl final : public shrm::v1::Shrm::Service {
                             const std::function<absl::Status(IdleWatchdog::Call*)>& transfer);
   // The testing hooks (ServiceOptions::test_stage_delay, test_stage_hook) at `stage`.
   void TestStageHooks(std::string_view stage) const;
-  // Waits until BeginDrain (ServiceOptions::test_hold_brdf), at most 120 s.
-  void HoldUntilDrain() const;
+  // Waits until BeginDrain (ServiceOptions::test_hold_brdf) or the call's cancellation, at most
+  // 120 s.
+  void HoldUntilDrain(grpc::ServerContext* context) const;
 
   const ServiceOptions options_;
   std::unique_ptr<BlobStore> blobs_;
