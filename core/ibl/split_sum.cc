@@ -970,7 +970,7 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
   SynthesisScratch local;
   SynthesisScratch* scratch = options.scratch != nullptr ? options.scratch : &local;
   // The convolved levels first, the resampled ones (roughness 0) after, with the synthesis's
-  // working storage released in between when it serves this job only: the base cube then takes
+  // working storage released in between when it is this call's own: the base cube then takes
   // those freed blocks instead of fresh memory, each fresh huge page of which the kernel zeroes
   // on first touch (about 1.5 ms a 2 MiB page in a paravirtualized VM; docs/architecture.md
   // "Start-up"). The levels are independent: the order changes no value.
@@ -982,9 +982,7 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
   }
   std::vector<SpecularLevel> levels(chain.levels());
   for (const int k : order) {
-    if (chain.roughness[k] <= 0 && (scratch == &local || options.release_scratch_before_base)) {
-      *scratch = SynthesisScratch();
-    }
+    if (chain.roughness[k] <= 0 && scratch == &local) local = SynthesisScratch();
     SpecularLevel level;
     level.face_size = chain.face_size[k];
     level.roughness = chain.roughness[k];
@@ -1153,10 +1151,10 @@ absl::StatusOr<SplitSumSet> PrefilterSplitSumSet(const EnvMap& map, const Specul
                                                  std::vector<StageTiming>* timings,
                                                  SynthesisScratch* scratch) {
   SplitSumSet set;
-  SynthesisScratch local;
   SpecularOptions opt;
-  opt.scratch = scratch != nullptr ? scratch : &local;
-  opt.release_scratch_before_base = scratch == nullptr;
+  // The caller's storage, or none: each call then has its own, released before its base level
+  // (PrefilterSpecular).
+  opt.scratch = scratch;
   opt.chain = options.chain;
   opt.tolerance = options.tolerance;
   opt.rotation = light.rotation;

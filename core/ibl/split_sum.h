@@ -194,10 +194,6 @@ struct SpecularOptions {
   // The synthesis's storage, kept by the caller across calls (a live session's frames); nullptr
   // = one for the call, shared by its levels.
   SynthesisScratch* scratch = nullptr;
-  // Empties `scratch` once the convolved levels are done, before the resampled (roughness 0)
-  // ones, as the call's own scratch always is: for a caller whose scratch serves one job only
-  // (PrefilterSplitSumSet without a scratch of its caller's).
-  bool release_scratch_before_base = false;
 };
 
 struct SpecularLevel {
