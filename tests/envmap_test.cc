@@ -403,6 +403,56 @@ TEST(EnvMapLatLong, BilinearWrapsTheSeamAndWholeTurns) {
   }
 }
 
+// The batched lookup (eight points per vector group, the corners gathered) against the bilinear
+// weights written out here, at points that cover every case of a group: the poles' clamped rows,
+// the last row and column (the map's last pixel), the seam from both sides, azimuths a turn or
+// more away (taken by the scalar lookup inside a group), and a tail shorter than a group. Each
+// point of the batch equals the same point looked up alone.
+TEST(EnvMapLatLong, BatchedLookupIsTheBilinearBlendEverywhere) {
+  const Image& in = Courtyard256();
+  const EnvMap src = EnvMap::FromLatLong(in);
+  const int w = in.width, h = in.height;
+  std::vector<double> thetas, phis;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int k = 0; k < 29; ++k) {  // 3 full groups and a tail of 5
+    thetas.push_back(kPi * unit(rng));
+    phis.push_back(2 * kPi * (unit(rng) - 0.5));
+  }
+  // Rows: above the first centre, below the last; columns: the last centre and past it (the seam).
+  const double last_x = (w - 0.5 + 0.5) / w;  // the last column's centre, x = w - 1
+  for (const double theta : {0.0, 0.1 / h, kPi, kPi * (h - 0.5) / h})
+    for (const double u : {last_x - 0.5 / w, last_x, last_x + 0.25 / w, 0.1 / w}) {
+      thetas.push_back(theta);
+      phis.push_back(2 * kPi * (u - 0.5));
+    }
+  for (const double turns : {-3.0, -1.0, 1.0, 2.0}) {  // a turn or more away
+    thetas.push_back(1.0);
+    phis.push_back(0.7 + 2 * kPi * turns);
+  }
+  const int n = static_cast<int>(thetas.size());
+  std::vector<float> batch(3 * static_cast<size_t>(n));
+  src.LatLongRadianceAt(thetas.data(), phis.data(), 0.0, n, batch.data());
+  for (int k = 0; k < n; ++k) {
+    const std::array<float, 3> one = src.LatLongRadianceAt(thetas[k], phis[k]);
+    // The written-out blend: x, y pixel coordinates, clamped rows, wrapped columns.
+    const double p = std::remainder(phis[k], 2 * kPi);
+    const double x = (p / (2 * kPi) + 0.5) * w - 0.5;
+    const double y = std::clamp(thetas[k] / kPi * h - 0.5, 0.0, h - 1.0);
+    const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+    const double ax = x - x0, ay = y - y0;
+    const int c0 = (x0 + w) % w, c1 = (x0 + 1 + w) % w, r1 = std::min(y0 + 1, h - 1);
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_EQ(batch[3 * k + c], one[c]) << "point " << k << " channel " << c;
+      const double want = (1 - ay) * ((1 - ax) * in.at(c0, y0, c) + ax * in.at(c1, y0, c)) +
+                          ay * ((1 - ax) * in.at(c0, r1, c) + ax * in.at(c1, r1, c));
+      // Turned azimuths move x by whole widths: their rounding only (~1e-13 of a pixel).
+      EXPECT_NEAR(batch[3 * k + c], want, kPixelCentreRelTol * want + 1e-30)
+          << "point " << k << " theta " << thetas[k] << " phi " << phis[k] << " channel " << c;
+    }
+  }
+}
+
 // --- Lighting coefficients -----------------------------------------------------------------
 
 TEST(EnvMapLighting, CubeResampledShtAgreesWithDirectSummation) {
