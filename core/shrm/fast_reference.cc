@@ -57,11 +57,11 @@ uint32_t Quantize(double s) {
   return static_cast<uint32_t>(std::clamp(s * kCells, 0.0, kCells - 1));
 }
 
+// The angle that subtends a chord of the unit sphere, accurate near 0 and pi.
+double ChordAngle(double chord) { return 2.0 * std::asin(std::min(1.0, 0.5 * chord)); }
+
 // Angle between unit vectors, accurate near 0 and pi.
-double Angle(const Vec3& a, const Vec3& b) {
-  const double chord = (a - b).Norm();
-  return 2.0 * std::asin(std::min(1.0, 0.5 * chord));
-}
+double Angle(const Vec3& a, const Vec3& b) { return ChordAngle((a - b).Norm()); }
 
 // Any unit vector perpendicular to the unit vector a.
 Vec3 Perpendicular(const Vec3& a) {
@@ -357,10 +357,14 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
     key[i] = (static_cast<uint64_t>(face) << (2 * kMortonBits)) | Spread(Quantize(u)) |
              (Spread(Quantize(t)) << 1);
   }
+  // Morton order, ties by index: the keys sorted with their indices beside them (sorting indices
+  // that compare through the key array took a cache miss a comparison).
+  std::vector<std::pair<uint64_t, int32_t>> keyed(n);
+  for (size_t i = 0; i < n; ++i) keyed[i] = {key[i], static_cast<int32_t>(i)};
+  std::sort(keyed.begin(), keyed.end());
   std::vector<int32_t> order(n);
-  std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(),
-            [&key](int32_t a, int32_t b) { return key[a] != key[b] ? key[a] < key[b] : a < b; });
+  for (size_t k = 0; k < n; ++k) order[k] = keyed[k].second;
+  keyed = {};
 
   FastReference r;
   r.samples_.resize(n);
@@ -416,20 +420,24 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
       std::array<Vec3, 3>& o = offset[i];
       o = {node.centre * -node.weight[0], node.centre * -node.weight[1],
            node.centre * -node.weight[2]};
-      for (int32_t k = begin; k < end; ++k)
-        for (int c = 0; c < 3; ++c) o[c] = o[c] + r.samples_[k].dir * r.samples_[k].weight[c];
       const bool lit = sum.Norm() > 1e-12 * plain.Norm();
-      double radius = 0, second = 0;
+      // One pass for the first moments, the cap and the second moment (each summed in sample
+      // order as before). The cap's radius is Angle() of the longest chord: Angle is increasing
+      // in the chord, so the largest chord's angle is the largest angle, one asin a node instead
+      // of one a sample.
+      double chord2 = 0, second = 0;
       for (int32_t k = begin; k < end; ++k) {
         const Sample& s = r.samples_[k];
-        radius = std::max(radius, Angle(node.centre, s.dir));
+        for (int c = 0; c < 3; ++c) o[c] = o[c] + s.dir * s.weight[c];
+        const Vec3 d = s.dir - node.centre;
+        const double dd = d.Dot(d);
+        chord2 = std::max(chord2, dd);
         double lum = 0;
         for (int c = 0; c < 3; ++c) lum += kLuminance[c] * s.weight[c];
-        const Vec3 d = s.dir - node.centre;
-        second += (lit ? std::max(lum, 0.0) : 1.0) * d.Dot(d);
+        second += (lit ? std::max(lum, 0.0) : 1.0) * dd;
       }
       moment[i] = second;
-      node.radius = radius + kGeometrySlack;
+      node.radius = ChordAngle(std::sqrt(chord2)) + kGeometrySlack;
       // Beyond pi/2 the horizon test would need the cap's far side: mark such nodes as always
       // straddling (sin_radius = 1 fails |N.c| > sin_radius).
       node.sin_radius = node.radius < kPi / 2 ? std::sin(node.radius) : 1.0;
