@@ -734,14 +734,24 @@ void ShrmSynthesizer::SynthesizeSlabs(ShrmKind kind, int na, int owned, int thre
     scratch.buf->sim.resize(2 * lmax_ + 1);
     scratch.buf->w.resize(static_cast<size_t>(lmax_ + 1) * 2 * channels_);
   }
+  const size_t row_floats = static_cast<size_t>(nb) * grid_stride;
   for (int row_begin = 0; row_begin < rows - 3; row_begin += owned) {
     const int row_end = std::min(row_begin + owned + 3, rows);
-    const int blocks = (row_end - row_begin + B - 1) / B;
+    // Rows [row_begin, row_begin + 3) are the previous slab's last three (a row depends on its
+    // alpha alone, whichever block made it): moved up, not made again (they were 3 of every 16
+    // rows at (56, 24)).
+    int made = row_begin;
+    if (row_begin > 0) {
+      std::memmove(out, out + static_cast<size_t>(owned) * row_floats,
+                   3 * row_floats * sizeof(float));
+      made = row_begin + 3;
+    }
+    const int blocks = (row_end - made + B - 1) / B;
     std::atomic<int> next_scratch{0};
     ParallelChunks(blocks, threads, [&](int begin, int end) {
       RowScratch& scratch = scratches[next_scratch++];
       for (int blk = begin; blk < end; ++blk) {
-        const int r0 = row_begin + blk * B, nrows = std::min(B, row_end - r0);
+        const int r0 = made + blk * B, nrows = std::min(B, row_end - r0);
         double alphas[B];
         for (int r = 0; r < nrows; ++r) alphas[r] = kPi * (r0 + r - 2 + 0.5) / na;
         SynthesizeRows(kind, alphas, nrows, nb, grid_stride, plan, tables, ptables, scratch,
@@ -865,13 +875,13 @@ absl::StatusOr<ShrmCube> ShrmSynthesizer::BuildCube(ShrmKind kind, int face_size
   const int grid_stride = stride > 48 ? (stride + 15) / 16 * 16 : stride;
   const size_t row_bytes = static_cast<size_t>(nb) * grid_stride * sizeof(float);
   // Slabs (when the whole grid would be large): each owns the stencil starts
-  // [first, first + owned) and holds 3 more rows.
+  // [first, first + owned) and holds 3 more rows, the next slab's first three (carried over, so
+  // each slab makes `owned` rows: whole Wigner blocks of kWignerBlock).
   const bool whole = options.max_grid_bytes == 0 || rows * row_bytes <= options.max_grid_bytes;
   const int owned =
       whole ? rows
-            : std::max(kWignerBlock, static_cast<int>(options.max_grid_bytes / row_bytes) /
-                                             kWignerBlock * kWignerBlock -
-                                         3);
+            : std::max(kWignerBlock, (static_cast<int>(options.max_grid_bytes / row_bytes) - 3) /
+                                         kWignerBlock * kWignerBlock);
   SynthesisScratch local;
   std::vector<float>& storage = options.scratch != nullptr ? options.scratch->grid : local.grid;
   constexpr size_t kLineFloats = 16;

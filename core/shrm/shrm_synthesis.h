@@ -216,7 +216,8 @@ class ShrmSynthesizer {
   // [first, first + count) with first = s x owned and count = min(owned + 3, na + 4 - first),
   // written to `out` (count x 2 na x grid_stride floats, reused for every slab; a node's
   // ShCount(P) x channels values first, zeros after them), then emit(first, count) is called.
-  // owned >= na + 1 makes one slab of the whole grid.
+  // A slab's first 3 rows are the previous slab's last 3, moved to the top of `out` rather than
+  // made again. owned >= na + 1 makes one slab of the whole grid.
   void SynthesizeSlabs(ShrmKind kind, int na, int owned, int threads, int grid_stride, float* out,
                        const std::function<void(int first, int count)>& emit,
                        SynthesisScratch* keep = nullptr) const;
