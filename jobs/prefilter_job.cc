@@ -312,6 +312,7 @@ absl::StatusOr<PrefilterRun> RunPrefilterJob(const PrefilterJob& job, int thread
   run.provenance.layout = env.layout();
   PrefilterOptions options = CorePrefilterOptions(job, threads);
   options.max_cube_values = EmbeddedCubeValueLimit();
+  options.keep_reference = visuals;  // the report measures against the same map
   absl::StatusOr<PrefilterResult> result = Prefilter(env, *brdf, options, progress);
   if (!result.ok() && absl::IsInvalidArgument(result.status()) &&
       absl::StrContains(result.status().message(), "above the limit")) {
@@ -327,11 +328,13 @@ absl::StatusOr<PrefilterRun> RunPrefilterJob(const PrefilterJob& job, int thread
   if (visuals) {
     if (progress) SHRM_RETURN_IF_ERROR(progress("report"));
     const auto start = std::chrono::steady_clock::now();
-    SHRM_ASSIGN_OR_RETURN(run.visuals, PrefilterVisuals(env, *brdf, EnvironmentRotation(job.env),
-                                                        run.result.cube, threads));
+    SHRM_ASSIGN_OR_RETURN(
+        run.visuals, PrefilterVisuals(env, *brdf, EnvironmentRotation(job.env), run.result.cube,
+                                      threads, run.result.reference.get()));
     run.visuals_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   }
+  run.result.reference.reset();  // (its ~100 MB are not the run's result)
   return run;
 }
 

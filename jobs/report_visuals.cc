@@ -181,9 +181,13 @@ double ErrorScalePosition(double e) {
 
 absl::StatusOr<nlohmann::json> PrefilterVisuals(const EnvMap& env, const Brdf& brdf,
                                                 const Mat3& rotation, const ShrmCube& cube,
-                                                int threads) {
+                                                int threads, const FastReference* given) {
   threads = std::max(threads, 1);
-  SHRM_ASSIGN_OR_RETURN(FastReference reference, FastReference::Create(env));
+  std::optional<FastReference> made;
+  if (given == nullptr) {
+    SHRM_ASSIGN_OR_RETURN(made, FastReference::Create(env));
+  }
+  const FastReference& reference = given != nullptr ? *given : *made;
   nlohmann::json out;
   SHRM_ASSIGN_OR_RETURN(out["map"], MapJson(env, threads));
   out["lobe"] = LobeJson(brdf);

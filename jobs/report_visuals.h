@@ -23,6 +23,10 @@
 #include "core/io/image.h"
 #include "core/shrm/shrm_map.h"
 
+namespace shrm {
+class FastReference;
+}  // namespace shrm
+
 namespace shrm::jobs {
 
 // Pixels of one rendered sphere (square).
@@ -60,11 +64,13 @@ std::array<uint8_t, 3> ErrorColour(double t);
 double ErrorScalePosition(double relative_error);
 
 // The report's pictures and samples (keys in docs/cli.md "Visual report"). `rotation` is the
-// lighting's rotation the cube was made with. Errors: those of FastReference::Create and of the
-// image encoding.
+// lighting's rotation the cube was made with. `reference`: the map's FastReference when the
+// caller has one (the job's check kept it, PrefilterOptions::keep_reference), else made here.
+// Errors: those of FastReference::Create and of the image encoding.
 absl::StatusOr<nlohmann::json> PrefilterVisuals(const EnvMap& env, const Brdf& brdf,
                                                 const Mat3& rotation, const ShrmCube& cube,
-                                                int threads);
+                                                int threads,
+                                                const FastReference* reference = nullptr);
 
 }  // namespace shrm::jobs
 
