@@ -590,16 +590,7 @@ void EnvMap::LatLongRadianceAt(const double* theta, const double* phi, double ph
         _mm256_store_ps(res[c], _mm512_maskz_cvtpd_ps(0xFF, v));
       }
       const int lanes = std::min(8, n - k);
-      if (g.fast == static_cast<__mmask8>((1u << lanes) - 1)) {
-        for (int i = 0; i < lanes; ++i) {
-          float* o = out + 3 * (static_cast<size_t>(k) + i);
-          o[0] = res[0][i];
-          o[1] = res[1][i];
-          o[2] = res[2][i];
-        }
-        continue;
-      }
-      alignas(64) double xs[8], ys[8];
+      alignas(64) double xs[8], ys[8];  // for the lanes Bilinear() takes
       _mm512_store_pd(xs, g.x);
       _mm512_store_pd(ys, g.y);
       for (int i = 0; i < lanes; ++i) {

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numeric>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -333,7 +332,9 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
   if (n > static_cast<size_t>(INT32_MAX)) {
     return absl::InvalidArgumentError(absl::StrCat("fast reference: ", n, " samples (too many)"));
   }
-  std::vector<uint64_t> key(n);
+  // Morton keys with their indices beside them, sorted: Morton order, ties by index (sorting
+  // indices that compared through a key array took a cache miss a comparison).
+  std::vector<std::pair<uint64_t, int32_t>> keyed(n);
   for (size_t i = 0; i < n; ++i) {
     const EnvSample s = sample_at(i);
     const double norm = s.dir.Norm();
@@ -354,26 +355,20 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
     int face;
     double u, t;
     CubeFaceCoordinates(s.dir, &face, &u, &t);
-    key[i] = (static_cast<uint64_t>(face) << (2 * kMortonBits)) | Spread(Quantize(u)) |
-             (Spread(Quantize(t)) << 1);
+    keyed[i] = {(static_cast<uint64_t>(face) << (2 * kMortonBits)) | Spread(Quantize(u)) |
+                    (Spread(Quantize(t)) << 1),
+                static_cast<int32_t>(i)};
   }
-  // Morton order, ties by index: the keys sorted with their indices beside them (sorting indices
-  // that compare through the key array took a cache miss a comparison).
-  std::vector<std::pair<uint64_t, int32_t>> keyed(n);
-  for (size_t i = 0; i < n; ++i) keyed[i] = {key[i], static_cast<int32_t>(i)};
   std::sort(keyed.begin(), keyed.end());
-  std::vector<int32_t> order(n);
-  for (size_t k = 0; k < n; ++k) order[k] = keyed[k].second;
-  keyed = {};
 
   FastReference r;
   r.samples_.resize(n);
-  std::vector<uint64_t> sorted_key(n);
+  std::vector<uint64_t> sorted_key(n);  // keyed's keys alone, for the build's scans
   Rgb total{0, 0, 0}, total_abs{0, 0, 0};
   double solid_angle = 0;
   for (size_t k = 0; k < n; ++k) {
-    const EnvSample s = sample_at(order[k]);
-    sorted_key[k] = key[order[k]];
+    const EnvSample s = sample_at(keyed[k].second);
+    sorted_key[k] = keyed[k].first;
     r.samples_[k].dir = s.dir;
     for (int c = 0; c < 3; ++c) {
       r.samples_[k].weight[c] = static_cast<double>(s.rgb[c]) * s.solid_angle;

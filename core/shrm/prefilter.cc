@@ -280,15 +280,11 @@ absl::Status VerifyStage(const EnvMap& env, const Brdf& brdf, const PrefilterOpt
   if (options.verify <= 0 || !options.synthesize) return absl::OkStatus();
   StageClock clock(&r->timings, progress);
   SHRM_RETURN_IF_ERROR(clock.Begin("verify"));
-  if (options.keep_reference) {
-    SHRM_ASSIGN_OR_RETURN(FastReference reference, FastReference::Create(env));
-    r->reference = std::make_shared<const FastReference>(std::move(reference));
-    SHRM_ASSIGN_OR_RETURN(r->measured, MeasureCubeError(*r->reference, brdf, options.rotation,
-                                                        r->cube, options.verify, options.threads));
-  } else {
-    SHRM_ASSIGN_OR_RETURN(r->measured, MeasureCubeError(env, brdf, options.rotation, r->cube,
-                                                        options.verify, options.threads));
-  }
+  SHRM_ASSIGN_OR_RETURN(FastReference made, FastReference::Create(env));
+  auto reference = std::make_shared<const FastReference>(std::move(made));
+  SHRM_ASSIGN_OR_RETURN(r->measured, MeasureCubeError(*reference, brdf, options.rotation, r->cube,
+                                                      options.verify, options.threads));
+  if (options.keep_reference) r->reference = std::move(reference);
   r->verified_pairs = options.verify;
   clock.End();
   return absl::OkStatus();
