@@ -83,8 +83,10 @@ TEST(IblJobTest, EveryOptionIsValidated) {
 constexpr double kRmsTol = kDefaultIblTolerance;
 constexpr double kMaxTol = kIblMaxErrorFactor * kDefaultIblTolerance;
 
-// Each cube of `run` against the pixel sum at 24 texels per level drawn with a seed of its own.
-void ExpectWithinTolerance(const std::string& path, const IblRun& run) {
+// Each cube of `run` against the pixel sum at 24 texels per level drawn with a seed of its own:
+// relative RMS at most rms_tol and the largest relative error at most max_tol on every level.
+void ExpectWithinTolerance(const std::string& path, const IblRun& run, double rms_tol = kRmsTol,
+                           double max_tol = kMaxTol) {
   EnvMapOptions options;
   options.paths = {path};
   auto map = EnvMap::Load(options);
@@ -119,8 +121,8 @@ void ExpectWithinTolerance(const std::string& path, const IblRun& run) {
         rms += d * d / ref.size();
         largest = std::max(largest, d);
       }
-      EXPECT_LE(std::sqrt(rms), kRmsTol) << cube->name << " r " << level.roughness;
-      EXPECT_LE(largest, kMaxTol) << cube->name << " r " << level.roughness;
+      EXPECT_LE(std::sqrt(rms), rms_tol) << cube->name << " r " << level.roughness;
+      EXPECT_LE(largest, max_tol) << cube->name << " r " << level.roughness;
     }
   }
 }
@@ -137,6 +139,27 @@ TEST(IblJobTest, SheenAtFullResolutionIsWithinItsTolerance) {
   ASSERT_TRUE(run.ok()) << run.status();
   EXPECT_TRUE(run->report["met"].get<bool>()) << run->report["sheen"].dump(1);
   ExpectWithinTolerance(job.env.files[0], *run);
+}
+
+// The engine-outputs issue's speed benchmark (bench/startup_bench.cc BM_Process/ibl_1pct): the
+// default chain (Filament, 256 down to 16) from a whole bundled 1024 x 512 map, at the accuracy
+// that benchmark states, 1% relative RMS and 5% largest relative error on every level, asked for
+// with --tolerance 0.01. Checked here at texels the job did not check, on courtyard (the
+// benchmark's map) and city (the bundled map that needs the highest degrees).
+TEST(IblJobTest, TheBenchmarkAccuracyHoldsOnWholeRealMaps) {
+  constexpr double kBenchRms = 0.01;  // the accuracy for its speed targets
+  constexpr double kBenchMax = 0.05;
+  for (const char* name : {"courtyard.exr", "city.exr"}) {
+    IblJob job;
+    job.env.files = {std::string(SHRM_SOURCE_DIR) + "/data/envmaps/" + name};
+    job.tolerance = kBenchRms;
+    auto run = RunIblJob(job, 2);
+    ASSERT_TRUE(run.ok()) << run.status();
+    EXPECT_TRUE(run->report["met"].get<bool>()) << name << run->report.dump(1);
+    ASSERT_EQ(run->specular.chain.levels.size(), 5u) << name;
+    EXPECT_EQ(run->specular.chain.levels[0].face_size, 256) << name;
+    ExpectWithinTolerance(job.env.files[0], *run, kBenchRms, kBenchMax);
+  }
 }
 
 TEST(IblJobTest, RunsOnARealMapWithinItsTolerance) {
