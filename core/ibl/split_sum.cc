@@ -546,6 +546,31 @@ struct LambertInE {
 };
 
 #if defined(__AVX512F__)
+// The wide lobes' kernels as functions of d = r.p = 1 - e / 2 (16 lanes): d takes three
+// operations where e takes six, and the N.L factor max(d, 0) is d itself. Rounding moves d by
+// about 1e-7 either way; in e = |r - p|^2 it is |r - p| times smaller, which only matters near a
+// narrow peak, where GGX's q = alpha^2 + (1 - alpha^2) e / 4 is about alpha^2: from
+// kDotFormMinAlpha2 on, d's rounding moves q by under 1e-5 of itself (tests/split_sum_test.cc
+// PixelSumTableIsTheReferenceSum holds every lobe to 2e-6 of the double-precision sum).
+constexpr float kDotFormMinAlpha2 = 0.01f;
+struct GgxInD {
+  float c0, c1;  // q = c0 + c1 d: (1 + alpha^2) / 2, -(1 - alpha^2) / 2
+  static constexpr bool kVector = true, kDot = true;
+  __m512 operator()(__m512 d) const {
+    const __m512 q = _mm512_fmadd_ps(_mm512_set1_ps(c1), d, _mm512_set1_ps(c0));
+    const __m512 q2 = _mm512_mul_ps(q, q);
+    __m512 r = _mm512_maskz_rcp14_ps(0xFFFF, q2);
+    r = _mm512_fmadd_ps(r, _mm512_fnmadd_ps(q2, r, _mm512_set1_ps(1.0f)), r);
+    return _mm512_mul_ps(_mm512_maskz_max_ps(0xFFFF, d, _mm512_setzero_ps()), r);
+  }
+};
+struct LambertInD {
+  static constexpr bool kVector = true, kDot = true;
+  __m512 operator()(__m512 d) const { return _mm512_maskz_max_ps(0xFFFF, d, _mm512_setzero_ps()); }
+};
+#endif
+
+#if defined(__AVX512F__)
 // The sum of the 16 lanes (through memory: GCC 12's reduction and extraction intrinsics leave a
 // vector undefined, which -Wmaybe-uninitialized reports once inlined).
 double SumLanes(__m512 v) {
@@ -566,46 +591,58 @@ std::array<double, 4> BlockSums(const Kernel& kernel, float rx, float ry, float 
 #if defined(__AVX512F__)
   if constexpr (requires { Kernel::kVector; }) {
     const __m512 vx = _mm512_set1_ps(rx), vy = _mm512_set1_ps(ry), vz = _mm512_set1_ps(rz);
-    const __m512 two = _mm512_set1_ps(2.0f);
-    __m512 sw = _mm512_setzero_ps(), sr = sw, sg = sw, sb = sw;
+    const __m512 zero = _mm512_setzero_ps(), two = _mm512_set1_ps(2.0f);
+    __m512 sw = zero, sr = zero, sg = zero, sb = zero;
     for (int j = 0; j < n; j += 16) {
-      const __m512 dx = _mm512_sub_ps(vx, _mm512_loadu_ps(px + j));
-      const __m512 dy = _mm512_sub_ps(vy, _mm512_loadu_ps(py + j));
-      const __m512 dz = _mm512_sub_ps(vz, _mm512_loadu_ps(pz + j));
-      const __m512 e = _mm512_fmadd_ps(dx, dx, _mm512_fmadd_ps(dy, dy, _mm512_mul_ps(dz, dz)));
-      // Both vector kernels are 0 from e = 2 on (r.d <= 0, behind the normal): sixteen pixels there
-      // add zeros, skipped. (Blocks are rows of 256 pixels, up to 90 degrees of azimuth: many
-      // straddle the horizon that their bounding cone cannot cull.)
-      if (_mm512_cmp_ps_mask(e, two, _CMP_LT_OQ) == 0) continue;
-      const __m512 w = _mm512_mul_ps(kernel(e), _mm512_loadu_ps(po + j));
+      // The kernel's argument, d = r.p (Kernel::kDot) or e = |r - p|^2 = 2 - 2 d. Every vector
+      // kernel is 0 behind the normal (d <= 0, e >= 2): sixteen pixels there add zeros, skipped.
+      // (Blocks are rows of 256 pixels, up to 90 degrees of azimuth: many straddle the horizon
+      // that their bounding cone cannot cull.)
+      __m512 t;
+      __mmask16 front;
+      const __m512 x = _mm512_loadu_ps(px + j), y = _mm512_loadu_ps(py + j),
+                   z = _mm512_loadu_ps(pz + j);
+      if constexpr (requires { Kernel::kDot; }) {
+        t = _mm512_fmadd_ps(vx, x, _mm512_fmadd_ps(vy, y, _mm512_mul_ps(vz, z)));
+        front = _mm512_cmp_ps_mask(t, zero, _CMP_GT_OQ);
+      } else {
+        const __m512 dx = _mm512_sub_ps(vx, x), dy = _mm512_sub_ps(vy, y),
+                     dz = _mm512_sub_ps(vz, z);
+        t = _mm512_fmadd_ps(dx, dx, _mm512_fmadd_ps(dy, dy, _mm512_mul_ps(dz, dz)));
+        front = _mm512_cmp_ps_mask(t, two, _CMP_LT_OQ);
+      }
+      if (front == 0) continue;
+      const __m512 w = _mm512_mul_ps(kernel(t), _mm512_loadu_ps(po + j));
       sw = _mm512_add_ps(sw, w);
       sr = _mm512_fmadd_ps(w, _mm512_loadu_ps(pr + j), sr);
       sg = _mm512_fmadd_ps(w, _mm512_loadu_ps(pg + j), sg);
       sb = _mm512_fmadd_ps(w, _mm512_loadu_ps(pb + j), sb);
     }
     return {SumLanes(sw), SumLanes(sr), SumLanes(sg), SumLanes(sb)};
-  }
+  } else  // NOLINT(readability/braces): the portable sum below is the else branch
 #endif
-  constexpr int kLanes = 8;
-  float sw[kLanes] = {}, sr[kLanes] = {}, sg[kLanes] = {}, sb[kLanes] = {};
-  for (int j = 0; j < n; j += kLanes) {
-    for (int k = 0; k < kLanes; ++k) {
-      const float dx = rx - px[j + k], dy = ry - py[j + k], dz = rz - pz[j + k];
-      const float w = kernel(dx * dx + dy * dy + dz * dz) * po[j + k];
-      sw[k] += w;
-      sr[k] += w * pr[j + k];
-      sg[k] += w * pg[j + k];
-      sb[k] += w * pb[j + k];
+  {
+    constexpr int kLanes = 8;
+    float sw[kLanes] = {}, sr[kLanes] = {}, sg[kLanes] = {}, sb[kLanes] = {};
+    for (int j = 0; j < n; j += kLanes) {
+      for (int k = 0; k < kLanes; ++k) {
+        const float dx = rx - px[j + k], dy = ry - py[j + k], dz = rz - pz[j + k];
+        const float w = kernel(dx * dx + dy * dy + dz * dz) * po[j + k];
+        sw[k] += w;
+        sr[k] += w * pr[j + k];
+        sg[k] += w * pg[j + k];
+        sb[k] += w * pb[j + k];
+      }
     }
+    std::array<double, 4> t = {0, 0, 0, 0};
+    for (int k = 0; k < kLanes; ++k) {
+      t[0] += sw[k];
+      t[1] += sr[k];
+      t[2] += sg[k];
+      t[3] += sb[k];
+    }
+    return t;
   }
-  std::array<double, 4> t = {0, 0, 0, 0};
-  for (int k = 0; k < kLanes; ++k) {
-    t[0] += sw[k];
-    t[1] += sr[k];
-    t[2] += sg[k];
-    t[3] += sb[k];
-  }
-  return t;
 }
 
 }  // namespace
@@ -673,13 +710,23 @@ std::vector<std::vector<std::array<double, 3>>> PixelSumTable::PrefilteredMany(
         const float a = static_cast<float>(queries[q].alpha);
         switch (queries[q].lobe) {
           case SpecularLobe::kGgx:
+#if defined(__AVX512F__)
+            if (a * a >= kDotFormMinAlpha2) {
+              sum(GgxInD{(1 + a * a) / 2, -(1 - a * a) / 2});
+              break;
+            }
+#endif
             sum(GgxInE{a * a, (1 - a * a) / 4});
             break;
           case SpecularLobe::kCharlie:
             sum(CharlieInE{0.5f / a});
             break;
           case SpecularLobe::kLambert:
+#if defined(__AVX512F__)
+            sum(LambertInD{});
+#else
             sum(LambertInE{});
+#endif
             break;
         }
       }
