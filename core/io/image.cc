@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -374,6 +375,20 @@ absl::StatusOr<Image> ReadImageRgb(const std::string& path, const ImageLimits& l
   }
   int64_t bad = 0;
   int64_t first_bad = -1;
+  // Three channels read: one branch-free pass counts the non-finite values (exponent bits all
+  // set), and only a map that has some takes the per-value pass below.
+  if (nc == 3) {
+    int64_t count = 0;
+    for (const float v : img.pixels) {
+      uint32_t bits;
+      std::memcpy(&bits, &v, sizeof bits);
+      count += (bits & 0x7f800000u) == 0x7f800000u;
+    }
+    if (count == 0) {
+      img.replaced_non_finite = 0;
+      return img;
+    }
+  }
   for (size_t p = 0; p < static_cast<size_t>(img.width) * img.height; ++p) {
     for (int c = 0; c < 3; ++c) {
       float v = nc == 3 ? img.pixels[p * 3 + c] : raw[p * nc + std::min(c, nc >= 3 ? c : 0)];
