@@ -72,14 +72,19 @@ ShtPlan::RingSet MakeRingSet(const RingQuadrature& q, int lmax) {
   // The recurrence's factors, the same for every pair.
   std::vector<double> factor(lmax + 1, 0.0);
   for (int m = 1; m <= lmax; ++m) factor[m] = -std::sqrt((2.0 * m + 1.0) / (2.0 * m));
-  for (int p = 0; p < r.num_pairs; ++p) {
-    r.x[p] = q.cos_theta[p];
-    const double s = q.sin_theta[p];
-    double v = std::sqrt(1.0 / (4.0 * kPi));  // lambda_0^0
-    for (int m = 0; m <= lmax; ++m) {
-      if (m > 0) v *= factor[m] * s;
-      if (std::abs(v) < kSectoralFlush) v = 0.0;
-      r.sectoral[static_cast<size_t>(m) * pp + p] = v;
+  // Order by order, every pair's value of the order contiguous (the table's layout), in vector
+  // lanes: v_p <- v_p (factor_m sin theta_p), the same products as pair by pair.
+  std::vector<double> v(r.num_pairs, std::sqrt(1.0 / (4.0 * kPi)));  // lambda_0^0
+  for (int p = 0; p < r.num_pairs; ++p) r.x[p] = q.cos_theta[p];
+  const double* sin_theta = q.sin_theta.data();
+  for (int m = 0; m <= lmax; ++m) {
+    double* row = r.sectoral.data() + static_cast<size_t>(m) * pp;
+    const double f = factor[m];
+    for (int p = 0; p < r.num_pairs; ++p) {
+      double value = m > 0 ? v[p] * (f * sin_theta[p]) : v[p];
+      if (std::abs(value) < kSectoralFlush) value = 0.0;
+      v[p] = value;
+      row[p] = value;
     }
   }
   return r;
@@ -198,14 +203,18 @@ absl::StatusOr<std::shared_ptr<const ShtPlan>> ShtPlan::CreateImpl(const ShtGrid
   }
 
   // Recurrence lambda_l^m = a (x lambda_{l-1}^m - b lambda_{l-2}^m), l >= m + 1.
+  // Degree by degree, the orders m < l of a degree contiguous (LegendreIndex is l-major): the
+  // inner loop runs in vector lanes (the same correctly rounded divisions and square roots).
   plan->rec_a_.assign(LegendreCount(lmax), 0.0);
   plan->rec_b_.assign(LegendreCount(lmax), 0.0);
-  for (int m = 0; m <= lmax; ++m) {
-    for (int l = m + 1; l <= lmax; ++l) {
-      const double ll = static_cast<double>(l) * l, mm = static_cast<double>(m) * m;
-      const double l1 = l - 1.0;
-      plan->rec_a_[LegendreIndex(l, m)] = std::sqrt((4.0 * ll - 1.0) / (ll - mm));
-      plan->rec_b_[LegendreIndex(l, m)] = std::sqrt((l1 * l1 - mm) / (4.0 * l1 * l1 - 1.0));
+  for (int l = 1; l <= lmax; ++l) {
+    const double ll = static_cast<double>(l) * l, l1 = l - 1.0;
+    double* a = plan->rec_a_.data() + LegendreIndex(l, 0);
+    double* b = plan->rec_b_.data() + LegendreIndex(l, 0);
+    for (int m = 0; m < l; ++m) {
+      const double mm = static_cast<double>(m) * m;
+      a[m] = std::sqrt((4.0 * ll - 1.0) / (ll - mm));
+      b[m] = std::sqrt((l1 * l1 - mm) / (4.0 * l1 * l1 - 1.0));
     }
   }
 
