@@ -65,7 +65,8 @@ std::shared_ptr<const std::vector<TexelTaps>> GetTexelTaps(int face_size, int na
         for (int x = 0; x < face_size; ++x) {
           const size_t i = static_cast<size_t>(y) * face_size + x;
           const Vec3 d = ShFrameFromWorld(CubeTexelDirection(face, x, y, face_size));
-          polar_y[i] = std::hypot(d.x, d.y);
+          // (A unit vector's components: no overflow or underflow for hypot to guard against.)
+          polar_y[i] = std::sqrt(d.x * d.x + d.y * d.y);
           polar_x[i] = d.z;
           azimuth_y[i] = d.y;
           azimuth_x[i] = d.x;
