@@ -17,6 +17,7 @@
 #include "core/sh/quadrature.h"
 #include "core/sh/sh.h"
 #include "core/transform/fftw_wisdom.h"
+#include "core/transform/real_fft.h"
 
 namespace shrm {
 namespace {
@@ -25,6 +26,9 @@ namespace {
 constexpr double kSectoralFlush = 1e-280;
 // Ring pairs are padded to a multiple of the vector width.
 constexpr int kLanes = 4;
+// Ring pairs per RealFft batch, for up to kMaxBatchChannels channels (ShtPlan::ForwardImpl).
+constexpr int kBatchPairs = 2;
+constexpr int kMaxBatchChannels = 4;
 // 4 doubles; alignment lowered to 8 so that views into std::vector<double> are valid.
 using V4 = double __attribute__((vector_size(32), aligned(8)));
 
@@ -271,6 +275,7 @@ absl::StatusOr<std::shared_ptr<const ShtPlan>> ShtPlan::CreateImpl(const ShtGrid
   plan->fftw_ = std::make_unique<FftwState>();
   plan->fftw_->width = w;
   plan->fftw_->howmany = 2 * channels;
+  plan->real_fft_ = internal::RealFft::Get(w);
   return std::shared_ptr<const ShtPlan>(std::move(plan));
 }
 
@@ -570,8 +575,8 @@ absl::Status ShtPlan::ForwardImpl(std::span<const T> map, std::span<double> coef
         absl::StrCat("SHT: coefficient array has ", coeffs.size(),
                      " values, expected (lmax+1)^2*channels = ", coeff_size()));
   }
-  const fftw_plan r2c = fftw_->Get(/*forward=*/true);
-  if (r2c == nullptr) return absl::InternalError("SHT: FFTW planning failed");
+  const fftw_plan r2c = real_fft_ ? nullptr : fftw_->Get(/*forward=*/true);
+  if (!real_fft_ && r2c == nullptr) return absl::InternalError("SHT: FFTW planning failed");
   const int w = grid_.width, h = grid_.height, ch = channels_, lmax = lmax_;
   const int np = rings_.num_pairs, pp = PadPairs(np);
   const int nc = w / 2 + 1;
@@ -592,20 +597,25 @@ absl::Status ShtPlan::ForwardImpl(std::span<const T> map, std::span<double> coef
   constexpr int kPairsPerTask = 8;
   const int num_tasks = (pp + kPairsPerTask - 1) / kPairsPerTask;
   const int workers = std::max(1, std::min(num_threads, num_tasks));
+  // RealFft's batches: two pairs' 4 ch rows (three channels: 12 rows, every lane of its vectors
+  // busy; one pair's 6 would leave a quarter idle).
+  const int batch = real_fft_ && ch <= kMaxBatchChannels ? kBatchPairs : 1;
   // Each pair's spectra start on a 64-byte boundary (FFTW's SIMD alignment, as planned).
   const size_t pair_spectra = (static_cast<size_t>(2) * ch * nc + 3) / 4 * 4;
   std::vector<std::unique_ptr<FftwBuffer<double>>> in_bufs(workers);
   std::vector<std::unique_ptr<FftwBuffer<fftw_complex>>> out_bufs(workers);
   ParallelFor(num_tasks, workers, [&](int task, int worker) {
     if (!in_bufs[worker]) {
-      in_bufs[worker] = std::make_unique<FftwBuffer<double>>(static_cast<size_t>(2) * ch * w);
+      // Two pairs' rows: RealFft takes them in one batch (kBatchPairs).
+      in_bufs[worker] =
+          std::make_unique<FftwBuffer<double>>(static_cast<size_t>(kBatchPairs) * 2 * ch * w);
       out_bufs[worker] = std::make_unique<FftwBuffer<fftw_complex>>(pair_spectra * kPairsPerTask);
     }
-    double* in = in_bufs[worker]->data;
     const int p_begin = task * kPairsPerTask;
     const int p_end = std::min(np, p_begin + kPairsPerTask);
     for (int p = p_begin; p < p_end; ++p) {
       fftw_complex* out = out_bufs[worker]->data + (p - p_begin) * pair_spectra;
+      double* in = in_bufs[worker]->data + static_cast<size_t>((p - p_begin) % batch) * 2 * ch * w;
       const bool equator = rings_.has_equator && p == np - 1;
       for (int half = 0; half < 2; ++half) {
         double* dst = in + static_cast<size_t>(half) * ch * w;
@@ -641,7 +651,23 @@ absl::Status ShtPlan::ForwardImpl(std::span<const T> map, std::span<double> coef
           __builtin_prefetch(r2 + b);
         }
       }
-      fftw_execute_dft_r2c(r2c, in, out);
+      if (!real_fft_) {
+        fftw_execute_dft_r2c(r2c, in, out);
+      } else if (batch == 1) {
+        real_fft_->Forward(in, reinterpret_cast<std::complex<double>*>(out), 2 * ch);
+      } else if ((p - p_begin) % batch == batch - 1 || p + 1 == p_end) {
+        // The batch's pairs (this one and those before it in the buffer): 2 ch rows each.
+        const int first = p - (p - p_begin) % batch, rows = (p - first + 1) * 2 * ch;
+        const double* in_rows[kBatchPairs * 2 * kMaxBatchChannels];
+        std::complex<double>* out_rows[kBatchPairs * 2 * kMaxBatchChannels];
+        for (int r = 0; r < rows; ++r) {
+          const int q = r / (2 * ch), k = r % (2 * ch);
+          in_rows[r] = in_bufs[worker]->data + (static_cast<size_t>(q) * 2 * ch + k) * w;
+          out_rows[r] = reinterpret_cast<std::complex<double>*>(
+              out_bufs[worker]->data + (first + q - p_begin) * pair_spectra + k * nc);
+        }
+        real_fft_->Forward(in_rows, out_rows, rows);
+      }
     }
     const int p_pad = std::min(pp, p_begin + kPairsPerTask);  // padding pairs get zeros
     for (int m = 0; m <= lmax; ++m) {
@@ -713,8 +739,8 @@ absl::Status ShtPlan::InverseImpl(std::span<const double> coeffs, std::span<T> m
                                                    " values, expected W*H*channels = ", map_size(),
                                                    " for ", GridName(grid_)));
   }
-  const fftw_plan c2r = fftw_->Get(/*forward=*/false);
-  if (c2r == nullptr) return absl::InternalError("SHT: FFTW planning failed");
+  const fftw_plan c2r = real_fft_ ? nullptr : fftw_->Get(/*forward=*/false);
+  if (!real_fft_ && c2r == nullptr) return absl::InternalError("SHT: FFTW planning failed");
   const int w = grid_.width, h = grid_.height, ch = channels_, lmax = lmax_;
   const int np = rings_.num_pairs, pp = PadPairs(np);
   const int nc = w / 2 + 1;
@@ -896,7 +922,12 @@ absl::Status ShtPlan::InverseImpl(std::span<const double> coeffs, std::span<T> m
       }
       for (int p = p_begin; p < p_end; ++p) {
         const bool equator = rings_.has_equator && p == np - 1;
-        fftw_execute_dft_c2r(c2r, co_block + (p - p_begin) * pair_spectra, re);
+        fftw_complex* spectra = co_block + (p - p_begin) * pair_spectra;
+        if (real_fft_) {
+          real_fft_->Inverse(reinterpret_cast<const std::complex<double>*>(spectra), re, 2 * ch);
+        } else {
+          fftw_execute_dft_c2r(c2r, spectra, re);
+        }
         for (int half = 0; half < (equator ? 1 : 2); ++half) {
           const int j = half == 0 ? p : h - 1 - p;
           T* dst = map.data() + static_cast<size_t>(j) * w * ch;

@@ -59,6 +59,9 @@
 #include "core/base/geometry.h"
 
 namespace shrm {
+namespace internal {
+class RealFft;
+}  // namespace internal
 
 // How the H rings of a lat-long grid are placed in theta (the azimuth mapping is always the
 // pixel-centre column formula in the header comment).
@@ -206,6 +209,9 @@ class ShtPlan {
   std::vector<double> resample_[4];
   std::vector<double> rec_a_, rec_b_;  // lambda_l^m = a (x lambda_{l-1}^m - b lambda_{l-2}^m)
   std::unique_ptr<FftwState> fftw_;
+  // The ring DFTs without FFTW's planner where the width allows (core/transform/real_fft.h;
+  // null: FFTW's plans).
+  std::shared_ptr<const internal::RealFft> real_fft_;
 };
 
 // Process-wide cache of analysis plans keyed by (W, H, kind, lmax, channels, quadrature); plans
