@@ -40,6 +40,14 @@ void StoreAs(IblFormat format, IblCube& cube) {
   const ktx2::Format f = IblKtx2Format(format);
   for (ibl::SpecularLevel& level : cube.chain.levels) {
     std::vector<float>& d = level.cube.data;
+    // Most levels have no negative value: one branch-free pass finds that, and only a level with
+    // some takes the mean (of the values before clamping) and the clamping pass.
+    bool any_negative = false;
+    for (const float v : d) any_negative |= v < 0;
+    if (!any_negative) {
+      ktx2::RoundTripRgb(f, d);
+      continue;
+    }
     double sum = 0;
     for (size_t i = 0; i < d.size(); i += 3)
       sum += 0.2126 * d[i] + 0.7152 * d[i + 1] + 0.0722 * d[i + 2];

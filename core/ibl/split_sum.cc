@@ -437,15 +437,29 @@ PixelSumTable::PixelSumTable(const EnvMap& map) {
     blocks_per_row_ = (w + kBlock - 1) / kBlock;
     blocks_ = blocks_per_row_ * h;
     cones_.resize(blocks_);
-    BlockData block;
+    // A block is one ring's run of columns: the sum of its directions is the ring's sine times
+    // the sums of its columns' azimuth sines and cosines (the same for every ring), and its member
+    // farthest from any axis in the run's middle meridian plane (the normalized sum is) is one of
+    // its two ends, where the cosine to the axis, sin a sin t cos(phi - phi_mid) + cos a cos t, is
+    // smallest. (The members are float-rounded, as in MakeLatLongBlock: BoundingCone's margin
+    // covers that.) So each cone costs two members, not the block's 256.
+    const LatLongSampler& ll = *lat_long_;
+    std::vector<double> col_sin(blocks_per_row_, 0.0), col_cos(blocks_per_row_, 0.0);
+    for (int c = 0; c < w; ++c) {
+      col_sin[c / kBlock] += ll.ColSin(c);
+      col_cos[c / kBlock] += ll.ColCos(c);
+    }
     for (int blk = 0; blk < blocks_; ++blk) {
-      MakeLatLongBlock(blk, block);
-      const int n = std::min(kBlock, w - (blk % blocks_per_row_) * kBlock);
-      Vec3 sum{0, 0, 0};
-      for (int k = 0; k < n; ++k) sum = sum + Vec3{block.x[k], block.y[k], block.z[k]};
-      cones_[blk] = BoundingCone<Cone>(sum, n, [&](int k) {
-        return Vec3{block.x[k], block.y[k], block.z[k]};
-      });
+      const int j = blk / blocks_per_row_, b = blk % blocks_per_row_, c0 = b * kBlock;
+      const int n = std::min(kBlock, w - c0);
+      const double st = ll.RowSin(j), ct = ll.RowCos(j);
+      const Vec3 sum{st * col_sin[b], n * ct, -st * col_cos[b]};
+      const auto member = [&](int c) {
+        return Vec3{static_cast<float>(st * ll.ColSin(c)), static_cast<float>(ct),
+                    static_cast<float>(-st * ll.ColCos(c))};
+      };
+      cones_[blk] =
+          BoundingCone<Cone>(sum, 2, [&](int k) { return member(k == 0 ? c0 : c0 + n - 1); });
     }
     return;
   }
