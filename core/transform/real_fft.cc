@@ -55,13 +55,25 @@ void RadixStage(const C* x, C* y, int n, int s, const double* tw) {
         b[1] = Add(t1, MinusI(t3));
         b[3] = Add(t1, PlusI(t3));
       } else {
-        for (int u = 0; u < R; ++u) {
-          C sum = a[0];
-          for (int j = 1; j < R; ++j) {
-            const int e = (j * u) % R;
-            sum = Add(sum, Mul(a[j], wr[e], wi[e]));
+        // Odd radix: b_u and b_{r-u} share the sums s_j = a_j + a_{r-j} (cosine parts) and the
+        // differences d_j = a_j - a_{r-j} (sine parts), j = 1 .. (r - 1) / 2.
+        constexpr int kHalf = R / 2;
+        C sum[kHalf + 1], diff[kHalf + 1];
+        b[0] = a[0];
+        for (int j = 1; j <= kHalf; ++j) {
+          sum[j] = Add(a[j], a[R - j]);
+          diff[j] = Sub(a[j], a[R - j]);
+          b[0] = Add(b[0], sum[j]);
+        }
+        for (int u = 1; u <= kHalf; ++u) {
+          C c = a[0], e = {V{}, V{}};
+          for (int j = 1; j <= kHalf; ++j) {
+            const int k = (j * u) % R;  // cos(2 pi k / r) = wr[k], sin(2 pi k / r) = -wi[k]
+            c = {c.re + wr[k] * sum[j].re, c.im + wr[k] * sum[j].im};
+            e = {e.re - wi[k] * diff[j].re, e.im - wi[k] * diff[j].im};
           }
-          b[u] = sum;
+          b[u] = Add(c, MinusI(e));
+          b[R - u] = Add(c, PlusI(e));
         }
       }
       C* out = y + q + static_cast<size_t>(s) * R * p;
