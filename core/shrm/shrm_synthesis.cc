@@ -27,9 +27,19 @@
 #include "core/sh/wigner.h"
 #include "core/sh/wigner_columns.h"
 #include "core/shrm/cube_resample.h"
+#include "core/transform/real_fft.h"
 #include "core/transform/sht.h"
 
 namespace shrm {
+
+namespace {
+// The azimuthal DFTs of SynthesizeRows (its fft_plan argument): ComplexFft, or FFTW's plan.
+struct RowFft {
+  std::shared_ptr<const internal::ComplexFft> complex;
+  fftw_plan fftw = nullptr;
+  int series = 0;
+};
+}  // namespace
 
 absl::StatusOr<ShrmSynthesizer> ShrmSynthesizer::Create(int light_lmax, int channels,
                                                         std::span<const double> light,
@@ -635,8 +645,13 @@ void ShrmSynthesizer::SynthesizeRows(ShrmKind kind, const double* alphas, int ro
           }
         }
     }
-    fftw_execute_dft(static_cast<fftw_plan>(fft_plan), reinterpret_cast<fftw_complex*>(work),
-                     reinterpret_cast<fftw_complex*>(scratch.out));
+    const auto& row_fft = *static_cast<const RowFft*>(fft_plan);
+    if (row_fft.complex) {
+      row_fft.complex->Backward(work, scratch.out, row_fft.series);
+    } else {
+      fftw_execute_dft(row_fft.fftw, reinterpret_cast<fftw_complex*>(work),
+                       reinterpret_cast<fftw_complex*>(scratch.out));
+    }
     float* row_out = rows_out + static_cast<size_t>(r) * nb * grid_stride;
     if (grid_stride > stride) {
       for (int k = 0; k < nb; ++k)
@@ -699,16 +714,21 @@ void ShrmSynthesizer::SynthesizeSlabs(ShrmKind kind, int na, int owned, int thre
   const int nb = 2 * na, rows = na + 4;
   const int nseries = (pmax_ + 1) * (pmax_ + 2) / 2 * channels_;
   const size_t work_size = static_cast<size_t>(nseries) * nb;
-  fftw_plan plan;
-  fftw_complex *probe, *probe_out;
-  {
+  // The rows' azimuthal DFTs: ComplexFft for the 7-smooth sizes (every grid FftFriendlyRings
+  // gives; no FFTW planner in the process), FFTW otherwise.
+  RowFft row_fft;
+  row_fft.series = nseries;
+  row_fft.complex = internal::ComplexFft::Get(nb);
+  fftw_complex *probe = nullptr, *probe_out = nullptr;
+  if (!row_fft.complex) {
     std::lock_guard<std::mutex> lock(FftwPlannerMutex());
     probe = fftw_alloc_complex(work_size);
     probe_out = fftw_alloc_complex(work_size);
     int n[1] = {nb};
-    plan = fftw_plan_many_dft(1, n, nseries, probe, nullptr, 1, nb, probe_out, nullptr, 1, nb,
-                              FFTW_BACKWARD, FFTW_ESTIMATE);
+    row_fft.fftw = fftw_plan_many_dft(1, n, nseries, probe, nullptr, 1, nb, probe_out, nullptr, 1,
+                                      nb, FFTW_BACKWARD, FFTW_ESTIMATE);
   }
+  void* const plan = &row_fft;
   const int qrho = RhoQmax();
   const WignerColumnTables tables(lmax_, qrho), ptables(pmax_, pmax_);
   constexpr int B = kWignerBlock;
@@ -765,9 +785,9 @@ void ShrmSynthesizer::SynthesizeSlabs(ShrmKind kind, int na, int owned, int thre
     fftw_free(scratch.work);
     fftw_free(scratch.out);
   }
-  {
+  if (row_fft.fftw != nullptr) {
     std::lock_guard<std::mutex> lock(FftwPlannerMutex());
-    fftw_destroy_plan(plan);
+    fftw_destroy_plan(row_fft.fftw);
     fftw_free(probe);
     fftw_free(probe_out);
   }

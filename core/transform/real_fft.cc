@@ -91,23 +91,27 @@ std::vector<C>& Scratch(size_t n) {
   return buf;
 }
 
+// n >= 1 with no prime factor above 7.
+bool SevenSmooth(int n) {
+  if (n < 1) return false;
+  for (int p : {2, 3, 5, 7})
+    while (n % p == 0) n /= p;
+  return n == 1;
+}
+
 }  // namespace
 
-std::shared_ptr<const RealFft> RealFft::Get(int width) {
-  if (width < 2 || width % 2 != 0) return nullptr;
-  int rest = width / 2;
-  for (int p : {2, 3, 5, 7})
-    while (rest % p == 0) rest /= p;
-  if (rest != 1) return nullptr;
+std::shared_ptr<const ComplexFft> ComplexFft::Get(int n) {
+  if (!SevenSmooth(n)) return nullptr;
   static std::mutex mu;
-  static std::map<int, std::shared_ptr<const RealFft>> cache;
+  static std::map<int, std::shared_ptr<const ComplexFft>> cache;
   std::lock_guard<std::mutex> lock(mu);
-  auto& slot = cache[width];
-  if (!slot) slot = std::shared_ptr<const RealFft>(new RealFft(width / 2));
+  auto& slot = cache[n];
+  if (!slot) slot = std::shared_ptr<const ComplexFft>(new ComplexFft(n));
   return slot;
 }
 
-RealFft::RealFft(int n) : n_(n) {
+ComplexFft::ComplexFft(int n) : n_(n) {
   int length = n;
   while (length > 1) {
     int r = 0;
@@ -130,6 +134,19 @@ RealFft::RealFft(int n) : n_(n) {
     stages_.push_back(std::move(st));
     length /= r;
   }
+}
+
+std::shared_ptr<const RealFft> RealFft::Get(int width) {
+  if (width < 2 || width % 2 != 0 || !SevenSmooth(width / 2)) return nullptr;
+  static std::mutex mu;
+  static std::map<int, std::shared_ptr<const RealFft>> cache;
+  std::lock_guard<std::mutex> lock(mu);
+  auto& slot = cache[width];
+  if (!slot) slot = std::shared_ptr<const RealFft>(new RealFft(width / 2));
+  return slot;
+}
+
+RealFft::RealFft(int n) : n_(n), half_fft_(ComplexFft::Get(n)) {
   half_.resize(static_cast<size_t>(n + 1) * 2);
   for (int k = 0; k <= n; ++k) Root(k, 2L * n, &half_[2 * k], &half_[2 * k + 1]);
 }
@@ -206,7 +223,7 @@ void RealFft::Forward(const double* const* in, std::complex<double>* const* out,
     }
     C* z = buf.data();
     for (int i = 0; i < n; ++i) z[i] = {Gather(src, 2 * i), Gather(src, 2 * i + 1)};
-    const C* f = Transform(stages_, buf.data(), n);
+    const C* f = Transform(half_fft_->stages_, buf.data(), n);
     // X_k = E_k + w^k O_k with E_k = (Z_k + conj Z_{N-k}) / 2, O_k = -i (Z_k - conj Z_{N-k}) / 2.
     for (int k = 0; k <= n; ++k) {
       const C a = f[k == n ? 0 : k], bz = f[k == 0 ? 0 : n - k];
@@ -255,12 +272,35 @@ void RealFft::Inverse(const std::complex<double>* const* in, double* const* out,
         z[kk] = {er - o.im, -(ei + o.re)};
       }
     }
-    const C* f = Transform(stages_, buf.data(), n);
+    const C* f = Transform(half_fft_->stages_, buf.data(), n);
     for (int i = 0; i < n; ++i)
       for (int l = 0; l < kLanes; ++l) {
         dst[l][2 * i] = f[i].re[l];
         dst[l][2 * i + 1] = -f[i].im[l];
       }
+  }
+}
+
+void ComplexFft::Backward(const std::complex<double>* in, std::complex<double>* out,
+                          int series) const {
+  const int n = n_;
+  std::vector<C>& buf = Scratch(static_cast<size_t>(n));
+  for (int r0 = 0; r0 < series; r0 += kLanes) {
+    const int lanes = std::min(kLanes, series - r0);
+    const double* src[kLanes];
+    for (int l = 0; l < kLanes; ++l)
+      src[l] = reinterpret_cast<const double*>(
+          in + static_cast<size_t>(r0 + std::min(l, lanes - 1)) * n);
+    // The backward DFT is conj(DFT(conj x)): the forward stages on the conjugates.
+    C* z = buf.data();
+    for (int k = 0; k < n; ++k)
+      z[k] = {Gather(src, 2 * static_cast<size_t>(k)),
+              -Gather(src, 2 * static_cast<size_t>(k) + 1)};
+    const C* f = Transform(stages_, buf.data(), n);
+    for (int l = 0; l < lanes; ++l) {
+      std::complex<double>* row = out + static_cast<size_t>(r0 + l) * n;
+      for (int j = 0; j < n; ++j) row[j] = std::complex<double>(f[j].re[l], -f[j].im[l]);
+    }
   }
 }
 

@@ -25,6 +25,34 @@
 
 namespace shrm::internal {
 
+// Batched complex DFTs of one size n whose prime factors are at most 7 (the SHRM grids'
+// azimuthal series, core/shrm/shrm_synthesis.cc), by the same stages; FFTW_BACKWARD's convention:
+// out_j = sum_k in_k e^{+2 pi i j k / n}, unnormalized.
+class ComplexFft {
+ public:
+  // The transform of size n (cached per process), or null when n < 1 or has a prime factor above
+  // 7.
+  static std::shared_ptr<const ComplexFft> Get(int n);
+
+  int size() const { return n_; }
+  // `series` rows of n values (row r at in + r * n) to rows of n values at out (not in place).
+  // Thread-safe (the object is immutable).
+  void Backward(const std::complex<double>* in, std::complex<double>* out, int series) const;
+
+ private:
+  friend class RealFft;
+  explicit ComplexFft(int n);
+  struct Stage {
+    int radix = 0;
+    int length = 0;  // the sub-transform length of this stage (n / product of earlier radices)
+    // w^{u p} for p < length / radix, u = 1 .. radix - 1, w = e^{-2 pi i / length}: (re, im)
+    // pairs, index (p * (radix - 1) + u - 1).
+    std::vector<double> twiddle;
+  };
+  int n_ = 0;
+  std::vector<Stage> stages_;  // in order of application (the forward sign)
+};
+
 class RealFft {
  public:
   // The transform of width W (cached per process), or null when W is odd, below 2, or W / 2 has a
@@ -44,16 +72,9 @@ class RealFft {
 
  private:
   explicit RealFft(int n);
-  struct Stage {
-    int radix = 0;
-    int length = 0;  // the sub-transform length n of this stage (N / product of earlier radices)
-    // w^{u p} for p < length / radix, u = 1 .. radix - 1, w = e^{-2 pi i / length}: (re, im)
-    // pairs, index (p * (radix - 1) + u - 1).
-    std::vector<double> twiddle;
-  };
-  int n_ = 0;                  // N = W / 2
-  std::vector<Stage> stages_;  // in order of application
-  std::vector<double> half_;   // e^{-2 pi i k / W} for k = 0 .. N: (re, im) pairs
+  int n_ = 0;                                   // N = W / 2
+  std::shared_ptr<const ComplexFft> half_fft_;  // the complex DFT of size N
+  std::vector<double> half_;                    // e^{-2 pi i k / W} for k = 0 .. N: (re, im) pairs
 };
 
 }  // namespace shrm::internal
