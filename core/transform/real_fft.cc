@@ -47,6 +47,23 @@ void RadixStage(const C* x, C* y, int n, int s, const double* tw) {
       if constexpr (R == 2) {
         b[0] = Add(a[0], a[1]);
         b[1] = Sub(a[0], a[1]);
+      } else if constexpr (R == 8) {
+        // Two DFT4 (even and odd members), the odd one turned by omega_8^u.
+        constexpr double kR = 0.70710678118654752440;  // 1 / sqrt(2)
+        const C e0 = Add(a[0], a[4]), e1 = Sub(a[0], a[4]), e2 = Add(a[2], a[6]),
+                e3 = Sub(a[2], a[6]);
+        const C o0 = Add(a[1], a[5]), o1 = Sub(a[1], a[5]), o2 = Add(a[3], a[7]),
+                o3 = Sub(a[3], a[7]);
+        const C even[4] = {Add(e0, e2), Add(e1, MinusI(e3)), Sub(e0, e2), Add(e1, PlusI(e3))};
+        C odd[4] = {Add(o0, o2), Add(o1, MinusI(o3)), Sub(o0, o2), Add(o1, PlusI(o3))};
+        // omega_8 = (1 - i) / sqrt 2, omega_8^2 = -i, omega_8^3 = -(1 + i) / sqrt 2.
+        odd[1] = {kR * (odd[1].re + odd[1].im), kR * (odd[1].im - odd[1].re)};
+        odd[2] = MinusI(odd[2]);
+        odd[3] = {kR * (odd[3].im - odd[3].re), -kR * (odd[3].re + odd[3].im)};
+        for (int u = 0; u < 4; ++u) {
+          b[u] = Add(even[u], odd[u]);
+          b[u + 4] = Sub(even[u], odd[u]);
+        }
       } else if constexpr (R == 4) {
         const C t0 = Add(a[0], a[2]), t1 = Sub(a[0], a[2]), t2 = Add(a[1], a[3]),
                 t3 = Sub(a[1], a[3]);
@@ -115,7 +132,7 @@ ComplexFft::ComplexFft(int n) : n_(n) {
   int length = n;
   while (length > 1) {
     int r = 0;
-    for (int p : {4, 2, 3, 5, 7}) {
+    for (int p : {8, 4, 2, 3, 5, 7}) {
       if (length % p == 0) {
         r = p;
         break;
@@ -161,7 +178,8 @@ C* Transform(const Stages& stages, C* buf, int n) {
   C* y = buf + n;
   int s = 1;
   for (const auto& st : stages) {
-    void (*const stage)(const C*, C*, int, int, const double*) = st.radix == 2   ? RadixStage<2>
+    void (*const stage)(const C*, C*, int, int, const double*) = st.radix == 8   ? RadixStage<8>
+                                                                 : st.radix == 2 ? RadixStage<2>
                                                                  : st.radix == 3 ? RadixStage<3>
                                                                  : st.radix == 4 ? RadixStage<4>
                                                                  : st.radix == 5 ? RadixStage<5>
