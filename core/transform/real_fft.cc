@@ -1,6 +1,7 @@
 #include "core/transform/real_fft.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <mutex>
@@ -35,9 +36,6 @@ void Root(long k, long n, double* re, double* im) {
 template <int R>
 void RadixStage(const C* x, C* y, int n, int s, const double* tw) {
   const int m = n / R;
-  // omega_r^j = e^{-2 pi i j / r} for the generic radices.
-  double wr[R], wi[R];
-  for (int j = 0; j < R; ++j) Root(j, R, &wr[j], &wi[j]);
   for (int p = 0; p < m; ++p) {
     const double* t = tw + static_cast<size_t>(p) * (R - 1) * 2;
     for (int q = 0; q < s; ++q) {
@@ -75,6 +73,13 @@ void RadixStage(const C* x, C* y, int n, int s, const double* tw) {
         // Odd radix: b_u and b_{r-u} share the sums s_j = a_j + a_{r-j} (cosine parts) and the
         // differences d_j = a_j - a_{r-j} (sine parts), j = 1 .. (r - 1) / 2.
         constexpr int kHalf = R / 2;
+        // omega_r^j = e^{-2 pi i j / r} (wr, wi), made once per radix and process.
+        static const std::array<std::array<double, R>, 2> kRoots = [] {
+          std::array<std::array<double, R>, 2> w{};
+          for (int j = 0; j < R; ++j) Root(j, R, &w[0][j], &w[1][j]);
+          return w;
+        }();
+        const std::array<double, R>&wr = kRoots[0], &wi = kRoots[1];
         C sum[kHalf + 1], diff[kHalf + 1];
         b[0] = a[0];
         for (int j = 1; j <= kHalf; ++j) {
@@ -256,7 +261,7 @@ void RealFft::Forward(const double* const* in, std::complex<double>* const* out,
 
 void RealFft::Inverse(const std::complex<double>* const* in, double* const* out, int rows) const {
   const int n = n_, w = 2 * n, nc = n + 1;
-  std::vector<C>& buf = Scratch(static_cast<size_t>(n) + (n + 1) / 2 + 1);
+  std::vector<C>& buf = Scratch(static_cast<size_t>(n));
   const std::complex<double>* zero_row = SpareRow<std::complex<double>>(static_cast<size_t>(nc));
   double* sink = SpareRow<double>(static_cast<size_t>(w));
   for (int r0 = 0; r0 < rows; r0 += kLanes) {
