@@ -35,7 +35,10 @@ absl::Status RunRemoteJob(ShrmClient* client, const jobs::EnvironmentSpec& env,
   for (int i = 0;; ++i) {
     if (i > 0) absl::SleepFor(RetryBackoff(client->options(), i));
     client->set_upload_copies(missing_blob_answers > 0 ? missing_blob_answers + 1 : 0);
+    const int resent_before = client->resent_calls();
     s = attempt();
+    // A call the client library sent again by itself (broken before any answer) is a retry too.
+    retried += client->resent_calls() - resent_before;
     const bool missing_blob = IsMissingBlob(s);
     // A full server (every job slot busy) says when to come back; an oversized input does not.
     const absl::Duration retry_after = ServerRetryDelay(s);

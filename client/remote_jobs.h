@@ -31,7 +31,8 @@ using RetryCallback =
 // retry delay (every job slot busy; the delay is waited too) and on missing blobs (IsMissingBlob:
 // behind a load balancer the call may reach a replica the inputs were never uploaded to; after k
 // such answers k + 1 copies are uploaded). The map's SHA-256 (one file) is the calls' affinity
-// key. `retries` (optional) gets the attempts beyond the first. Errors are prefixed with the
+// key. `retries` (optional) gets the attempts beyond the first, counting the calls the client sent
+// again by itself (ShrmClient::resent_calls). Errors are prefixed with the
 // server's target (and the number of retries).
 absl::Status RunRemoteJob(ShrmClient* client, const jobs::EnvironmentSpec& env,
                           const std::string& target, const std::function<absl::Status()>& attempt,

@@ -332,7 +332,10 @@ absl::StatusOr<Outcome> ShrmClient::SendUntilAnswered(OnceCall<Request, Outcome>
                                                       const std::atomic<bool>* cancel) {
   absl::StatusOr<Outcome> r;
   for (int i = 0; i < options_.max_attempts; ++i) {
-    if (i > 0) absl::SleepFor(RetryBackoff(options_, i));
+    if (i > 0) {
+      absl::SleepFor(RetryBackoff(options_, i));
+      ++resent_calls_;
+    }
     bool answered = false;
     r = (this->*once)(request, progress, deadline, cancel, &answered);
     // Sent again only when it failed in the transport before any answer of a server (a fresh

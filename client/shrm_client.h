@@ -165,6 +165,9 @@ class ShrmClient {
 
   // The server's retry delay (RetryInfo) of the last RESOURCE_EXHAUSTED answer, ms (0: none).
   int64_t last_retry_after_ms() const { return last_retry_after_ms_; }
+  // Prefilter and Ibl calls sent again because the transport failed before any answer (a
+  // replica killed while the call was on its way): a job's retries count them (remote_jobs.h).
+  int resent_calls() const { return resent_calls_.load(); }
 
  private:
   ShrmClient(std::shared_ptr<grpc::Channel> channel, const ClientOptions& options);
@@ -218,6 +221,7 @@ class ShrmClient {
   std::unique_ptr<shrm::v1::Shrm::Stub> stub_;
   ClientOptions options_;
   int64_t last_retry_after_ms_ = 0;
+  std::atomic<int> resent_calls_{0};
   std::string affinity_key_;
   int upload_copies_ = 0;
   struct FileHash {

@@ -11,6 +11,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "client/remote_jobs.h"
 #include "client/shrm_client.h"
 #include "proto/status_details.h"
 #include "shrm/v1/shrm.grpc.pb.h"
@@ -93,6 +94,22 @@ TEST_F(ClientRetryTest, DroppedStreamingCallIsSentAgain) {
   absl::StatusOr<client::PrefilterOutcome> r = client_->Prefilter(v1::PrefilterRequest());
   EXPECT_EQ(r.status().code(), absl::StatusCode::kNotFound) << r.status();
   EXPECT_EQ(service_->prefilter_calls(), 2);
+  EXPECT_EQ(client_->resent_calls(), 1);
+}
+
+// A replica killed while a Prefilter call was on its way: the load balancer answers UNAVAILABLE
+// with no shrm error details before any event, the client library sends the call again by itself,
+// and the job's retries (the batch summary's "retries") count those calls (tests/deploy_test.sh
+// checks that a broken Prefilter call shows in the summaries).
+TEST_F(ClientRetryTest, CallsSentAgainCountAsTheJobsRetries) {
+  Serve(2, grpc::Status(grpc::StatusCode::UNAVAILABLE, "upstream: 502"));
+  int retries = -1;
+  const absl::Status s = client::RunRemoteJob(
+      client_.get(), jobs::EnvironmentSpec(), "scripted",
+      [&] { return client_->Prefilter(v1::PrefilterRequest()).status(); }, nullptr, &retries);
+  EXPECT_EQ(s.code(), absl::StatusCode::kNotFound) << s;  // the scripted final answer
+  EXPECT_EQ(service_->prefilter_calls(), 3);
+  EXPECT_EQ(retries, 2);
 }
 
 TEST_F(ClientRetryTest, ServersOwnCancelledIsFinal) {

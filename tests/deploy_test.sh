@@ -574,8 +574,10 @@ else
   fail "kill phase: problems: ${PHASE_PROBLEMS:-none listed} (rounds $PHASE_ROUNDS, jobs $PHASE_JOBS, ok $PHASE_OK, identical $PHASE_IDENTICAL)"
 fi
 # The calls SIGKILL broke, as nginx answered them (grpc-status 14, UNAVAILABLE). A broken
-# Prefilter is a job the client must retry; a broken HasBlob is not (the client uploads the map
-# and goes on), so a kill that caught only a HasBlob leaves no retry to count.
+# Prefilter is a job the client must retry (a call broken before any answer is sent again by the
+# client library itself, and counted in the job's retries too); a broken HasBlob is not (the
+# client uploads the map and goes on), so a kill that caught only a HasBlob leaves no retry to
+# count.
 CUT_JOBS=$(grep '/shrm.v1.Shrm/Prefilter' "$NG/access.log" | grep -c 'grpc=14' || true)
 CUT_OTHER=$(grep -v '/shrm.v1.Shrm/Prefilter' "$NG/access.log" | grep -c 'grpc=14' || true)
 if [ "${PHASE_RETRIES:-0}" -gt 0 ]; then
