@@ -1,27 +1,34 @@
 // Replaces the global operator new / delete of the program it is linked into (the `shrm` command)
-// so that allocations of 1 MiB or more get their own 2 MiB-aligned anonymous mapping advised for
-// transparent huge pages (madvise MADV_HUGEPAGE), and go back to the system when freed.
+// so that the memory a job touches comes in transparent huge pages (madvise MADV_HUGEPAGE) and is
+// reused rather than mapped afresh:
+// - blocks below kLargeThreshold (32 MiB, the largest mmap threshold glibc takes) come from
+//   malloc's heap, which is grown at start-up by kHeapReserve and advised for huge pages, and
+//   advised again wherever it grows past that (AdviseHeapGrowth); every thread allocates from it
+//   (one arena), and freed blocks go back to it, where neighbours merge;
+// - larger blocks get their own 2 MiB-aligned advised mapping, kept for reuse when freed (a
+//   bounded cache) and otherwise returned to the system.
 //
 // Why (docs/architecture.md "Start-up"): a job touches tens of MB of fresh memory (the decoded
 // map, the EXR decoder's buffers, the SHRM cube, the encoded file), one page fault per 4 KiB page.
 // Where faults are expensive (measured here: ~17 us each in a paravirtualized VM, 8,400 faults in
 // a 270 ms prefilter), one fault per 2 MiB instead took the process from 270 to 185 ms. Where
-// transparent huge pages are off, the advice does nothing and the mappings are ordinary.
+// transparent huge pages are off, the advice does nothing and the memory is ordinary.
 //
-// Freed blocks are kept for reuse (up to kCacheSlots mappings and kCacheBytes in all): a job
-// allocates the same large buffers again and again (one synthesis grid, Legendre work array and
-// cube per mip level, the map's copies for each check), and every fresh mapping is zeroed by the
-// kernel page by page on first touch (measured: ~30% of an `shrm ibl` run before the cache). A
-// block is reused for a request of at least half its size, so a cached mapping never holds more
-// than twice what it serves.
+// Every fresh huge page is zeroed by the kernel on first touch (~0.2 ms here), so what counts is
+// how much memory a job touches in all. Up to session 31 every block of 1 MiB or more had a
+// mapping of its own, reused only by a request of the same size class: the EXR decoder's 4 and
+// 6 MB buffers, freed after the decode, could not serve the 9 MB Legendre work array that
+// followed, and each mip level's grid took its own. In the heap, freed neighbours merge and
+// serve any later request that fits: `shrm ibl` touches ~5 MB less and runs 2-5% faster, the
+// default `shrm prefilter` 10-13% (docs/results.md "Speed, session 32").
 //
-// Blocks below 1 MiB go to malloc, whose heap is grown once at start-up and huge-page-advised
-// (HeapSetup below). A large block starts on a 2 MiB boundary and is recognised at delete by that
-// and by the 64-byte header just below it (at the end of an ordinary page of its mapping), holding
-// a magic number and its own address, so no table or lock is needed. Not compiled under
+// A block of kLargeThreshold or more starts on a 2 MiB boundary and is recognised at delete by
+// that and by the 64-byte header just below it (at the end of an ordinary page of its mapping),
+// holding a magic number and its own address, so no table or lock is needed. Not compiled under
 // AddressSanitizer, which must see every allocation itself.
 #include <malloc.h>
 #include <sys/mman.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <cstddef>
@@ -43,7 +50,8 @@
 namespace {
 
 constexpr size_t kHugePage = size_t{2} << 20;
-constexpr size_t kLargeThreshold = size_t{1} << 20;
+// glibc's DEFAULT_MMAP_THRESHOLD_MAX on 64-bit systems: malloc maps larger blocks by itself.
+constexpr size_t kLargeThreshold = size_t{32} << 20;
 // The header sits at the end of an ordinary page just below the block, so that the block itself
 // starts on a 2 MiB boundary and a block of k x 2 MiB (the common power-of-two arrays) takes k
 // huge pages, not k + 1 of which the last holds 64 bytes: every huge page touched is zeroed whole
@@ -150,9 +158,28 @@ const Header* LargeHeader(void* p) {
   return h->magic == kMagic && h->self == h ? h : nullptr;
 }
 
+// The end of the heap's huge-page-advised part (0 before HeapSetup).
+std::atomic<uintptr_t> g_advised_end{0};
+
+// Advises the heap's growth past g_advised_end for huge pages (malloc grows it with brk, in steps
+// of at least M_TOP_PAD, without advice). Called after every block of 1 MiB or more, before the
+// caller touches it; the small blocks in a growth that no such block followed keep 4 KiB pages.
+void AdviseHeapGrowth() {
+  const uintptr_t end = reinterpret_cast<uintptr_t>(sbrk(0)) & ~(kHugePage - 1);
+  uintptr_t advised = g_advised_end.load(std::memory_order_relaxed);
+  while (advised != 0 && end > advised) {
+    if (g_advised_end.compare_exchange_weak(advised, end)) {
+      madvise(reinterpret_cast<void*>(advised), end - advised, MADV_HUGEPAGE);
+      return;
+    }
+  }
+}
+
 void* Allocate(size_t n) noexcept {
   if (n >= kLargeThreshold) return MapLarge(n);
-  return std::malloc(n == 0 ? 1 : n);
+  void* p = std::malloc(n == 0 ? 1 : n);
+  if (n >= (size_t{1} << 20)) AdviseHeapGrowth();
+  return p;
 }
 
 void Release(void* p) noexcept {
@@ -173,28 +200,52 @@ void* AllocateOrThrow(size_t n) {
   }
 }
 
-// The heap that serves everything below kLargeThreshold (the program's own medium blocks, e.g.
-// an SHT plan's tables, and the libraries' buffers) grown once by kHeapReserve and that part
-// advised for huge pages, with glibc told to take blocks up to kLargeThreshold from the heap
-// rather than from mappings of their own. Each fresh 4 KiB page costs one fault (~17 us in a
-// paravirtualized VM: 4.3 ms a MB, against 0.75 ms a MB for a huge page, whose fault zeroes 2 MiB
-// at once); an `shrm ibl` run touched ~1,800 of them.
-constexpr size_t kHeapReserve = size_t{32} << 20;
+// The heap that serves everything below kLargeThreshold (the program's blocks, e.g. an SHT plan's
+// tables, a synthesis grid, the decoded map, and the libraries' buffers), grown once at start-up
+// by kHeapReserve of address space (untouched pages cost nothing) and that part advised for huge
+// pages. glibc is told to take every block below kLargeThreshold from the heap, never to give
+// its top back (a later job would fault it in again), and to keep one arena: other threads'
+// arenas would be mappings of their own, neither advised nor shared. Each fresh 4 KiB page costs
+// one fault (~17 us in a paravirtualized VM: 4.3 ms a MB, against 0.75 ms a MB for a huge page,
+// whose fault zeroes 2 MiB at once); an `shrm ibl` run touched ~1,800 of them.
+constexpr size_t kHeapReserve = size_t{128} << 20;
+constexpr size_t kHeapStep = size_t{32} << 20;  // M_TOP_PAD after start-up
+constexpr size_t kCacheLine = 64;
 
 struct HeapSetup {
   HeapSetup() {
-    // Blocks below 1 MiB from the heap; the heap never trimmed below what it grew to.
-    mallopt(M_MMAP_THRESHOLD, static_cast<int>(2 * kHeapReserve));
-    mallopt(M_TRIM_THRESHOLD, static_cast<int>(4 * kHeapReserve));
-    void* p = std::malloc(kHeapReserve);
-    if (p != nullptr) {
-      const uintptr_t raw = reinterpret_cast<uintptr_t>(p);
-      const uintptr_t begin = (raw + kHugePage - 1) & ~(kHugePage - 1);
-      const uintptr_t end = (raw + kHeapReserve) & ~(kHugePage - 1);
-      if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
-      std::free(p);
-    }
     mallopt(M_MMAP_THRESHOLD, static_cast<int>(kLargeThreshold));
+    mallopt(M_TRIM_THRESHOLD, static_cast<int>(size_t{1} << 30));
+    mallopt(M_ARENA_MAX, 1);
+    // The heap grows when a request fits neither its free blocks nor its top chunk: by the request
+    // plus M_TOP_PAD, with the new top chunk's header written right after the request. A page
+    // touched before the advice keeps its whole 2 MiB range in 4 KiB pages (the kernel then has
+    // a page table there), so the advice starts at the first 2 MiB boundary after that header.
+    // The top is taken whole first, then a request grows the heap.
+    const size_t top = mallinfo2().keepcost;
+    void* fill = top > kCacheLine ? std::malloc(top - kCacheLine) : nullptr;
+    mallopt(M_TOP_PAD, static_cast<int>(kHeapReserve));
+    constexpr size_t kProbe = size_t{256} << 10;
+    constexpr int kMaxProbes = 8;
+    void* probes[kMaxProbes] = {};
+    const uintptr_t old_end = reinterpret_cast<uintptr_t>(sbrk(0));
+    for (int i = 0; i < kMaxProbes; ++i) {
+      probes[i] = std::malloc(kProbe);
+      if (probes[i] == nullptr) break;
+      const uintptr_t end = reinterpret_cast<uintptr_t>(sbrk(0));
+      if (end == old_end) continue;  // served by a free block: the heap did not grow
+      const uintptr_t header = reinterpret_cast<uintptr_t>(probes[i]) + kProbe + kCacheLine;
+      const uintptr_t begin = (header + kHugePage - 1) & ~(kHugePage - 1);
+      const uintptr_t advised_end = end & ~(kHugePage - 1);
+      if (advised_end > begin) {
+        madvise(reinterpret_cast<void*>(begin), advised_end - begin, MADV_HUGEPAGE);
+        g_advised_end.store(advised_end);
+      }
+      break;
+    }
+    for (void* q : probes) std::free(q);
+    std::free(fill);
+    mallopt(M_TOP_PAD, static_cast<int>(kHeapStep));
   }
 };
 const HeapSetup g_heap_setup;
