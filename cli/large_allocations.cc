@@ -3,8 +3,9 @@
 // reused rather than mapped afresh:
 // - blocks below kLargeThreshold (32 MiB, the largest mmap threshold glibc takes) come from
 //   malloc's heap, which is grown at start-up by kHeapReserve and advised for huge pages, and
-//   advised again wherever it grows past that (AdviseHeapGrowth); every thread allocates from it
-//   (one arena), and freed blocks go back to it, where neighbours merge;
+//   advised again wherever it grows past that (AdviseHeapGrowth), with the heap below the advised
+//   range filled at start-up so that every later block lies in advised memory; every thread
+//   allocates from it (one arena), and freed blocks go back to it, where neighbours merge;
 // - larger blocks get their own 2 MiB-aligned advised mapping, kept for reuse when freed (a
 //   bounded cache) and otherwise returned to the system.
 //
@@ -212,6 +213,10 @@ constexpr size_t kHeapReserve = size_t{128} << 20;
 constexpr size_t kHeapStep = size_t{32} << 20;  // M_TOP_PAD after start-up
 constexpr size_t kCacheLine = 64;
 
+// The block that fills the heap below its huge-page-advised range (HeapSetup); volatile, as the
+// compiler may drop a malloc whose block is never read.
+void* volatile g_below_advice = nullptr;
+
 struct HeapSetup {
   HeapSetup() {
     mallopt(M_MMAP_THRESHOLD, static_cast<int>(kLargeThreshold));
@@ -229,23 +234,35 @@ struct HeapSetup {
     constexpr int kMaxProbes = 8;
     void* probes[kMaxProbes] = {};
     const uintptr_t old_end = reinterpret_cast<uintptr_t>(sbrk(0));
+    uintptr_t begin = 0;
     for (int i = 0; i < kMaxProbes; ++i) {
       probes[i] = std::malloc(kProbe);
       if (probes[i] == nullptr) break;
       const uintptr_t end = reinterpret_cast<uintptr_t>(sbrk(0));
       if (end == old_end) continue;  // served by a free block: the heap did not grow
       const uintptr_t header = reinterpret_cast<uintptr_t>(probes[i]) + kProbe + kCacheLine;
-      const uintptr_t begin = (header + kHugePage - 1) & ~(kHugePage - 1);
       const uintptr_t advised_end = end & ~(kHugePage - 1);
+      begin = (header + kHugePage - 1) & ~(kHugePage - 1);
       if (advised_end > begin) {
         madvise(reinterpret_cast<void*>(begin), advised_end - begin, MADV_HUGEPAGE);
         g_advised_end.store(advised_end);
+      } else {
+        begin = 0;
       }
       break;
     }
     for (void* q : probes) std::free(q);
     std::free(fill);
     mallopt(M_TOP_PAD, static_cast<int>(kHeapStep));
+    // The top chunk now starts below the advised range; a block up to its first boundary, never
+    // freed and never touched past its header, makes every later block come from advised
+    // memory (a job's first large block, the decoded map, had its first 2 MiB in 4 KiB pages,
+    // each a TLB miss for the lookups of the base level).
+    const uintptr_t top_start = reinterpret_cast<uintptr_t>(sbrk(0)) - mallinfo2().keepcost;
+    constexpr size_t kChunkHeader = 2 * sizeof(size_t);
+    if (begin != 0 && begin > top_start + 2 * kChunkHeader) {
+      g_below_advice = std::malloc(begin - top_start - 2 * kChunkHeader);
+    }
   }
 };
 const HeapSetup g_heap_setup;
