@@ -584,24 +584,33 @@ struct LambertInD {
 };
 #endif
 
+// A direction's sums over the blocks: weight, then the weighted r, g, b. With AVX-512 per lane
+// (the 16 lanes of each single-precision block sum, in double), summed at the end.
+struct LaneTotals {
 #if defined(__AVX512F__)
-// The sum of the 16 lanes (through memory: GCC 12's reduction and extraction intrinsics leave a
-// vector undefined, which -Wmaybe-uninitialized reports once inlined).
-double SumLanes(__m512 v) {
-  alignas(64) float f[16];
-  _mm512_store_ps(f, v);
-  double s = 0;
-  for (float x : f) s += x;
-  return s;
-}
+  __m512d lanes[8] = {};  // [2 k], [2 k + 1]: lanes 0-7 and 8-15 of sum k
 #endif
+  std::array<double, 4> sums = {0, 0, 0, 0};
+  std::array<double, 4> Sums() const {
+    std::array<double, 4> t = sums;
+#if defined(__AVX512F__)
+    for (int k = 0; k < 4; ++k) {
+      alignas(64) double f[16];
+      _mm512_store_pd(f, lanes[2 * k]);
+      _mm512_store_pd(f + 8, lanes[2 * k + 1]);
+      for (double x : f) t[k] += x;
+    }
+#endif
+    return t;
+  }
+};
 
 // One block's sums for direction (rx, ry, rz): weight, then the weighted r, g, b, each over
 // `n` members (a multiple of 16) in single precision.
 template <typename Kernel>
-std::array<double, 4> BlockSums(const Kernel& kernel, float rx, float ry, float rz, int n,
-                                const float* px, const float* py, const float* pz, const float* po,
-                                const float* pr, const float* pg, const float* pb) {
+void BlockSums(const Kernel& kernel, float rx, float ry, float rz, int n, const float* px,
+               const float* py, const float* pz, const float* po, const float* pr, const float* pg,
+               const float* pb, LaneTotals* acc) {
 #if defined(__AVX512F__)
   if constexpr (requires { Kernel::kVector; }) {
     const __m512 vx = _mm512_set1_ps(rx), vy = _mm512_set1_ps(ry), vz = _mm512_set1_ps(rz);
@@ -632,7 +641,20 @@ std::array<double, 4> BlockSums(const Kernel& kernel, float rx, float ry, float 
       sg = _mm512_fmadd_ps(w, _mm512_loadu_ps(pg + j), sg);
       sb = _mm512_fmadd_ps(w, _mm512_loadu_ps(pb + j), sb);
     }
-    return {SumLanes(sw), SumLanes(sr), SumLanes(sg), SumLanes(sb)};
+    // Each lane's block sum widened to double and added to the direction's lane sums: the lanes
+    // are summed once, at the end (LaneTotals::Sums), not per block (16 dependent additions a
+    // sum, a third of the work per block and direction).
+    const __m512 s[4] = {sw, sr, sg, sb};
+    for (int k = 0; k < 4; ++k) {
+      // (Through memory: GCC 12 reports the extraction intrinsics' undefined vectors.)
+      alignas(64) float f[16];
+      _mm512_store_ps(f, s[k]);
+      acc->lanes[2 * k] =
+          _mm512_add_pd(acc->lanes[2 * k], _mm512_maskz_cvtps_pd(0xFF, _mm256_load_ps(f)));
+      acc->lanes[2 * k + 1] =
+          _mm512_add_pd(acc->lanes[2 * k + 1], _mm512_maskz_cvtps_pd(0xFF, _mm256_load_ps(f + 8)));
+    }
+    return;
   } else  // NOLINT(readability/braces): the portable sum below is the else branch
 #endif
   {
@@ -648,14 +670,12 @@ std::array<double, 4> BlockSums(const Kernel& kernel, float rx, float ry, float 
         sb[k] += w * pb[j + k];
       }
     }
-    std::array<double, 4> t = {0, 0, 0, 0};
     for (int k = 0; k < kLanes; ++k) {
-      t[0] += sw[k];
-      t[1] += sr[k];
-      t[2] += sg[k];
-      t[3] += sb[k];
+      acc->sums[0] += sw[k];
+      acc->sums[1] += sr[k];
+      acc->sums[2] += sg[k];
+      acc->sums[3] += sb[k];
     }
-    return t;
   }
 }
 
@@ -679,7 +699,7 @@ std::vector<std::vector<std::array<double, 3>>> PixelSumTable::PrefilteredMany(
     return queries[q].dirs[i - first[q]];
   };
   ParallelChunks(static_cast<int>(first.back()), threads, [&](int begin, int end) {
-    std::vector<std::array<double, 4>> total(end - begin, {0, 0, 0, 0});
+    std::vector<LaneTotals> total(end - begin);
     std::unique_ptr<BlockData> made;
     if (lat_long_) made = std::make_unique<BlockData>();
     for (int blk = 0; blk < blocks_; ++blk) {
@@ -714,11 +734,9 @@ std::vector<std::vector<std::array<double, 3>>> PixelSumTable::PrefilteredMany(
           for (size_t i = i0; i < i1; ++i) {
             const Vec3& dir = dir_at(q, i);
             if (behind(dir)) continue;
-            const std::array<double, 4> sums =
-                BlockSums(kernel, static_cast<float>(dir.x), static_cast<float>(dir.y),
-                          static_cast<float>(dir.z), kBlock, px, py, pz, po, pr, pg, pb);
-            std::array<double, 4>& t = total[i - begin];
-            for (int k = 0; k < 4; ++k) t[k] += sums[k];
+            BlockSums(kernel, static_cast<float>(dir.x), static_cast<float>(dir.y),
+                      static_cast<float>(dir.z), kBlock, px, py, pz, po, pr, pg, pb,
+                      &total[i - begin]);
           }
         };
         const float a = static_cast<float>(queries[q].alpha);
@@ -748,7 +766,7 @@ std::vector<std::vector<std::array<double, 3>>> PixelSumTable::PrefilteredMany(
     for (size_t q = 0; q < queries.size(); ++q) {
       const size_t i0 = std::max<size_t>(begin, first[q]), i1 = std::min<size_t>(end, first[q + 1]);
       for (size_t i = i0; i < i1; ++i) {
-        const std::array<double, 4>& t = total[i - begin];
+        const std::array<double, 4> t = total[i - begin].Sums();
         if (t[0] > 0) out[q][i - first[q]] = {t[1] / t[0], t[2] / t[0], t[3] / t[0]};
       }
     }
