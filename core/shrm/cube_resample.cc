@@ -105,8 +105,18 @@ std::shared_ptr<const std::vector<TexelTaps>> GetTexelTaps(int face_size, int na
         t.row = j0 - 1 + 2;  // padded row index of node -1
         double v = columns == GridColumns::kShrm ? beta * nb / (2 * kPi)
                                                  : (1.5 * kPi - beta) * nb / (2 * kPi) - 0.5;
-        v = std::fmod(v, static_cast<double>(nb));
-        if (v < 0) v += nb;
+        // fmod(v, nb), then a turn added to a negative result, without fmod where v lies within
+        // a turn of [0, nb) (beta is within (-1.5 pi, 2 pi]): v - nb is then exact (Sterbenz),
+        // fmod's own result, and fmod(v, nb) = v for -nb < v < 0.
+        const double turn = nb;
+        if (v >= turn && v < 2 * turn) {
+          v -= turn;
+        } else if (v < 0 && v > -turn) {
+          v += turn;
+        } else if (!(v >= 0 && v < turn)) {
+          v = std::fmod(v, turn);
+          if (v < 0) v += turn;
+        }
         const int k0 = std::min(static_cast<int>(std::floor(v)), nb - 1);
         t.tb = static_cast<float>(v - k0);
         t.k0 = k0;
