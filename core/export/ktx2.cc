@@ -271,6 +271,19 @@ std::string Where(const Ktx2Image& im, size_t p, size_t i) {
 absl::Status CheckLevelValues(const Ktx2Image& im, size_t p, Negatives negatives) {
   const FormatInfo info = Info(im.format);
   const std::vector<float>& v = im.levels[p].pixels;
+  // First a branch-free pass the compiler vectorizes (an exponent of all ones: NaN or infinity;
+  // a set sign bit below zero where negatives are refused); the value-by-value loop that names
+  // the first offender runs only when it found one (the early exits kept it scalar: ~0.5 ms of
+  // an ibl run).
+  const bool refuse_negatives = info.is_unsigned && negatives == Negatives::kReject;
+  uint32_t offending = 0;
+  for (const float x : v) {
+    uint32_t bits;
+    std::memcpy(&bits, &x, sizeof(bits));
+    offending |= static_cast<uint32_t>((bits & 0x7F800000u) == 0x7F800000u) |
+                 static_cast<uint32_t>(refuse_negatives & (x < 0));
+  }
+  if (offending == 0) return absl::OkStatus();
   for (size_t i = 0; i < v.size(); ++i) {
     if (!std::isfinite(v[i])) {
       return Invalid(absl::StrCat(std::isnan(v[i]) ? "NaN" : "infinity", " at ", Where(im, p, i),
