@@ -13,6 +13,7 @@
 #include <mutex>
 #include <thread>
 #include <tuple>
+#include <type_traits>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -539,7 +540,19 @@ void SynthesisColumn(int m, int lmax, int nv, const V4* x, const V4* sect, const
   int l = m;
   // Pair vectors before `active_from` are negligible so far (kNegligible): their E/O get nothing.
   int active_from = FirstActive(nv, sect);
-  for (; l + 3 <= lmax; l += 4) {
+  // The column's E/O start as whatever the buffer held: the first pass of four degrees writes
+  // them (zeros where it adds nothing), the later ones add; a column of fewer than four degrees
+  // is zeroed first. (The sums are those from a zeroed buffer: each starts from +0.)
+  const auto zero = [&](int v_end) {
+    for (int k = 0; k < K; ++k) {
+      for (int v = 0; v < v_end; ++v) {
+        e[static_cast<size_t>(k) * nv + v] = V4{0, 0, 0, 0};
+        o[static_cast<size_t>(k) * nv + v] = V4{0, 0, 0, 0};
+      }
+    }
+  };
+  if (l + 3 > lmax) zero(nv);
+  const auto pass = [&]<bool kFirst>(std::bool_constant<kFirst>) {
     const FourDegrees rec(l, m, lmax, rec_a, rec_b);
     double q0[K], q1[K], q2[K], q3[K];
     // The next pass's coefficients (a cache line or two apart per degree) are fetched while this
@@ -549,6 +562,7 @@ void SynthesisColumn(int m, int lmax, int nv, const V4* x, const V4* sect, const
     load(l + 1, q1);
     load(l + 2, q2);
     load(l + 3, q3);
+    if constexpr (kFirst) zero(active_from);
     const int next_from = AdvanceNegligible(rec, active_from, x, prev, cur);
     for (int v = active_from; v < nv; ++v) {
       V4 c[4];
@@ -556,7 +570,14 @@ void SynthesisColumn(int m, int lmax, int nv, const V4* x, const V4* sect, const
       for (int k = 0; k < K; ++k) {
         V4& ek = e[static_cast<size_t>(k) * nv + v];
         V4& ok = o[static_cast<size_t>(k) * nv + v];
-        V4 te = ek, to = ok;
+        V4 te, to;
+        if constexpr (kFirst) {
+          te = V4{0, 0, 0, 0};
+          to = V4{0, 0, 0, 0};
+        } else {
+          te = ek;
+          to = ok;
+        }
         te += q0[k] * c[0];
         to += q1[k] * c[1];
         te += q2[k] * c[2];
@@ -568,7 +589,12 @@ void SynthesisColumn(int m, int lmax, int nv, const V4* x, const V4* sect, const
       cur[v] = next;
     }
     active_from = next_from;
+  };
+  if (l + 3 <= lmax) {
+    pass(std::true_type{});
+    l += 4;
   }
+  for (; l + 3 <= lmax; l += 4) pass(std::false_type{});
   // The last one to three degrees, one at a time (cur = lambda_l already on entry).
   for (const int first = l; l <= lmax; ++l) {
     if (l > first) AdvanceColumn(l, m, nv, x, rec_a, rec_b, prev, cur);
@@ -896,7 +922,8 @@ absl::Status ShtPlan::InverseImpl(std::span<const double> coeffs, std::span<T> m
     const int nv = bp / kLanes;
     const size_t m_stride = static_cast<size_t>(2) * ch * 2 * bp;
     std::vector<double>& eo = worker == 0 ? eo_first : eo_more[worker - 1];
-    eo.assign(m_stride * (lmax + 1), 0.0);
+    // (Not cleared: each column is written before it is added to, SynthesisColumn.)
+    if (eo.size() < m_stride * (lmax + 1)) eo.resize(m_stride * (lmax + 1));
 
     // Theta stage: h_m(x_p) = sum_l lambda_l^m(x_p) q_lm split by parity of l - m, with
     // q_l0 = r_l0 and q_lm = sqrt2 (r_lm - i r_{l,-m}), so that f = Re sum_m h_m e^{i m phi}.
@@ -949,6 +976,7 @@ absl::Status ShtPlan::InverseImpl(std::span<const double> coeffs, std::span<T> m
         default: {
           // Other channel counts: one degree at a time (the same sums, in the same order).
           std::vector<double> q(static_cast<size_t>(2) * ch);
+          std::fill(eo.begin() + m * m_stride, eo.begin() + (m + 1) * m_stride, 0.0);
           StartColumn(nv, sect, prev, cur);
           for (int l = m; l <= lmax; ++l) {
             if (l > m) AdvanceColumn(l, m, nv, x, ra, rb, prev, cur);
