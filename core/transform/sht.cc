@@ -57,9 +57,10 @@ void ParallelFor(int n, int num_threads, const Fn& fn) {
   for (auto& th : threads) th.join();
 }
 
-// A ring of interleaved RGB and its three channel rows (`w` values each, one after another):
-// the transforms' layouts on either side of the FFTs. Sixteen pixels at a time with AVX-512 (a
-// value is converted exactly as the scalar loop converts it), the rest one by one.
+// A ring of interleaved RGB (float or double) and its three channel rows (`w` doubles each, one
+// after another): the transforms' layouts on either side of the FFTs. Float rings sixteen pixels
+// at a time with AVX-512 (a value is converted exactly as the scalar loop converts it), the rest
+// one by one.
 #if defined(__AVX512F__)
 // Lane l of interleaved vector v (0..2) holds element e = (16 v + l) / 3 of channel
 // c = (16 v + l) % 3. Two two-source permutes make a vector: the first of the red and green rows,
@@ -87,22 +88,25 @@ struct Rgb16Tables {
 constexpr Rgb16Tables kRgb16;
 #endif
 
-void DeinterleaveRgb(const float* src, int w, double* dst) {
+template <typename T>
+void DeinterleaveRgb(const T* src, int w, double* dst) {
   int i = 0;
 #if defined(__AVX512F__)
-  for (; i + 16 <= w; i += 16) {
-    const __m512 in0 = _mm512_loadu_ps(src + 3 * i), in1 = _mm512_loadu_ps(src + 3 * i + 16),
-                 in2 = _mm512_loadu_ps(src + 3 * i + 32);
-    for (int c = 0; c < 3; ++c) {
-      const __m512 t = _mm512_permutex2var_ps(
-          in0, _mm512_load_si512(reinterpret_cast<const __m512i*>(kRgb16.lo[c])), in1);
-      const __m512 v = _mm512_permutex2var_ps(
-          t, _mm512_load_si512(reinterpret_cast<const __m512i*>(kRgb16.hi[c])), in2);
-      alignas(64) float f[16];
-      _mm512_store_ps(f, v);
-      double* d = dst + static_cast<size_t>(c) * w + i;
-      _mm512_storeu_pd(d, _mm512_maskz_cvtps_pd(0xFF, _mm256_load_ps(f)));
-      _mm512_storeu_pd(d + 8, _mm512_maskz_cvtps_pd(0xFF, _mm256_load_ps(f + 8)));
+  if constexpr (std::is_same_v<T, float>) {
+    for (; i + 16 <= w; i += 16) {
+      const __m512 in0 = _mm512_loadu_ps(src + 3 * i), in1 = _mm512_loadu_ps(src + 3 * i + 16),
+                   in2 = _mm512_loadu_ps(src + 3 * i + 32);
+      for (int c = 0; c < 3; ++c) {
+        const __m512 t = _mm512_permutex2var_ps(
+            in0, _mm512_load_si512(reinterpret_cast<const __m512i*>(kRgb16.lo[c])), in1);
+        const __m512 v = _mm512_permutex2var_ps(
+            t, _mm512_load_si512(reinterpret_cast<const __m512i*>(kRgb16.hi[c])), in2);
+        alignas(64) float f[16];
+        _mm512_store_ps(f, v);
+        double* d = dst + static_cast<size_t>(c) * w + i;
+        _mm512_storeu_pd(d, _mm512_maskz_cvtps_pd(0xFF, _mm256_load_ps(f)));
+        _mm512_storeu_pd(d + 8, _mm512_maskz_cvtps_pd(0xFF, _mm256_load_ps(f + 8)));
+      }
     }
   }
 #endif
@@ -113,38 +117,32 @@ void DeinterleaveRgb(const float* src, int w, double* dst) {
   }
 }
 
-void InterleaveRgb(const double* src, int w, float* dst) {
+template <typename T>
+void InterleaveRgb(const double* src, int w, T* dst) {
   int i = 0;
 #if defined(__AVX512F__)
-  for (; i + 16 <= w; i += 16) {
-    alignas(64) float f[3][16];
-    for (int c = 0; c < 3; ++c) {
-      const double* row = src + static_cast<size_t>(c) * w + i;
-      _mm256_store_ps(f[c], _mm512_maskz_cvtpd_ps(0xFF, _mm512_loadu_pd(row)));
-      _mm256_store_ps(f[c] + 8, _mm512_maskz_cvtpd_ps(0xFF, _mm512_loadu_pd(row + 8)));
-    }
-    const __m512 r = _mm512_load_ps(f[0]), g = _mm512_load_ps(f[1]), b = _mm512_load_ps(f[2]);
-    for (int v = 0; v < 3; ++v) {
-      const __m512 t = _mm512_permutex2var_ps(
-          r, _mm512_load_si512(reinterpret_cast<const __m512i*>(kRgb16.rg[v])), g);
-      _mm512_storeu_ps(dst + 3 * i + 16 * v,
-                       _mm512_permutex2var_ps(
-                           t, _mm512_load_si512(reinterpret_cast<const __m512i*>(kRgb16.b[v])), b));
+  if constexpr (std::is_same_v<T, float>) {
+    for (; i + 16 <= w; i += 16) {
+      alignas(64) float f[3][16];
+      for (int c = 0; c < 3; ++c) {
+        const double* row = src + static_cast<size_t>(c) * w + i;
+        _mm256_store_ps(f[c], _mm512_maskz_cvtpd_ps(0xFF, _mm512_loadu_pd(row)));
+        _mm256_store_ps(f[c] + 8, _mm512_maskz_cvtpd_ps(0xFF, _mm512_loadu_pd(row + 8)));
+      }
+      const __m512 r = _mm512_load_ps(f[0]), g = _mm512_load_ps(f[1]), b = _mm512_load_ps(f[2]);
+      for (int v = 0; v < 3; ++v) {
+        const __m512 t = _mm512_permutex2var_ps(
+            r, _mm512_load_si512(reinterpret_cast<const __m512i*>(kRgb16.rg[v])), g);
+        _mm512_storeu_ps(
+            dst + 3 * i + 16 * v,
+            _mm512_permutex2var_ps(
+                t, _mm512_load_si512(reinterpret_cast<const __m512i*>(kRgb16.b[v])), b));
+      }
     }
   }
 #endif
   for (; i < w; ++i) {
-    for (int c = 0; c < 3; ++c) dst[3 * i + c] = static_cast<float>(src[c * w + i]);
-  }
-}
-void InterleaveRgb(const double* src, int w, double* dst) {
-  for (int i = 0; i < w; ++i) {
-    for (int c = 0; c < 3; ++c) dst[3 * i + c] = src[c * w + i];
-  }
-}
-void DeinterleaveRgb(const double* src, int w, double* dst) {
-  for (int i = 0; i < w; ++i) {
-    for (int c = 0; c < 3; ++c) dst[c * w + i] = src[3 * i + c];
+    for (int c = 0; c < 3; ++c) dst[3 * i + c] = static_cast<T>(src[c * w + i]);
   }
 }
 
