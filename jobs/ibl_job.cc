@@ -81,6 +81,7 @@ nlohmann::json CubeJson(const IblCube& cube) {
   }
   return {{"lobe", ibl::SpecularLobeName(cube.chain.lobe)},
           {"light_degree", cube.chain.light_degree},
+          {"peaks", {{"count", cube.chain.peaks}, {"threshold", cube.chain.peak_threshold}}},
           {"clamped_negative_values", cube.clamped},
           {"most_negative_relative", cube.most_negative},
           {"levels", levels}};

@@ -37,12 +37,17 @@ ibl::SplitSumSetOptions ViewerSplitSumOptions() {
 absl::StatusOr<SplitSumShading> SplitSumShading::Create(const EnvMap& map, const Brdf& brdf,
                                                         int threads, const Mat3& rotation) {
   if (AsGgx(brdf) == nullptr) return NotGgx(brdf);
+  // The light `shrm ibl` and the live session use (the map's peaks split off and summed
+  // directly, ibl::ComputeSplitSumLight), so that a fixed map's chain is the live frame's.
+  const ibl::SplitSumSetOptions set = ViewerSplitSumOptions();
+  absl::StatusOr<ibl::SpecularLight> light = ibl::ComputeSplitSumLight(map, rotation, set, threads);
+  if (!light.ok()) return light.status();
   ibl::SpecularOptions opt;
-  opt.chain = ViewerSplitSumOptions().chain;
+  opt.chain = set.chain;
   opt.tolerance = kChainTolerance;
   opt.threads = threads;
   opt.rotation = rotation;
-  absl::StatusOr<ibl::SpecularChain> c = ibl::PrefilterSpecular(map, opt);
+  absl::StatusOr<ibl::SpecularChain> c = ibl::PrefilterSpecular(map, opt, &*light);
   if (!c.ok()) return c.status();
   return FromChain(*std::move(c), brdf);
 }

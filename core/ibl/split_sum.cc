@@ -19,6 +19,7 @@
 #include "core/base/status_macros.h"
 #include "core/brdf/vector_math.h"
 #include "core/envmap/lighting.h"
+#include "core/ibl/light_peaks.h"
 #include "core/sh/quadrature.h"
 #include "core/sh/rotation.h"
 #include "core/sh/sh.h"
@@ -292,8 +293,43 @@ double SplitSumKernel(SpecularLobe lobe, double alpha, double cos_theta) {
 namespace {
 
 std::vector<double> ComputeSplitSumZonal(SpecularLobe lobe, double alpha, int lmax);
+void KernelNodes(SpecularLobe lobe, double alpha, int lmax, std::vector<double>& x,
+                 std::vector<double>& w);
 
 }  // namespace
+
+double SplitSumKernelIntegral(SpecularLobe lobe, double alpha) {
+  std::vector<double> x, w;
+  KernelNodes(lobe, alpha, 0, x, w);
+  double sum = 0;
+  for (double v : w) sum += v;
+  return 2 * kPi * sum;
+}
+
+PeakKernel SplitSumPeakKernel(SpecularLobe lobe, double alpha) {
+  PeakKernel k;
+  const double integral = SplitSumKernelIntegral(lobe, alpha);
+  switch (lobe) {
+    case SpecularLobe::kGgx:
+      // K = (alpha^2 / pi) (1 - e / 2)+ / den^2 (light_peaks.h).
+      k.form = PeakKernel::Form::kGgx;
+      k.alpha2 = alpha * alpha;
+      k.scale = alpha * alpha / kPi / integral;
+      break;
+    case SpecularLobe::kLambert:
+      k.form = PeakKernel::Form::kCosine;
+      k.scale = 1 / integral;
+      break;
+    case SpecularLobe::kCharlie:
+      k.form = PeakKernel::Form::kGeneric;
+      k.scale = 1 / integral;
+      k.generic = [alpha](double cos_theta) {
+        return SplitSumKernel(SpecularLobe::kCharlie, alpha, cos_theta);
+      };
+      break;
+  }
+  return k;
+}
 
 std::vector<double> SplitSumZonal(SpecularLobe lobe, double alpha, int lmax) {
   // Kept for the process (a job asks for each level's lobe twice: the light's degree, then the
@@ -322,8 +358,10 @@ std::vector<double> SplitSumZonal(SpecularLobe lobe, double alpha, int lmax) {
 
 namespace {
 
-std::vector<double> ComputeSplitSumZonal(SpecularLobe lobe, double alpha, int lmax) {
-  std::vector<double> g(lmax + 1, 0.0);
+// The quadrature nodes x = cos(theta) and weights w = K(x) sin(theta) dtheta of the kernel over
+// theta in [0, pi / 2], for degrees up to lmax (nodes where K = 0 dropped).
+void KernelNodes(SpecularLobe lobe, double alpha, int lmax, std::vector<double>& x,
+                 std::vector<double>& w) {
   const double scale =
       lobe == SpecularLobe::kLambert ? 0.25 : std::max(1e-6, std::min(alpha, 1.0) / 4);
   // A 16-node Gauss-Legendre panel integrates P_l (cos theta) times the smooth kernel to
@@ -333,9 +371,8 @@ std::vector<double> ComputeSplitSumZonal(SpecularLobe lobe, double alpha, int lm
   const double max_width = std::min(0.1, kPanelPhase / (lmax + 1));
   const std::vector<double> b = Breakpoints(scale, max_width);
   const RingQuadrature gl = GaussLegendreRule(kPanelNodes);
-  // The nodes first, then the Legendre recurrence over all of them at once per degree (the
-  // inner loop runs over nodes: independent lanes, vectorized).
-  std::vector<double> x, w;
+  x.clear();
+  w.clear();
   x.reserve((b.size() - 1) * kPanelNodes);
   w.reserve(x.capacity());
   for (size_t i = 1; i < b.size(); ++i) {
@@ -350,6 +387,14 @@ std::vector<double> ComputeSplitSumZonal(SpecularLobe lobe, double alpha, int lm
       w.push_back(weight);
     }
   }
+}
+
+std::vector<double> ComputeSplitSumZonal(SpecularLobe lobe, double alpha, int lmax) {
+  std::vector<double> g(lmax + 1, 0.0);
+  std::vector<double> x, w;
+  // The nodes first, then the Legendre recurrence over all of them at once per degree (the
+  // inner loop runs over nodes: independent lanes, vectorized).
+  KernelNodes(lobe, alpha, lmax, x, w);
   double norm = 0;
   for (double v : w) norm += v;
   if (x.empty() || norm == 0) return g;
@@ -999,19 +1044,33 @@ SplitSumLightTry SplitSumLightTries(const EnvMap& map, const Mat3& rotation,
   return t;
 }
 
+PeakSplit SplitSumPeakSplit(const EnvMap& map, const SplitSumSetOptions& options) {
+  // (Not with the sheen lobes, whose kernel has no short vector form for the direct sums.)
+  if (options.sheen) return {};
+  return SplitLightPeaks(map);
+}
+
 absl::StatusOr<SpecularLight> ComputeSplitSumLight(const EnvMap& map, const Mat3& rotation,
                                                    const SplitSumSetOptions& options, int threads) {
   if (threads < 1) return absl::InvalidArgumentError(absl::StrCat("IBL: threads = ", threads));
-  const LightMoments moments = MapLightMoments(map);
+  PeakSplit split = SplitSumPeakSplit(map, options);
+  const EnvMap& source = split.rest ? *split.rest : map;
+  const LightMoments moments = MapLightMoments(source);
   // SplitSumLightDegree's bound counts all the map's spread as possibly above D; the light's own
   // energies show how much is: the first try is kept when every level leaves little above it.
-  const SplitSumLightTry tries = SplitSumLightTries(map, rotation, options, moments);
+  const SplitSumLightTry tries = SplitSumLightTries(source, rotation, options, moments);
   if (tries.first > 0) {
     SHRM_ASSIGN_OR_RETURN(SpecularLight light,
-                          LightToDegree(map, rotation, tries.first, threads, moments.total));
-    if (SplitSumLightSuffices(light, options)) return light;
+                          LightToDegree(source, rotation, tries.first, threads, moments.total));
+    if (SplitSumLightSuffices(light, options)) {
+      light.peaks = RotatedPeaks(split.peaks, rotation);
+      return light;
+    }
   }
-  return LightToDegree(map, rotation, tries.full, threads, moments.total);
+  SHRM_ASSIGN_OR_RETURN(SpecularLight light,
+                        LightToDegree(source, rotation, tries.full, threads, moments.total));
+  light.peaks = RotatedPeaks(split.peaks, rotation);
+  return light;
 }
 
 absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const SpecularOptions& options,
@@ -1044,6 +1103,8 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
     limit = light->degree;
     if (options.max_degree > 0) limit = std::min(limit, options.max_degree);
     out.light_degree = light->degree;
+    out.peaks = static_cast<int>(light->peaks.size());
+    out.peak_threshold = light->peaks.threshold;
   }
   const Mat3 inverse = options.rotation.Transposed();
   SynthesisScratch local;
@@ -1118,6 +1179,10 @@ absl::StatusOr<SpecularChain> PrefilterSpecular(const EnvMap& map, const Specula
     auto built = ShrmSynthesizer::RealZonalCube(f, 3, real, level.face_size, grid);
     if (!built.ok()) return built.status();
     cube.data = std::move(built->data);
+    if (!light->peaks.empty()) {
+      AddPeakSums(light->peaks, SplitSumPeakKernel(options.lobe, level.alpha), cube,
+                  options.threads);
+    }
     levels[k] = std::move(level);
   }
   out.levels = std::move(levels);
@@ -1268,6 +1333,7 @@ absl::StatusOr<SplitSumSet> PrefilterSplitSumSet(const EnvMap& map, const Specul
   set.radiance_sh9.assign(ShCount(2) * 3, 0.0);  // zeros above the degree of a tiny map
   std::copy_n(light.coeffs.begin(), std::min<size_t>(light.coeffs.size(), ShCount(2) * 3),
               set.radiance_sh9.begin());
+  AddPeakCoefficients(light.peaks, 2, set.radiance_sh9);
   done("irradiance");
   return set;
 }

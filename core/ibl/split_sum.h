@@ -65,6 +65,7 @@
 #include "absl/status/statusor.h"
 #include "core/base/geometry.h"
 #include "core/envmap/envmap.h"
+#include "core/ibl/light_peaks.h"
 #include "core/shrm/prefilter.h"
 #include "core/shrm/radiance_cube.h"
 #include "core/shrm/shrm_synthesis.h"
@@ -112,6 +113,12 @@ double SplitSumKernel(SpecularLobe lobe, double alpha, double cos_theta);
 
 // g_l, l = 0..lmax, normalized so that g_0 = 1 (see the header comment); alpha > 0.
 std::vector<double> SplitSumZonal(SpecularLobe lobe, double alpha, int lmax);
+
+// integral K dw over the sphere (the normalization of g_l), by SplitSumZonal's quadrature.
+double SplitSumKernelIntegral(SpecularLobe lobe, double alpha);
+// The lobe's kernel for the peaks' direct sums (light_peaks.h), normalized by
+// SplitSumKernelIntegral as g_0 = 1 normalizes the SH path.
+PeakKernel SplitSumPeakKernel(SpecularLobe lobe, double alpha);
 
 // The slow twin: the prefiltered radiance at unit world direction r by a sum over the map's
 // native samples, sum L_k K(r.d_k) Omega_k / sum K(r.d_k) Omega_k. For alpha = 0, the map's
@@ -209,6 +216,10 @@ struct SpecularLevel {
 struct SpecularChain {
   SpecularLobe lobe = SpecularLobe::kGgx;
   int light_degree = 0;  // degree of the coefficients computed from the map
+  // The peaks summed directly (SpecularLight::peaks): how many, and the luminance above which
+  // pixels were split (0: none).
+  int peaks = 0;
+  double peak_threshold = 0;
   std::vector<SpecularLevel> levels;
 };
 
@@ -254,6 +265,10 @@ struct SpecularLight {
   // max_{degree < j <= map_degree} g_j^2 (total_energy - sum_l energy[l]).
   int map_degree = 0;
   double total_energy = 0;
+  // The map's brightest pixels split off (light_peaks.h; world directions after `rotation`):
+  // when not empty, `coeffs`, `energy`, `map_degree` and `total_energy` are those of the rest of
+  // the map, and PrefilterSpecular adds the peaks' direct sums to every convolved level.
+  LightPeaks peaks;
 };
 absl::StatusOr<SpecularLight> ComputeSpecularLight(const EnvMap& map, const Mat3& rotation,
                                                    int max_degree, int threads);
@@ -342,6 +357,11 @@ SplitSumLightTry SplitSumLightTries(const EnvMap& map, const Mat3& rotation,
 // Charlie per roughness > 0, the Lambert irradiance) leaves within kFirstTryShare x tolerance^2
 // of its total above light.degree (the bound PrefilterSpecular counts as dropped).
 bool SplitSumLightSuffices(const SpecularLight& light, const SplitSumSetOptions& options);
+// The split of the map's peaks a split-sum set uses (SplitLightPeaks; none with options.sheen,
+// whose Charlie lobes have no vector form for the direct sums).
+PeakSplit SplitSumPeakSplit(const EnvMap& map, const SplitSumSetOptions& options);
+// With the peaks split off (SplitSumPeakSplit), all of the above applies to the rest of the map,
+// and the light carries the peaks.
 absl::StatusOr<SpecularLight> ComputeSplitSumLight(const EnvMap& map, const Mat3& rotation,
                                                    const SplitSumSetOptions& options, int threads);
 

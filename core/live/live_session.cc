@@ -339,28 +339,33 @@ absl::Status LiveSession::ComputeSplitSum(const State& state, const LiveFrame* p
     split_sum_unrotated_.clear();
     split_sum_first_failed_ = false;
     split_sum_map_ = state.map;
-    split_sum_moments_ = ibl::MapLightMoments(*state.map);
+    split_sum_split_ = ibl::SplitSumPeakSplit(*state.map, *split_sum_);
+    split_sum_moments_ =
+        ibl::MapLightMoments(split_sum_split_.rest ? *split_sum_split_.rest : *state.map);
   }
+  // What ibl::ComputeSplitSumLight transforms: the map less its peaks.
+  const EnvMap& source = split_sum_split_.rest ? *split_sum_split_.rest : *state.map;
   // The degrees `shrm ibl` tries (ibl::ComputeSplitSumLight), each map's coefficients kept per
   // degree: the first try when it suffices, else what the set's lobes need.
   const ibl::SplitSumLightTry tries =
-      ibl::SplitSumLightTries(*state.map, state.rotation, *split_sum_, split_sum_moments_);
+      ibl::SplitSumLightTries(source, state.rotation, *split_sum_, split_sum_moments_);
   ibl::SpecularLight light;
   for (const int degree : {tries.first, tries.full}) {
     if (degree != tries.full && (degree <= 0 || split_sum_first_failed_)) continue;
     auto it = split_sum_unrotated_.find(degree);
     if (it == split_sum_unrotated_.end()) {
       SHRM_ASSIGN_OR_RETURN(std::vector<double> unrotated,
-                            LightingCoefficients(*state.map, degree, Mat3::Identity(),
-                                                 options_.threads, ShtQuadrature::kPixelSum));
+                            LightingCoefficients(source, degree, Mat3::Identity(), options_.threads,
+                                                 ShtQuadrature::kPixelSum));
       it = split_sum_unrotated_
                .emplace(degree, std::make_shared<const std::vector<double>>(std::move(unrotated)))
                .first;
     }
-    SHRM_ASSIGN_OR_RETURN(light, ibl::SpecularLightFromCoefficients(
-                                     degree, state.rotation, *it->second,
-                                     ibl::SpecularLightDegree(*state.map, state.rotation, 0),
-                                     split_sum_moments_.total));
+    SHRM_ASSIGN_OR_RETURN(
+        light, ibl::SpecularLightFromCoefficients(
+                   degree, state.rotation, *it->second,
+                   ibl::SpecularLightDegree(source, state.rotation, 0), split_sum_moments_.total));
+    light.peaks = ibl::RotatedPeaks(split_sum_split_.peaks, state.rotation);
     if (degree == tries.full || ibl::SplitSumLightSuffices(light, *split_sum_)) break;
     split_sum_first_failed_ = true;
   }
