@@ -20,6 +20,7 @@
 #include "core/export/ktx1.h"
 #include "core/export/ktx2.h"
 #include "core/ibl/dfg.h"
+#include "core/ibl/light_peaks.h"
 #include "core/ibl/split_sum.h"
 
 namespace shrm::ibl {
@@ -156,6 +157,35 @@ BENCHMARK(BM_IrradianceCubeFromLighting)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(3)
     ->UseRealTime();
+
+// The map's peaks split off (core/ibl/light_peaks.h; none on courtyard: run with
+// --map=interior.exr, 128 peaks, or city.exr, 29), and their direct sums at every texel of the
+// Filament chain's sharpest level (128 x 128 faces, alpha = 0.134^2).
+void BM_SplitLightPeaks(benchmark::State& state) {
+  size_t peaks = 0;
+  for (auto _ : state) {
+    const PeakSplit split = SplitLightPeaks(Map());
+    peaks = split.peaks.size();
+    benchmark::DoNotOptimize(split);
+  }
+  state.counters["peaks"] = static_cast<double>(peaks);
+}
+BENCHMARK(BM_SplitLightPeaks)->Unit(benchmark::kMillisecond);
+
+void BM_PeakSums(benchmark::State& state) {
+  const PeakSplit split = SplitLightPeaks(Map());
+  const double r = 1 - std::sqrt(0.75);  // level 1 of 5 (Filament: 1 - sqrt(1 - t))
+  const PeakKernel kernel = SplitSumPeakKernel(SpecularLobe::kGgx, r * r);
+  RadianceCube cube;
+  cube.face_size = g_size / 2;
+  cube.data.assign(cube.size(), 0.0f);
+  for (auto _ : state) {
+    AddPeakSums(split.peaks, kernel, cube, 1);
+    benchmark::ClobberMemory();
+  }
+  state.counters["peaks"] = static_cast<double>(split.peaks.size());
+}
+BENCHMARK(BM_PeakSums)->Unit(benchmark::kMillisecond);
 
 void BM_ImportanceSampled1024(benchmark::State& state) {
   const EnvMap& map = Map();

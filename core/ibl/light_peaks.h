@@ -72,19 +72,23 @@ void AddPeakCoefficients(const LightPeaks& peaks, int lmax, std::span<double> co
 // A zonal kernel K(r . d) for the direct sums, in e = |r - d|^2 = 2 (1 - r . d) (the form of
 // PixelSumTable, which keeps a sharp peak exact in single precision), times `scale` (the caller's
 // 1 / integral K dw):
-//  - kGgx: (1 - e / 2)+ / (alpha^2 + (1 - alpha^2) e / 4)^2 (D(cos(theta / 2)) cos theta up to
-//    the factor alpha^2 / pi, which `scale` carries);
+//  - kGgx: (1 - e / 2)+ / (1 + slope e)^2, slope = (1 - alpha^2) / (4 alpha^2): D(cos(theta / 2))
+//    cos theta up to the factor 1 / (pi alpha^2), which `scale` carries (the form stays within
+//    [0, 1] however sharp the lobe);
 //  - kCosine: (1 - e / 2)+ (the Lambert lobe);
 //  - kGeneric: generic(cos theta), evaluated in double (any other lobe; slow).
 struct PeakKernel {
   enum class Form { kGgx, kCosine, kGeneric };
   Form form = Form::kCosine;
-  double alpha2 = 0;  // kGgx
+  double slope = 0;  // kGgx
   double scale = 1;
   std::function<double(double cos_theta)> generic;  // kGeneric
 };
 // Adds sum_k kernel(r . d_k) (w_k L_k) to every texel of `cube` (3 channels), r the texel
-// centre's direction (CubeTexelDirection); rows of faces split over `threads`.
+// centre's direction (CubeTexelDirection); rows of faces split over `threads`. 16 texels of a
+// row at a time in single precision (the reciprocal by the AVX-512 estimate, within 2^-14), the
+// peaks in groups of nearby directions whose bounding cones skip the runs of texels 90 degrees or
+// more away (about half of all pairs; every kernel is 0 there).
 void AddPeakSums(const LightPeaks& peaks, const PeakKernel& kernel, RadianceCube& cube,
                  int threads);
 

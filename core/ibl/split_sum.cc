@@ -311,10 +311,10 @@ PeakKernel SplitSumPeakKernel(SpecularLobe lobe, double alpha) {
   const double integral = SplitSumKernelIntegral(lobe, alpha);
   switch (lobe) {
     case SpecularLobe::kGgx:
-      // K = (alpha^2 / pi) (1 - e / 2)+ / den^2 (light_peaks.h).
+      // D = alpha^2 / (pi den^2), den = alpha^2 + (1 - alpha^2) e / 4 = alpha^2 (1 + slope e).
       k.form = PeakKernel::Form::kGgx;
-      k.alpha2 = alpha * alpha;
-      k.scale = alpha * alpha / kPi / integral;
+      k.slope = (1 - alpha * alpha) / (4 * alpha * alpha);
+      k.scale = 1 / (kPi * alpha * alpha * integral);
       break;
     case SpecularLobe::kLambert:
       k.form = PeakKernel::Form::kCosine;
@@ -923,16 +923,17 @@ LightMoments MapLightMoments(const EnvMap& map) {
   double sum = 0, sum_sq = 0;
   for (int j = 0; j < img->height; ++j) {
     const float* row = img->pixels.data() + static_cast<size_t>(j) * w * img->channels;
-    double s = 0, s2 = 0;
+    // Four partial sums: independent chains of additions.
+    double s[4] = {0, 0, 0, 0}, s2[4] = {0, 0, 0, 0};
     for (size_t i = 0; i < w; ++i) {
       const float* px = row + i * img->channels;
       const double y = kLuma[0] * px[0] + kLuma[1] * px[1] + kLuma[2] * px[2];
-      s += y;
-      s2 += y * y;
+      s[i % 4] += y;
+      s2[i % 4] += y * y;
     }
     const double weight = 2 * kPi / static_cast<double>(w) * rule.weight[j];
-    sum += weight * s;
-    sum_sq += weight * s2;
+    sum += weight * ((s[0] + s[1]) + (s[2] + s[3]));
+    sum_sq += weight * ((s2[0] + s2[1]) + (s2[2] + s2[3]));
   }
   out.known = true;
   out.e0 = sum * sum / (4 * kPi);
