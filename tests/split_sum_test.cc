@@ -396,13 +396,12 @@ TEST(SplitSumTest, SplitSumLightDegreeBoundsWhatItLeavesOut) {
       options.chain = *MakeMipChain(RoughnessPreset::kFilament, 256, 0);
       options.tolerance = 1e-3 / 30;  // the job's default (jobs/ibl_job.h)
       options.sheen = sheen;
-      // The light is that of the map less its peaks (SplitSumPeakSplit) where they are split:
+      // The light is that of the map less its peaks (SplitLightPeaks) where they are split:
       // everything below is about what is transformed.
-      const PeakSplit split = SplitSumPeakSplit(*map, options);
+      const PeakSplit split = SplitLightPeaks(*map);
       const EnvMap& source = split.rest ? *split.rest : *map;
-      // The maps with a sun are split (not with the sheen lobes); courtyard is not.
-      EXPECT_EQ(split.rest.has_value(), !sheen && std::string(name) != "courtyard.exr")
-          << name << " sheen " << sheen;
+      // The maps with a sun are split; courtyard is not.
+      EXPECT_EQ(split.rest.has_value(), std::string(name) != "courtyard.exr") << name;
       auto full = ComputeSpecularLight(source, Mat3::Identity(), 0, 1);
       ASSERT_TRUE(full.ok()) << full.status();
       const LightMoments moments = MapLightMoments(source);
@@ -416,7 +415,8 @@ TEST(SplitSumTest, SplitSumLightDegreeBoundsWhatItLeavesOut) {
       ASSERT_LE(d, full->degree);
       // ComputeSplitSumLight transforms to the first try when it suffices, else to d; the share
       // of each level's tolerance left above is the one granted to the degree it kept.
-      const SplitSumLightTry tries = SplitSumLightTries(source, Mat3::Identity(), options, moments);
+      const SplitSumLightTry tries =
+          SplitSumLightTries(source, Mat3::Identity(), options, moments, split.rest.has_value());
       ASSERT_EQ(tries.full, d);
       auto light = ComputeSplitSumLight(*map, Mat3::Identity(), options, 1);
       ASSERT_TRUE(light.ok()) << light.status();

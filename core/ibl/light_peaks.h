@@ -76,11 +76,13 @@ void AddPeakCoefficients(const LightPeaks& peaks, int lmax, std::span<double> co
 //    cos theta up to the factor 1 / (pi alpha^2), which `scale` carries (the form stays within
 //    [0, 1] however sharp the lobe);
 //  - kCosine: (1 - e / 2)+ (the Lambert lobe);
+//  - kPower: (e / 4)^exponent (1 - e / 2)+ (the Charlie lobe: sin^2(theta_h) = e / 4);
 //  - kGeneric: generic(cos theta), evaluated in double (any other lobe; slow).
 struct PeakKernel {
-  enum class Form { kGgx, kCosine, kGeneric };
+  enum class Form { kGgx, kCosine, kPower, kGeneric };
   Form form = Form::kCosine;
-  double slope = 0;  // kGgx
+  double slope = 0;     // kGgx
+  double exponent = 0;  // kPower
   double scale = 1;
   std::function<double(double cos_theta)> generic;  // kGeneric
 };

@@ -321,11 +321,10 @@ PeakKernel SplitSumPeakKernel(SpecularLobe lobe, double alpha) {
       k.scale = 1 / integral;
       break;
     case SpecularLobe::kCharlie:
-      k.form = PeakKernel::Form::kGeneric;
-      k.scale = 1 / integral;
-      k.generic = [alpha](double cos_theta) {
-        return SplitSumKernel(SpecularLobe::kCharlie, alpha, cos_theta);
-      };
+      // D = (2 + 1 / alpha) (sin^2 theta_h)^(1 / (2 alpha)) / (2 pi), sin^2 theta_h = e / 4.
+      k.form = PeakKernel::Form::kPower;
+      k.exponent = 0.5 / alpha;
+      k.scale = (2 + 1 / alpha) / (2 * kPi * integral);
       break;
   }
   return k;
@@ -1033,33 +1032,29 @@ bool SplitSumLightSuffices(const SpecularLight& light, const SplitSumSetOptions&
 }
 
 SplitSumLightTry SplitSumLightTries(const EnvMap& map, const Mat3& rotation,
-                                    const SplitSumSetOptions& options,
-                                    const LightMoments& moments) {
+                                    const SplitSumSetOptions& options, const LightMoments& moments,
+                                    bool peaks_split) {
   SplitSumLightTry t;
   t.full = SplitSumLightDegree(map, rotation, options, moments);
-  // (Not with the sheen lobes: on the four bundled maps their bands reach the map's limit, and a
-  // first try would only add a transform.)
-  if (moments.known && !options.sheen && t.full - kFirstTryBelow >= kFirstTryBelow) {
+  // (Not with the sheen lobes of a whole map: on the bundled maps their bands reach the map's
+  // limit, and a first try would only add a transform. Without its peaks they fall fast.)
+  if (moments.known && (!options.sheen || peaks_split) &&
+      t.full - kFirstTryBelow >= kFirstTryBelow) {
     t.first = t.full - kFirstTryBelow;
   }
   return t;
 }
 
-PeakSplit SplitSumPeakSplit(const EnvMap& map, const SplitSumSetOptions& options) {
-  // (Not with the sheen lobes, whose kernel has no short vector form for the direct sums.)
-  if (options.sheen) return {};
-  return SplitLightPeaks(map);
-}
-
 absl::StatusOr<SpecularLight> ComputeSplitSumLight(const EnvMap& map, const Mat3& rotation,
                                                    const SplitSumSetOptions& options, int threads) {
   if (threads < 1) return absl::InvalidArgumentError(absl::StrCat("IBL: threads = ", threads));
-  PeakSplit split = SplitSumPeakSplit(map, options);
+  PeakSplit split = SplitLightPeaks(map);
   const EnvMap& source = split.rest ? *split.rest : map;
   const LightMoments moments = MapLightMoments(source);
   // SplitSumLightDegree's bound counts all the map's spread as possibly above D; the light's own
   // energies show how much is: the first try is kept when every level leaves little above it.
-  const SplitSumLightTry tries = SplitSumLightTries(source, rotation, options, moments);
+  const SplitSumLightTry tries =
+      SplitSumLightTries(source, rotation, options, moments, split.rest.has_value());
   if (tries.first > 0) {
     SHRM_ASSIGN_OR_RETURN(SpecularLight light,
                           LightToDegree(source, rotation, tries.first, threads, moments.total));

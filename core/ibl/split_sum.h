@@ -344,24 +344,22 @@ int SplitSumLightDegree(const EnvMap& map, const Mat3& rotation, const SplitSumS
 inline constexpr int kFirstTryBelow = 64;
 inline constexpr double kFirstTryShare = 0.3;
 // The degrees ComputeSplitSumLight transforms to: `first` (kFirstTryBelow below `full`, 0 when
-// none is tried: unknown moments, a low `full`, or options.sheen, whose Charlie lobes kept every
-// band to the map's limit on the bundled maps), then `full` = SplitSumLightDegree unless the
-// first suffices.
+// none is tried: unknown moments, a low `full`, or options.sheen on a map whose peaks were not
+// split (`peaks_split`): the Charlie lobes of a whole map with a sun kept every band to its limit
+// on the bundled maps), then `full` = SplitSumLightDegree unless the first suffices.
 struct SplitSumLightTry {
   int first = 0;
   int full = 0;
 };
 SplitSumLightTry SplitSumLightTries(const EnvMap& map, const Mat3& rotation,
-                                    const SplitSumSetOptions& options, const LightMoments& moments);
+                                    const SplitSumSetOptions& options, const LightMoments& moments,
+                                    bool peaks_split = false);
 // True when the light of a first try suffices: with its energies, every level of the set (GGX and
 // Charlie per roughness > 0, the Lambert irradiance) leaves within kFirstTryShare x tolerance^2
 // of its total above light.degree (the bound PrefilterSpecular counts as dropped).
 bool SplitSumLightSuffices(const SpecularLight& light, const SplitSumSetOptions& options);
-// The split of the map's peaks a split-sum set uses (SplitLightPeaks; none with options.sheen,
-// whose Charlie lobes have no vector form for the direct sums).
-PeakSplit SplitSumPeakSplit(const EnvMap& map, const SplitSumSetOptions& options);
-// With the peaks split off (SplitSumPeakSplit), all of the above applies to the rest of the map,
-// and the light carries the peaks.
+// With the map's peaks split off (SplitLightPeaks), all of the above applies to the rest of the
+// map, and the light carries the peaks.
 absl::StatusOr<SpecularLight> ComputeSplitSumLight(const EnvMap& map, const Mat3& rotation,
                                                    const SplitSumSetOptions& options, int threads);
 

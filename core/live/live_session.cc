@@ -339,7 +339,7 @@ absl::Status LiveSession::ComputeSplitSum(const State& state, const LiveFrame* p
     split_sum_unrotated_.clear();
     split_sum_first_failed_ = false;
     split_sum_map_ = state.map;
-    split_sum_split_ = ibl::SplitSumPeakSplit(*state.map, *split_sum_);
+    split_sum_split_ = ibl::SplitLightPeaks(*state.map);
     split_sum_moments_ =
         ibl::MapLightMoments(split_sum_split_.rest ? *split_sum_split_.rest : *state.map);
   }
@@ -347,8 +347,8 @@ absl::Status LiveSession::ComputeSplitSum(const State& state, const LiveFrame* p
   const EnvMap& source = split_sum_split_.rest ? *split_sum_split_.rest : *state.map;
   // The degrees `shrm ibl` tries (ibl::ComputeSplitSumLight), each map's coefficients kept per
   // degree: the first try when it suffices, else what the set's lobes need.
-  const ibl::SplitSumLightTry tries =
-      ibl::SplitSumLightTries(source, state.rotation, *split_sum_, split_sum_moments_);
+  const ibl::SplitSumLightTry tries = ibl::SplitSumLightTries(
+      source, state.rotation, *split_sum_, split_sum_moments_, split_sum_split_.rest.has_value());
   ibl::SpecularLight light;
   for (const int degree : {tries.first, tries.full}) {
     if (degree != tries.full && (degree <= 0 || split_sum_first_failed_)) continue;

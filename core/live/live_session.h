@@ -186,7 +186,7 @@ class LiveSession {
   // ibl::SplitSumLightTries gives: at most the map's own limit unrotated,
   // kMaxRotationLmax rotated), and the map's luminance moments that choose it.
   std::shared_ptr<const EnvMap> split_sum_map_;
-  // Its peaks split off (ibl::SplitSumPeakSplit, unrotated), and the moments of the rest.
+  // Its peaks split off (ibl::SplitLightPeaks, unrotated), and the moments of the rest.
   ibl::PeakSplit split_sum_split_;
   ibl::LightMoments split_sum_moments_;
   std::map<int, std::shared_ptr<const std::vector<double>>> split_sum_unrotated_;
