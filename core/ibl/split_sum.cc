@@ -20,6 +20,7 @@
 #include "core/brdf/vector_math.h"
 #include "core/envmap/lighting.h"
 #include "core/ibl/light_peaks.h"
+#include "core/ibl/quarter_power.h"
 #include "core/sh/quadrature.h"
 #include "core/sh/rotation.h"
 #include "core/sh/sh.h"
@@ -591,6 +592,15 @@ struct CharlieInE {
     const float c = 1 - 0.5f * e;
     return c > 0 ? std::pow(0.25f * e, power) * c : 0.0f;
   }
+#if defined(__AVX512F__)
+  static constexpr bool kVector = true;
+  __m512 operator()(__m512 e) const {
+    const __m512 c =
+        _mm512_maskz_max_ps(0xFFFF, _mm512_fnmadd_ps(_mm512_set1_ps(0.5f), e, _mm512_set1_ps(1.0f)),
+                            _mm512_setzero_ps());
+    return _mm512_mul_ps(c, shrm::internal::QuarterPower(e, power));
+  }
+#endif
 };
 struct LambertInE {
   float operator()(float e) const { return std::max(0.0f, 1 - 0.5f * e); }
