@@ -404,8 +404,12 @@ TEST(SplitSumTest, SplitSumLightDegreeBoundsWhatItLeavesOut) {
       EXPECT_EQ(split.rest.has_value(), std::string(name) != "courtyard.exr") << name;
       auto full = ComputeSpecularLight(source, Mat3::Identity(), 0, 1);
       ASSERT_TRUE(full.ok()) << full.status();
-      const LightMoments moments = MapLightMoments(source);
+      const LightMoments moments = SplitLightMoments(split, source);
       ASSERT_TRUE(moments.known);
+      // The split's own sums are the rest's (or the map's) moments.
+      const LightMoments summed = MapLightMoments(source);
+      EXPECT_NEAR(moments.e0, summed.e0, kMomentTol * summed.e0) << name;
+      EXPECT_NEAR(moments.total, summed.total, kMomentTol * summed.total) << name;
       EXPECT_NEAR(moments.e0, full->energy[0], kMomentTol * full->energy[0]) << name;
       double sum_all = 0;
       for (double e : full->energy) sum_all += e;

@@ -55,6 +55,10 @@ PeakSplit SplitLightPeaks(const EnvMap& map) {
     sum_sq += weight * ((s2[0] + s2[1]) + (s2[2] + s2[3]));
     row_max[j] = std::max(std::max(top[0], top[1]), std::max(top[2], top[3]));
   }
+  // (The map's moments, unless a split below replaces them by the rest's.)
+  out.moments_known = true;
+  out.sum_y = sum;
+  out.sum_y2 = sum_sq;
   const double mean = sum / (4 * kPi);
   if (!(mean > 0)) return out;
   // Pass 2: the candidates above kPeakRatio x the mean; the threshold rises to keep at most
@@ -95,6 +99,9 @@ PeakSplit SplitLightPeaks(const EnvMap& map) {
   Image rest = *img;
   LightPeaks& peaks = out.peaks;
   peaks.threshold = threshold;
+  // The rest's moments: the map's less each split pixel's luminance and its square, with the
+  // values the rest holds (rounded to single precision).
+  double moved = 0, moved_sq = 0;
   for (const Candidate& c : candidates) {
     const int i = c.index % w, j = c.index / w;
     const std::optional<Vec3> d = map.PixelDirection(0, i, j);
@@ -108,6 +115,9 @@ PeakSplit SplitLightPeaks(const EnvMap& map) {
       part[ch] = (static_cast<double>(px[ch]) - kept) * weight;
       px[ch] = kept;
     }
+    const double y_kept = Luminance(px);
+    moved += weight * (c.y - y_kept);
+    moved_sq += weight * (c.y * c.y - y_kept * y_kept);
     peaks.x.push_back(static_cast<float>(d->x));
     peaks.y.push_back(static_cast<float>(d->y));
     peaks.z.push_back(static_cast<float>(d->z));
@@ -116,6 +126,8 @@ PeakSplit SplitLightPeaks(const EnvMap& map) {
     peaks.b.push_back(static_cast<float>(part[2]));
   }
   out.rest = EnvMap::FromLatLong(std::move(rest));
+  out.sum_y = sum - moved;
+  out.sum_y2 = sum_sq - moved_sq;
   return out;
 }
 

@@ -55,6 +55,12 @@ struct PeakSplit {
   // the map itself then stands for it.
   std::optional<EnvMap> rest;
   LightPeaks peaks;  // unrotated (world directions of the map's own frame)
+  // The luminance moments of what the light is computed from (the rest, else the map) under the
+  // transform's Fejer-1 quadrature, sum Y w and sum Y^2 w, found on the way (the rest's as the
+  // map's less the split parts): what MapLightMoments (split_sum.h) sums, one pass over the
+  // pixels fewer. Known for lat-long maps.
+  bool moments_known = false;
+  double sum_y = 0, sum_y2 = 0;
 };
 // Splits a lat-long map by the rules above (other layouts, and maps whose split would not pay,
 // give no split).

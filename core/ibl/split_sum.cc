@@ -950,6 +950,15 @@ LightMoments MapLightMoments(const EnvMap& map) {
   return out;
 }
 
+LightMoments SplitLightMoments(const PeakSplit& split, const EnvMap& source) {
+  if (!split.moments_known) return MapLightMoments(source);
+  LightMoments out;
+  out.known = true;
+  out.e0 = split.sum_y * split.sum_y / (4 * kPi);
+  out.total = split.sum_y2;
+  return out;
+}
+
 int SplitSumLightDegree(const EnvMap& map, const Mat3& rotation, const SplitSumSetOptions& options,
                         const LightMoments& moments) {
   const int limit = SpecularLightDegree(map, rotation, 0);
@@ -1060,7 +1069,7 @@ absl::StatusOr<SpecularLight> ComputeSplitSumLight(const EnvMap& map, const Mat3
   if (threads < 1) return absl::InvalidArgumentError(absl::StrCat("IBL: threads = ", threads));
   PeakSplit split = SplitLightPeaks(map);
   const EnvMap& source = split.rest ? *split.rest : map;
-  const LightMoments moments = MapLightMoments(source);
+  const LightMoments moments = SplitLightMoments(split, source);
   // SplitSumLightDegree's bound counts all the map's spread as possibly above D; the light's own
   // energies show how much is: the first try is kept when every level leaves little above it.
   const SplitSumLightTry tries =

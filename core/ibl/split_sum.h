@@ -298,6 +298,9 @@ struct LightMoments {
   double total = 0;
 };
 LightMoments MapLightMoments(const EnvMap& map);
+// The moments of what a split's light is computed from (PeakSplit's own sums when known, else
+// MapLightMoments of `source`: the rest, or the map when nothing was split).
+LightMoments SplitLightMoments(const PeakSplit& split, const EnvMap& source);
 
 // The prefiltered mip chain, from `light` when given (its rotation must be options.rotation; the
 // base level is resampled from `map`). Errors: InvalidArgument for a bad chain, tolerance,

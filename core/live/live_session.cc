@@ -340,8 +340,8 @@ absl::Status LiveSession::ComputeSplitSum(const State& state, const LiveFrame* p
     split_sum_first_failed_ = false;
     split_sum_map_ = state.map;
     split_sum_split_ = ibl::SplitLightPeaks(*state.map);
-    split_sum_moments_ =
-        ibl::MapLightMoments(split_sum_split_.rest ? *split_sum_split_.rest : *state.map);
+    split_sum_moments_ = ibl::SplitLightMoments(
+        split_sum_split_, split_sum_split_.rest ? *split_sum_split_.rest : *state.map);
   }
   // What ibl::ComputeSplitSumLight transforms: the map less its peaks.
   const EnvMap& source = split_sum_split_.rest ? *split_sum_split_.rest : *state.map;
