@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <functional>
 
 #include "core/base/constants.h"
 #include "core/base/cubemap.h"
@@ -22,6 +21,21 @@ double Luminance(const float* px) { return kLuma[0] * px[0] + kLuma[1] * px[1] +
 
 }  // namespace
 
+LuminanceRow SumLuminanceRow(const float* rgb, int width) {
+  double s[4] = {0, 0, 0, 0}, s2[4] = {0, 0, 0, 0}, top[4] = {0, 0, 0, 0};
+  for (int i = 0; i < width; ++i) {
+    const double y = Luminance(rgb + 3 * static_cast<size_t>(i));
+    s[i % 4] += y;
+    s2[i % 4] += y * y;
+    top[i % 4] = std::max(top[i % 4], y);
+  }
+  LuminanceRow out;
+  out.sum = (s[0] + s[1]) + (s[2] + s[3]);
+  out.sum_sq = (s2[0] + s2[1]) + (s2[2] + s2[3]);
+  out.max = std::max(std::max(top[0], top[1]), std::max(top[2], top[3]));
+  return out;
+}
+
 PeakSplit SplitLightPeaks(const EnvMap& map) {
   PeakSplit out;
   const Image* img = map.lat_long_image();
@@ -29,31 +43,16 @@ PeakSplit SplitLightPeaks(const EnvMap& map) {
   const int w = img->width, h = img->height;
   const RingQuadrature rule = FejerFirstRule(h);
   // Pass 1: the moments (as MapLightMoments), the mean luminance over the sphere, and each
-  // row's largest luminance (four partial sums, independent chains of additions).
+  // row's largest luminance.
   double sum = 0, sum_sq = 0;
   std::vector<double> row_max(h, 0.0);
   for (int j = 0; j < h; ++j) {
-    const float* row = img->pixels.data() + static_cast<size_t>(j) * w * 3;
-    double s[4] = {0, 0, 0, 0}, s2[4] = {0, 0, 0, 0}, top[4] = {0, 0, 0, 0};
-    int i = 0;
-    for (; i + 4 <= w; i += 4) {
-      for (int u = 0; u < 4; ++u) {
-        const double y = Luminance(row + 3 * (i + u));
-        s[u] += y;
-        s2[u] += y * y;
-        top[u] = std::max(top[u], y);
-      }
-    }
-    for (; i < w; ++i) {
-      const double y = Luminance(row + 3 * i);
-      s[0] += y;
-      s2[0] += y * y;
-      top[0] = std::max(top[0], y);
-    }
+    const LuminanceRow row =
+        SumLuminanceRow(img->pixels.data() + static_cast<size_t>(j) * w * 3, w);
     const double weight = 2 * kPi / w * rule.weight[j];
-    sum += weight * ((s[0] + s[1]) + (s[2] + s[3]));
-    sum_sq += weight * ((s2[0] + s2[1]) + (s2[2] + s2[3]));
-    row_max[j] = std::max(std::max(top[0], top[1]), std::max(top[2], top[3]));
+    sum += weight * row.sum;
+    sum_sq += weight * row.sum_sq;
+    row_max[j] = row.max;
   }
   // (The map's moments, unless a split below replaces them by the rest's.)
   out.moments_known = true;
@@ -319,25 +318,6 @@ void AddPeakSums(const LightPeaks& peaks, const PeakKernel& kernel, RadianceCube
   const PeakGroups groups = GroupPeaks(peaks);
   const LightPeaks& sorted = groups.peaks;
   const size_t group_count = groups.axis.size();
-  // The generic form, one texel at a time in double.
-  const auto generic = [&](size_t k0, size_t k1, const Lanes& dx, const Lanes& dy, const Lanes& dz,
-                           Lanes& r, Lanes& g, Lanes& b) {
-    for (int i = 0; i < kLanes; ++i) {
-      double acc[3] = {0, 0, 0};
-      for (size_t k = k0; k < k1; ++k) {
-        const double c = static_cast<double>(dx[i]) * sorted.x[k] +
-                         static_cast<double>(dy[i]) * sorted.y[k] +
-                         static_cast<double>(dz[i]) * sorted.z[k];
-        const double v = kernel.generic(c);
-        acc[0] += v * sorted.r[k];
-        acc[1] += v * sorted.g[k];
-        acc[2] += v * sorted.b[k];
-      }
-      r[i] += static_cast<float>(acc[0]);
-      g[i] += static_cast<float>(acc[1]);
-      b[i] += static_cast<float>(acc[2]);
-    }
-  };
   ParallelChunks(kCubeFaceCount * s, threads, [&](int begin, int end) {
     for (int row = begin; row < end; ++row) {
       const int face = row / s, y = row % s;
@@ -368,9 +348,6 @@ void AddPeakSums(const LightPeaks& peaks, const PeakKernel& kernel, RadianceCube
               break;
             case PeakKernel::Form::kPower:
               SumRun(sorted, k0, k1, power, dx, dy, dz, r, g, b);
-              break;
-            case PeakKernel::Form::kGeneric:
-              generic(k0, k1, dx, dy, dz, r, g, b);
               break;
           }
         }

@@ -15,7 +15,6 @@
 #define SHRM_CORE_IBL_LIGHT_PEAKS_H_
 
 #include <cstddef>
-#include <functional>
 #include <optional>
 #include <span>
 #include <vector>
@@ -36,6 +35,14 @@ struct LightPeaks {
   size_t size() const { return x.size(); }
   bool empty() const { return x.empty(); }
 };
+
+// A row of RGB pixels' luminance (Rec. 709) summed, squared and summed, and its largest value,
+// by four partial sums (independent chains of additions): the pass over a map's pixels that
+// SplitLightPeaks and MapLightMoments (split_sum.h) make.
+struct LuminanceRow {
+  double sum = 0, sum_sq = 0, max = 0;
+};
+LuminanceRow SumLuminanceRow(const float* rgb, int width);
 
 // The split's rules. A pixel is split when its luminance exceeds kPeakRatio times the map's
 // mean luminance (over the sphere), at most kMaxPeaks pixels (the threshold rises to the
@@ -83,14 +90,12 @@ void AddPeakCoefficients(const LightPeaks& peaks, int lmax, std::span<double> co
 //    [0, 1] however sharp the lobe);
 //  - kCosine: (1 - e / 2)+ (the Lambert lobe);
 //  - kPower: (e / 4)^exponent (1 - e / 2)+ (the Charlie lobe: sin^2(theta_h) = e / 4);
-//  - kGeneric: generic(cos theta), evaluated in double (any other lobe; slow).
 struct PeakKernel {
-  enum class Form { kGgx, kCosine, kPower, kGeneric };
+  enum class Form { kGgx, kCosine, kPower };
   Form form = Form::kCosine;
   double slope = 0;     // kGgx
   double exponent = 0;  // kPower
   double scale = 1;
-  std::function<double(double cos_theta)> generic;  // kGeneric
 };
 // Adds sum_k kernel(r . d_k) (w_k L_k) to every texel of `cube` (3 channels), r the texel
 // centre's direction (CubeTexelDirection); rows of faces split over `threads`. 16 texels of a

@@ -926,23 +926,15 @@ absl::StatusOr<SpecularLight> ComputeSpecularLight(const EnvMap& map, const Mat3
 LightMoments MapLightMoments(const EnvMap& map) {
   LightMoments out;
   const Image* img = map.lat_long_image();
-  if (img == nullptr || img->width < 1 || img->height < 1 || img->channels < 3) return out;
+  if (img == nullptr || img->width < 1 || img->height < 1 || img->channels != 3) return out;
   const RingQuadrature rule = FejerFirstRule(img->height);
   const size_t w = static_cast<size_t>(img->width);
   double sum = 0, sum_sq = 0;
   for (int j = 0; j < img->height; ++j) {
-    const float* row = img->pixels.data() + static_cast<size_t>(j) * w * img->channels;
-    // Four partial sums: independent chains of additions.
-    double s[4] = {0, 0, 0, 0}, s2[4] = {0, 0, 0, 0};
-    for (size_t i = 0; i < w; ++i) {
-      const float* px = row + i * img->channels;
-      const double y = kLuma[0] * px[0] + kLuma[1] * px[1] + kLuma[2] * px[2];
-      s[i % 4] += y;
-      s2[i % 4] += y * y;
-    }
+    const LuminanceRow row = SumLuminanceRow(img->pixels.data() + j * w * 3, img->width);
     const double weight = 2 * kPi / static_cast<double>(w) * rule.weight[j];
-    sum += weight * ((s[0] + s[1]) + (s[2] + s[3]));
-    sum_sq += weight * ((s2[0] + s2[1]) + (s2[2] + s2[3]));
+    sum += weight * row.sum;
+    sum_sq += weight * row.sum_sq;
   }
   out.known = true;
   out.e0 = sum * sum / (4 * kPi);
@@ -1074,17 +1066,16 @@ absl::StatusOr<SpecularLight> ComputeSplitSumLight(const EnvMap& map, const Mat3
   // energies show how much is: the first try is kept when every level leaves little above it.
   const SplitSumLightTry tries =
       SplitSumLightTries(source, rotation, options, moments, split.rest.has_value());
+  absl::StatusOr<SpecularLight> light;
   if (tries.first > 0) {
-    SHRM_ASSIGN_OR_RETURN(SpecularLight light,
-                          LightToDegree(source, rotation, tries.first, threads, moments.total));
-    if (SplitSumLightSuffices(light, options)) {
-      light.peaks = RotatedPeaks(split.peaks, rotation);
-      return light;
-    }
+    light = LightToDegree(source, rotation, tries.first, threads, moments.total);
+    if (!light.ok()) return light.status();
   }
-  SHRM_ASSIGN_OR_RETURN(SpecularLight light,
-                        LightToDegree(source, rotation, tries.full, threads, moments.total));
-  light.peaks = RotatedPeaks(split.peaks, rotation);
+  if (tries.first <= 0 || !SplitSumLightSuffices(*light, options)) {
+    light = LightToDegree(source, rotation, tries.full, threads, moments.total);
+    if (!light.ok()) return light.status();
+  }
+  light->peaks = RotatedPeaks(split.peaks, rotation);
   return light;
 }
 
