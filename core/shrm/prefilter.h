@@ -53,7 +53,8 @@ struct PrefilterOptions {
   // converges at grazing views but halves the view expansion's angular room, so the sharpest and
   // most Fresnel-driven lobes can need more P than the orders allow in it).
   bool try_other_view = false;
-  // Pairs of the tolerance rule's estimate (seeded: kSelectionSeed).
+  // Pairs of the tolerance rule's estimate (seeded: kSelectionSeed); four times as many for a
+  // radially symmetric BRDF (prefilter.cc SelectionPairs).
   int selection_pairs = 256;
   // Tolerance rule only, > 0: the size budget on CubeValues(S_B, P_B) (ToleranceOptions::
   // max_cube_values): the most accurate choice within it when the tolerance's needs more.
