@@ -1,8 +1,12 @@
 #include "core/shrm/fast_reference.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
+#include <span>
+#include <utility>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -70,6 +74,189 @@ Vec3 Perpendicular(const Vec3& a) {
 
 using Rgb = std::array<double, 3>;
 
+// Sorts (key, index) pairs by key, ties in their given order (the pairs come in index order, so
+// the result is std::sort's on the pairs): an LSD radix sort, 16 bits a pass, over the key bits in
+// use (43 for a cube's Morton keys: three passes instead of a comparison sort's ~20 levels).
+void SortByKey(std::vector<std::pair<uint64_t, int32_t>>& items) {
+  constexpr int kDigitBits = 16;
+  constexpr size_t kBuckets = size_t{1} << kDigitBits;
+  uint64_t all = 0;
+  for (const auto& item : items) all |= item.first;
+  const int passes = (std::bit_width(all) + kDigitBits - 1) / kDigitBits;
+  std::vector<std::pair<uint64_t, int32_t>> other(items.size());
+  std::vector<uint32_t> start(kBuckets);
+  for (int pass = 0; pass < passes; ++pass) {
+    const int shift = pass * kDigitBits;
+    std::fill(start.begin(), start.end(), 0u);
+    for (const auto& item : items) ++start[(item.first >> shift) & (kBuckets - 1)];
+    uint32_t run = 0;
+    for (uint32_t& s : start) run += std::exchange(s, run);
+    for (const auto& item : items) other[start[(item.first >> shift) & (kBuckets - 1)]++] = item;
+    items.swap(other);
+  }
+}
+
+// The children of the node over samples [begin, end) of the sorted keys: the samples split at
+// the first Morton level where their keys differ (single-child chains are collapsed: a node whose
+// only child holds the same samples would pass its own check trivially). Writes the groups'
+// starts and `end` to bounds[0..groups] and returns groups (2-4), or 0 for a leaf: at most
+// kFastReferenceLeafSamples samples, or coincident ones (summed exactly).
+int SplitRange(const uint64_t* key, int32_t begin, int32_t end, int32_t bounds[5]) {
+  if (end - begin <= kFastReferenceLeafSamples) return 0;
+  // Sorted keys: every key of the range shares the bits above the first and last keys' highest
+  // differing bit, so the digits at that level rise through the range.
+  const uint64_t differ = key[begin] ^ key[end - 1];
+  if (differ == 0) return 0;
+  const int shift = (std::bit_width(differ) - 1) & ~1;
+  int groups = 0;
+  for (int32_t k = begin; k < end;) {
+    bounds[groups++] = k;
+    const uint64_t digit = (key[k] >> shift) & 3;
+    k = static_cast<int32_t>(
+        std::partition_point(key + k, key + end,
+                             [shift, digit](uint64_t x) { return ((x >> shift) & 3) == digit; }) -
+        key);
+  }
+  bounds[groups] = end;
+  return groups;
+}
+
+// A node's sums over its samples, all additive (a parent's are its children's summed):
+// per channel the weight L_c dOmega and its first moment sum L_c dOmega w; the positive
+// luminance's sums lum_+, lum_+ w and lum_+ |w|^2 (the centroid and the spread about it); and the
+// plain sums 1, w, |w|^2 for black nodes.
+struct Sums {
+  Rgb weight{0, 0, 0};
+  std::array<Vec3, 3> first{};
+  double lum = 0, lum_sq = 0, count = 0, plain_sq = 0;
+  Vec3 lum_dir, plain;
+
+  void Add(const FastReference::Sample& s) {
+    const Vec3 dir = s.Dir();
+    double l = 0;
+    for (int c = 0; c < 3; ++c) {
+      weight[c] += s.weight[c];
+      first[c] = first[c] + dir * s.weight[c];
+      l += kLuminance[c] * s.weight[c];
+    }
+    l = std::max(l, 0.0);
+    const double sq = dir.Dot(dir);
+    lum += l;
+    lum_sq += l * sq;
+    lum_dir = lum_dir + dir * l;
+    count += 1;
+    plain_sq += sq;
+    plain = plain + dir;
+  }
+  void Merge(const Sums& o) {
+    for (int c = 0; c < 3; ++c) {
+      weight[c] += o.weight[c];
+      first[c] = first[c] + o.first[c];
+    }
+    lum += o.lum;
+    lum_sq += o.lum_sq;
+    lum_dir = lum_dir + o.lum_dir;
+    count += o.count;
+    plain_sq += o.plain_sq;
+    plain = plain + o.plain;
+  }
+  // Lit: the luminance-weighted mean direction is defined (black nodes, or rounding-degenerate
+  // sums, fall back to the plain mean).
+  bool Lit() const { return lum_dir.Norm() > 1e-12 * plain.Norm(); }
+  Vec3 Centre() const { return Lit() ? lum_dir.Normalized() : plain.Normalized(); }
+  // The second moment of the centroid weights about c, sum weight |w - c|^2 (the spread a point
+  // rule's r^2 error is proportional to).
+  double Spread(const Vec3& c) const {
+    const double s = Lit() ? lum_sq - 2 * lum_dir.Dot(c) + lum * c.Dot(c)
+                           : plain_sq - 2 * plain.Dot(c) + count * c.Dot(c);
+    return std::max(s, 0.0);
+  }
+  // Channel c's first moment about the centre, sum L_c dOmega (w - centre): the term a gradient
+  // of rho-hat multiplies (zero for the luminance that places the centre).
+  Vec3 Offset(int c, const Vec3& centre) const { return first[c] - centre * weight[c]; }
+};
+
+// The Richardson ratio and the first-order correction of internal node i (Create), from its sums
+// and its children's.
+void SetGradient(std::vector<FastReference::Node>& nodes,
+                 std::vector<FastReference::Gradient>& gradients, int32_t i, const Sums& sums,
+                 std::span<const Sums> child) {
+  FastReference::Node& node = nodes[i];
+  const Vec3 c = node.centre;
+  {
+    // Richardson ratio: the children's r^2 errors over the parent's minus theirs, i.e. the
+    // spread within the children over the spread between them (1/3 for uniform light).
+    const bool lit = node.weight[0] != 0 || node.weight[1] != 0 || node.weight[2] != 0;
+    double within = 0, between = 0;
+    for (int j = 0; j < node.child_count; ++j) {
+      const FastReference::Node& ch = nodes[node.first_child + j];
+      within += child[j].Spread(ch.centre);
+      double lum = 0;
+      for (int k = 0; k < 3; ++k) lum += kLuminance[k] * ch.weight[k];
+      const Vec3 d = ch.centre - c;
+      between += (lit ? std::max(lum, 0.0) : 1.0) * d.Dot(d);
+    }
+    // Also bounded below: a node whose children hold little spread is still a point rule.
+    node.richardson = between > within / kMaxRichardson ? std::max(within / between, kMinRichardson)
+                                                        : std::numeric_limits<double>::infinity();
+  }
+  // Gradient correction: rho-hat's gradient g at the centre is fitted to the children's values
+  // (least squares in the tangent plane, Delta rho_j = g . (c_j - c)), so
+  // g . offset = sum_j Delta rho_j (G_j . offset) with G_j = M^+ p_j, M = sum_j p_j p_j^T.
+  const Vec3 a = Perpendicular(c), b = c.Cross(a);
+  std::array<std::array<double, 2>, 4> p{};
+  double m00 = 0, m01 = 0, m11 = 0;
+  for (int j = 0; j < node.child_count; ++j) {
+    const Vec3 d = nodes[node.first_child + j].centre - c;
+    p[j] = {d.Dot(a), d.Dot(b)};
+    m00 += p[j][0] * p[j][0];
+    m01 += p[j][0] * p[j][1];
+    m11 += p[j][1] * p[j][1];
+  }
+  // Pseudo-inverse of the symmetric 2 x 2 M (children on a line give a rank-1 M).
+  const double tr = m00 + m11, disc = std::hypot(m00 - m11, 2 * m01);
+  const double lambda[2] = {0.5 * (tr + disc), 0.5 * (tr - disc)};
+  if (!(lambda[0] > 0)) return;
+  double inv00 = 0, inv01 = 0, inv11 = 0;
+  for (double l : lambda) {
+    if (l <= kGradientRankTolerance * lambda[0]) continue;
+    double ex = m01, ey = l - m00;
+    if (std::hypot(ex, ey) < std::hypot(l - m11, m01)) {
+      ex = l - m11;
+      ey = m01;
+    }
+    const double len = std::hypot(ex, ey);
+    if (len == 0) {  // M = l I
+      ex = 1;
+      ey = 0;
+      inv00 += 1 / l;
+      inv11 += 1 / l;
+      continue;
+    }
+    ex /= len;
+    ey /= len;
+    inv00 += ex * ex / l;
+    inv01 += ex * ey / l;
+    inv11 += ey * ey / l;
+  }
+  FastReference::Gradient g;
+  for (int j = 0; j < 4; ++j) {
+    Vec3 gj;
+    if (j < node.child_count) {
+      gj = a * (inv00 * p[j][0] + inv01 * p[j][1]) + b * (inv01 * p[j][0] + inv11 * p[j][1]);
+    }
+    for (int ch = 0; ch < 3; ++ch) {
+      g.parent[ch][j] = gj.Dot(sums.Offset(ch, c));
+      double sum = 0;
+      for (int k = 0; k < node.child_count; ++k)
+        sum += gj.Dot(child[k].Offset(ch, nodes[node.first_child + k].centre));
+      g.children[ch][j] = sum;
+    }
+  }
+  node.gradient = static_cast<int32_t>(gradients.size());
+  gradients.push_back(g);
+}
+
 // A node in the heap: its value (children as points), error estimate and the children's rho-hat
 // (reused as their own point values when the node is opened).
 struct Record {
@@ -135,7 +322,7 @@ class QueryState {
     Rgb r;
     for (int32_t k = node.begin; k < node.end; ++k) {
       const FastReference::Sample& s = samples_[k];
-      Rho(s.dir, r);
+      Rho(s.Dir(), r);
       for (int c = 0; c < 3; ++c) total_[c] += s.weight[c] * r[c];
     }
   }
@@ -332,8 +519,7 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
   if (n > static_cast<size_t>(INT32_MAX)) {
     return absl::InvalidArgumentError(absl::StrCat("fast reference: ", n, " samples (too many)"));
   }
-  // Morton keys with their indices beside them, sorted: Morton order, ties by index (sorting
-  // indices that compared through a key array took a cache miss a comparison).
+  // Morton keys with their indices beside them, sorted: Morton order, ties by index.
   std::vector<std::pair<uint64_t, int32_t>> keyed(n);
   for (size_t i = 0; i < n; ++i) {
     const EnvSample s = sample_at(i);
@@ -359,214 +545,117 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
                     (Spread(Quantize(t)) << 1),
                 static_cast<int32_t>(i)};
   }
-  std::sort(keyed.begin(), keyed.end());
+  SortByKey(keyed);
 
   FastReference r;
   r.samples_.resize(n);
-  std::vector<uint64_t> sorted_key(n);  // keyed's keys alone, for the build's scans
+  std::vector<uint64_t> key(n);  // keyed's keys alone, for the build's scans
   Rgb total{0, 0, 0}, total_abs{0, 0, 0};
   double solid_angle = 0;
   for (size_t k = 0; k < n; ++k) {
     const EnvSample s = sample_at(keyed[k].second);
-    sorted_key[k] = keyed[k].first;
-    r.samples_[k].dir = s.dir;
+    key[k] = keyed[k].first;
+    Sample& out = r.samples_[k];
+    out.dir = {static_cast<float>(s.dir.x), static_cast<float>(s.dir.y),
+               static_cast<float>(s.dir.z)};
     for (int c = 0; c < 3; ++c) {
-      r.samples_[k].weight[c] = static_cast<double>(s.rgb[c]) * s.solid_angle;
-      total[c] += r.samples_[k].weight[c];
-      total_abs[c] += std::abs(r.samples_[k].weight[c]);
+      out.weight[c] = static_cast<float>(static_cast<double>(s.rgb[c]) * s.solid_angle);
+      total[c] += out.weight[c];
+      total_abs[c] += std::abs(out.weight[c]);
     }
     solid_angle += s.solid_angle;
   }
+  std::vector<std::pair<uint64_t, int32_t>>().swap(keyed);
   for (int c = 0; c < 3; ++c) {
     const double mean = solid_angle > 0 ? std::abs(total[c]) / solid_angle : 0.0;
     r.floor_[c] = kFastReferenceFloor * mean;
     r.inv_total_[c] = total_abs[c] > 0 ? 1.0 / total_abs[c] : 0.0;
   }
 
-  // Fills node i over samples [begin, end) whose keys agree above Morton level `level`.
-  // Per node and channel, the first moment about the centre, sum_k L_c dOmega (w_k - centre):
-  // the term a gradient of rho-hat multiplies (zero for the luminance that places the centre).
-  std::vector<std::array<Vec3, 3>> offset;
-  // Per node, the second moment of the centroid weights about the centre (the spread a point
-  // rule's r^2 error is proportional to).
-  std::vector<double> moment;
-  auto build = [&r, &sorted_key, &offset, &moment](auto&& self, int32_t i, int32_t begin,
-                                                   int32_t end, int level) -> void {
-    {
-      offset.resize(r.nodes_.size());
-      moment.resize(r.nodes_.size());
-      Node& node = r.nodes_[i];
-      node.begin = begin;
-      node.end = end;
-      node.weight = {0, 0, 0};
-      Vec3 sum, plain;
-      for (int32_t k = begin; k < end; ++k) {
-        const Sample& s = r.samples_[k];
-        double lum = 0;
-        for (int c = 0; c < 3; ++c) {
-          node.weight[c] += s.weight[c];
-          lum += kLuminance[c] * s.weight[c];
-        }
-        sum = sum + s.dir * std::max(lum, 0.0);
-        plain = plain + s.dir;
-      }
-      // Black nodes (or rounding-degenerate sums) fall back to the plain mean direction.
-      node.centre = sum.Norm() > 1e-12 * plain.Norm() ? sum.Normalized() : plain.Normalized();
-      std::array<Vec3, 3>& o = offset[i];
-      o = {node.centre * -node.weight[0], node.centre * -node.weight[1],
-           node.centre * -node.weight[2]};
-      const bool lit = sum.Norm() > 1e-12 * plain.Norm();
-      // One pass for the first moments, the cap and the second moment (each summed in sample
-      // order as before). The cap's radius is Angle() of the longest chord: Angle is increasing
-      // in the chord, so the largest chord's angle is the largest angle, one asin a node instead
-      // of one a sample.
-      double chord2 = 0, second = 0;
-      for (int32_t k = begin; k < end; ++k) {
-        const Sample& s = r.samples_[k];
-        for (int c = 0; c < 3; ++c) o[c] = o[c] + s.dir * s.weight[c];
-        const Vec3 d = s.dir - node.centre;
-        const double dd = d.Dot(d);
-        chord2 = std::max(chord2, dd);
-        double lum = 0;
-        for (int c = 0; c < 3; ++c) lum += kLuminance[c] * s.weight[c];
-        second += (lit ? std::max(lum, 0.0) : 1.0) * dd;
-      }
-      moment[i] = second;
-      node.radius = ChordAngle(std::sqrt(chord2)) + kGeometrySlack;
-      // Beyond pi/2 the horizon test would need the cap's far side: mark such nodes as always
-      // straddling (sin_radius = 1 fails |N.c| > sin_radius).
-      node.sin_radius = node.radius < kPi / 2 ? std::sin(node.radius) : 1.0;
-      const double open = node.radius / kFastReferenceEta;
-      node.cos_open = open < kPi ? std::cos(open) - kGeometrySlack : -2.0;
-    }
-    if (end - begin <= kFastReferenceLeafSamples) return;
-    // The first level at which the range splits (single-child chains are collapsed: a node whose
-    // only child holds the same samples would pass its own check trivially).
-    int32_t bounds[5];
-    int groups = 0;
-    for (; level < kMortonBits; ++level) {
-      const int shift = 2 * (kMortonBits - 1 - level);
-      groups = 0;
-      int last_digit = -1;
-      for (int32_t k = begin; k < end; ++k) {
-        const int digit = static_cast<int>((sorted_key[k] >> shift) & 3);
-        if (digit != last_digit) {
-          bounds[groups++] = k;
-          last_digit = digit;
-        }
-      }
-      bounds[groups] = end;
-      if (groups >= 2) break;
-    }
-    if (groups < 2) return;  // coincident samples: a leaf, summed exactly
-    const int32_t first = static_cast<int32_t>(r.nodes_.size());
-    r.nodes_.resize(r.nodes_.size() + groups);
-    r.nodes_[i].first_child = first;
-    r.nodes_[i].child_count = groups;
-    for (int g = 0; g < groups; ++g) self(self, first + g, bounds[g], bounds[g + 1], level + 1);
-  };
-  // Room for every node up front (untouched pages cost nothing): the per-node arrays grown
-  // as the tree is built were reallocated and copied into fresh memory time and again. The tree
-  // has at most 2n - 1 nodes (every leaf holds a sample, every internal node two children or
-  // more); n / 2 fell short on a 1024 x 512 lat-long map, whose arrays then grew once more: 92
-  // MB of fresh memory and a copy, ~100 ms of a job's check on this VM, where a fresh page costs
-  // more than the work done in it.
-  r.nodes_.reserve(2 * n + 16);
-  offset.reserve(r.nodes_.capacity());
-  moment.reserve(r.nodes_.capacity());
-  int32_t begin = 0;
-  while (begin < static_cast<int32_t>(n)) {
-    const uint64_t face = sorted_key[begin] >> (2 * kMortonBits);
+  // The faces' sample ranges (keys sorted, so each face's run is contiguous).
+  std::vector<std::pair<int32_t, int32_t>> faces;
+  for (int32_t begin = 0; begin < static_cast<int32_t>(n);) {
+    const uint64_t face = key[begin] >> (2 * kMortonBits);
     int32_t end = begin;
-    while (end < static_cast<int32_t>(n) && (sorted_key[end] >> (2 * kMortonBits)) == face) ++end;
+    while (end < static_cast<int32_t>(n) && (key[end] >> (2 * kMortonBits)) == face) ++end;
+    faces.emplace_back(begin, end);
+    begin = end;
+  }
+  // Room for exactly the tree (a counting pass of the same splits): the arrays grown as the
+  // tree was built were reallocated and copied into fresh memory, and a bound (2n nodes) put
+  // them in a mapping of their own, in small pages; on this VM a fresh page costs more than the
+  // work done in it.
+  size_t node_count = 0, internal_count = 0;
+  auto count = [&key, &node_count, &internal_count](auto&& self, int32_t begin,
+                                                    int32_t end) -> void {
+    ++node_count;
+    int32_t bounds[5];
+    const int groups = SplitRange(key.data(), begin, end, bounds);
+    if (groups == 0) return;
+    ++internal_count;
+    for (int g = 0; g < groups; ++g) self(self, bounds[g], bounds[g + 1]);
+  };
+  for (const auto& [begin, end] : faces) count(count, begin, end);
+  r.nodes_.reserve(node_count);
+  r.gradients_.reserve(internal_count);
+
+  // Fills node i over samples [begin, end) and returns its sums. Nodes are numbered as they are
+  // reached top-down (a node, then its children as one block); their values come bottom-up:
+  // a leaf's from its samples, an internal node's from its children's sums.
+  auto build = [&r, &key](auto&& self, int32_t i, int32_t begin, int32_t end) -> Sums {
+    int32_t bounds[5];
+    const int groups = SplitRange(key.data(), begin, end, bounds);
+    Sums sums;
+    std::array<Sums, 4> child;
+    const int32_t first = static_cast<int32_t>(r.nodes_.size());
+    if (groups == 0) {
+      for (int32_t k = begin; k < end; ++k) sums.Add(r.samples_[k]);
+    } else {
+      // Within the exact reservation: references to nodes stay valid.
+      r.nodes_.resize(r.nodes_.size() + groups);
+      for (int g = 0; g < groups; ++g) {
+        child[g] = self(self, first + g, bounds[g], bounds[g + 1]);
+        sums.Merge(child[g]);
+      }
+    }
+    Node& node = r.nodes_[i];
+    node.begin = begin;
+    node.end = end;
+    node.weight = sums.weight;
+    node.centre = sums.Centre();
+    double radius = 0;
+    if (groups == 0) {  // a leaf: the cap of its samples
+      double chord2 = 0;
+      for (int32_t k = begin; k < end; ++k) {
+        const Vec3 d = r.samples_[k].Dir() - node.centre;
+        chord2 = std::max(chord2, d.Dot(d));
+      }
+      // Angle is increasing in the chord: the largest chord's angle is the largest angle.
+      radius = ChordAngle(std::sqrt(chord2)) + kGeometrySlack;
+    } else {
+      // Every sample of a child lies within the child's radius of its centre, so within the
+      // angle from this centre to the child's plus that radius (tight for uniform light).
+      for (int g = 0; g < groups; ++g) {
+        const Node& ch = r.nodes_[first + g];
+        radius = std::max(radius, Angle(node.centre, ch.centre) + ch.radius);
+      }
+      node.first_child = first;
+      node.child_count = groups;
+      SetGradient(r.nodes_, r.gradients_, i, sums, std::span(child).first(groups));
+    }
+    node.radius = std::min(radius, kPi);
+    // Beyond pi/2 the horizon test would need the cap's far side: mark such nodes as always
+    // straddling (sin_radius = 1 fails |N.c| > sin_radius).
+    node.sin_radius = node.radius < kPi / 2 ? std::sin(node.radius) : 1.0;
+    const double open = node.radius / kFastReferenceEta;
+    node.cos_open = open < kPi ? std::cos(open) - kGeometrySlack : -2.0;
+    return sums;
+  };
+  for (const auto& [begin, end] : faces) {
     const int32_t root = static_cast<int32_t>(r.nodes_.size());
     r.nodes_.emplace_back();
     r.roots_.push_back(root);
-    build(build, root, begin, end, 0);
-    begin = end;
-  }
-  offset.resize(r.nodes_.size());
-  moment.resize(r.nodes_.size());
-  r.gradients_.reserve(static_cast<size_t>(std::count_if(
-      r.nodes_.begin(), r.nodes_.end(), [](const Node& node) { return node.child_count > 0; })));
-
-  // Gradient correction of every internal node: rho-hat's gradient g at the centre is fitted to
-  // the children's values (least squares in the tangent plane, Delta rho_j = g . (c_j - c)), so
-  // g . offset = sum_j Delta rho_j (G_j . offset) with G_j = M^+ p_j, M = sum_j p_j p_j^T.
-  for (size_t i = 0; i < r.nodes_.size(); ++i) {
-    Node& node = r.nodes_[i];
-    if (node.child_count == 0) continue;
-    const Vec3 c = node.centre;
-    {
-      // Richardson ratio: the children's r^2 errors over the parent's minus theirs, i.e. the
-      // spread within the children over the spread between them (1/3 for uniform light).
-      const bool lit =
-          r.nodes_[i].weight[0] != 0 || r.nodes_[i].weight[1] != 0 || r.nodes_[i].weight[2] != 0;
-      double within = 0, between = 0;
-      for (int j = 0; j < node.child_count; ++j) {
-        const Node& child = r.nodes_[node.first_child + j];
-        within += moment[node.first_child + j];
-        double lum = 0;
-        for (int ch = 0; ch < 3; ++ch) lum += kLuminance[ch] * child.weight[ch];
-        const Vec3 d = child.centre - c;
-        between += (lit ? std::max(lum, 0.0) : 1.0) * d.Dot(d);
-      }
-      // Also bounded below: a node whose children hold little spread is still a point rule.
-      node.richardson = between > within / kMaxRichardson
-                            ? std::max(within / between, kMinRichardson)
-                            : std::numeric_limits<double>::infinity();
-    }
-    const Vec3 a = Perpendicular(c), b = c.Cross(a);
-    std::array<std::array<double, 2>, 4> p{};
-    double m00 = 0, m01 = 0, m11 = 0;
-    for (int j = 0; j < node.child_count; ++j) {
-      const Vec3 d = r.nodes_[node.first_child + j].centre - c;
-      p[j] = {d.Dot(a), d.Dot(b)};
-      m00 += p[j][0] * p[j][0];
-      m01 += p[j][0] * p[j][1];
-      m11 += p[j][1] * p[j][1];
-    }
-    // Pseudo-inverse of the symmetric 2 x 2 M (children on a line give a rank-1 M).
-    const double tr = m00 + m11, disc = std::hypot(m00 - m11, 2 * m01);
-    const double lambda[2] = {0.5 * (tr + disc), 0.5 * (tr - disc)};
-    if (!(lambda[0] > 0)) continue;
-    double inv00 = 0, inv01 = 0, inv11 = 0;
-    for (double l : lambda) {
-      if (l <= kGradientRankTolerance * lambda[0]) continue;
-      double ex = m01, ey = l - m00;
-      if (std::hypot(ex, ey) < std::hypot(l - m11, m01)) {
-        ex = l - m11;
-        ey = m01;
-      }
-      const double len = std::hypot(ex, ey);
-      if (len == 0) {  // M = l I
-        ex = 1;
-        ey = 0;
-        inv00 += 1 / l;
-        inv11 += 1 / l;
-        continue;
-      }
-      ex /= len;
-      ey /= len;
-      inv00 += ex * ex / l;
-      inv01 += ex * ey / l;
-      inv11 += ey * ey / l;
-    }
-    Gradient g;
-    for (int j = 0; j < 4; ++j) {
-      Vec3 gj;
-      if (j < node.child_count) {
-        gj = a * (inv00 * p[j][0] + inv01 * p[j][1]) + b * (inv01 * p[j][0] + inv11 * p[j][1]);
-      }
-      for (int ch = 0; ch < 3; ++ch) {
-        g.parent[ch][j] = gj.Dot(offset[i][ch]);
-        double sum = 0;
-        for (int k = 0; k < node.child_count; ++k) sum += gj.Dot(offset[node.first_child + k][ch]);
-        g.children[ch][j] = sum;
-      }
-    }
-    node.gradient = static_cast<int32_t>(r.gradients_.size());
-    r.gradients_.push_back(g);
+    build(build, root, begin, end);
   }
   return r;
 }

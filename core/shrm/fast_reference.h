@@ -7,8 +7,11 @@
 // Hierarchy (Create): samples binned to the six cube faces, a quadtree per face in Morton order
 // (every node is a contiguous range of samples, single-child chains collapsed), leaves of at most
 // kFastReferenceLeafSamples samples. Per node: the summed L dOmega per channel, the
-// luminance-weighted mean direction c (normalized) and the angular radius r of the cap around c
-// that holds every sample.
+// luminance-weighted mean direction c (normalized) and the angular radius r of a cap around c
+// that holds every sample (a leaf's exact; an internal node's bounded from its children's,
+// max_j angle(c, c_j) + r_j, which is tight for uniform light). The build is linear after a
+// radix sort of the keys: a node's split is found from its first and last keys, its sums are
+// its children's (bottom-up), and the arrays are reserved at the exact node count.
 //
 // Query (Radiance): a node used "as a point" contributes its summed weight times rho-hat at c.
 // A node is ADMISSIBLE (may be used as points) only when no feature of rho-hat can hide inside it:
@@ -40,15 +43,15 @@
 // sum in the worst case. Error argument: the total error is at most the sum of the nodes' errors,
 // each bounded by its e wherever rho-hat is resolved by the node's children, which (a), (b) and
 // the spread condition enforce near every feature; so the per-direction relative error is
-// <= relative_tolerance (measured typically 3-10x below it, 8.9e-4 at worst). Grey BRDFs
+// <= relative_tolerance (measured typically 3-10x below it, 4.8e-4 at worst). Grey BRDFs
 // (channels() == 1) are evaluated once per point for all three colours; Transfer is called directly
 // (no std::function).
 //
 // Measured (bench/reference_bench.cc, docs/shrm.md "Fast reference"; 1024 x 512, one core, CPU
-// time on a shared machine): 0.2-0.3 ms per direction for Phong, 0.4 ms Lambert, 0.7-1.0 ms for
-// the horizon-clipped microfacet/GGX and Kajiya-Kay (4k-15k rho-hat evaluations instead of
-// 524288), 25-100x faster than the full sum; largest error over the four bundled maps 8.9e-4
-// (tests/fast_reference_test.cc).
+// time on a shared machine, session 35): 0.14-0.27 ms per direction for Phong, 0.22 ms Lambert,
+// 0.36-0.67 ms for the horizon-clipped microfacet/GGX, 0.7 ms Kajiya-Kay (4k-16k rho-hat
+// evaluations instead of 524288), 20-140x faster than the full sum; largest error over the four
+// bundled maps 4.8e-4 (tests/fast_reference_test.cc). The build: ~35 ms and ~27 MB.
 #ifndef SHRM_CORE_SHRM_FAST_REFERENCE_H_
 #define SHRM_CORE_SHRM_FAST_REFERENCE_H_
 
@@ -69,8 +72,12 @@ namespace shrm {
 // Default per-direction relative error target of FastReference::Radiance (the accuracy a job's
 // self-check needs: 10x below the SHRM's own approximation errors of ~1e-2).
 inline constexpr double kFastReferenceTolerance = 1e-3;
-// Samples per leaf node: leaves are summed exactly; 4 keeps a leaf as cheap as a node's check.
-inline constexpr int kFastReferenceLeafSamples = 4;
+// Samples per leaf node: leaves are summed exactly. 16 rather than 4: the tree has a quarter of
+// the nodes (91k instead of 312k on a 1024 x 512 map: 14 MB instead of 48, most of the cost of
+// a job's check on this VM, where a fresh page costs more than the work done in it), and a query
+// visits fewer of them: on interior.exr, 5-30% more rho-hat evaluations but 5-30% less time per
+// direction (bench/reference_bench.cc, docs/shrm.md "Fast reference").
+inline constexpr int kFastReferenceLeafSamples = 16;
 // Opening criterion eta of (b): a node must be smaller than eta times its distance to the lobe
 // axis (or than eta times the lobe's scale). Measured: 0.25 keeps the children-vs-parent check
 // reliable for GGX's power-law tails and Phong up to s = 512.
@@ -115,9 +122,13 @@ class FastReference {
                          const Vec3& view,
                          double relative_tolerance = kFastReferenceTolerance) const;
 
+  // A sample in single precision (24 bytes, not 48: the hierarchy's memory is most of a job's
+  // check, and a fresh page costs more than the work done in it). Rounding moves a direction by
+  // ~1e-7 rad and a weight by 6e-8 relative: far below the 1e-3 the reference is built for.
   struct Sample {
-    Vec3 dir;
-    std::array<double, 3> weight;  // L_c dOmega
+    std::array<float, 3> dir;     // unit direction
+    std::array<float, 3> weight;  // L_c dOmega
+    Vec3 Dir() const { return {dir[0], dir[1], dir[2]}; }
   };
   struct Node {
     Vec3 centre;                   // luminance-weighted mean direction, unit
