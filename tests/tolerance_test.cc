@@ -19,6 +19,7 @@
 #include <tuple>
 #include <vector>
 
+#include "core/base/cubemap.h"
 #include "core/brdf/brdf.h"
 #include "core/envmap/envmap.h"
 #include "core/io/image.h"
@@ -370,6 +371,71 @@ TEST(ToleranceTest, RadialLobesMeetTheLargestErrorOverManyIndependentPairs) {
   EXPECT_LE(r->measured.front.max, kMaxErrorFactor * kTolerance);
   EXPECT_LE(r->measured.grazing.rms, kGrazingFactor * kTolerance);
   EXPECT_EQ(r->measured.negative, 0);
+}
+
+// The interpolation estimate of a P = 0 job (the cube BuildCube makes, read as ShrmEval reads
+// it) against an independent one: the exact expansion at the four texel centres (RadianceAt, the
+// full Wigner table) with the weights of ShrmBilinearTaps, against the exact value at the pair.
+// With BuildCube's automatic grid the two agree to the grid's own error (kAutoGridAgreement);
+// with the job's grid (kSynthesisGridShare of the tolerance) within that share; and without
+// exact values (the taps one by one) to rounding.
+TEST(ToleranceTest, RadialInterpolationEstimateIsTheCubesErrorAtThePairs) {
+  // The automatic grid (4 (F + 1) rows): its cubic interpolation error is ~1e-5 of the values
+  // (docs/shrm.md), against interpolation errors of 3e-3 to 7e-2 here (measured agreement
+  // 0.1-0.5% of the estimate).
+  constexpr double kAutoGridAgreement = 0.02;
+  // The taps one by one against RadianceAt: the same sums by another code path.
+  constexpr double kTapsAgreement = 1e-9;
+  constexpr int kF = 40, kInterpPairs = 256;
+  const EnvMap env = EnvMap::FromLatLong(LoadBundledMap("forest.exr", kMapWidth));
+  auto brdf = ParseOrDie("phong:s=128");
+  ASSERT_NE(brdf, nullptr);
+  PrefilterOptions opt;
+  opt.f = kF;
+  opt.p = 0;
+  opt.synthesize = false;
+  auto r = Prefilter(env, *brdf, opt);
+  ASSERT_TRUE(r.ok()) << r.status();
+  auto synth = ShrmSynthesizer::Create(r->light_lmax, 3, r->light, r->brdf, kF, 0);
+  ASSERT_TRUE(synth.ok()) << synth.status();
+  const std::vector<DirectionPair> pairs =
+      SeededDirectionPairs(11, kInterpPairs, ReparamKind::kReflection);
+  std::vector<Rgb> exact(pairs.size());
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    exact[k] = synth->RadianceAt(ShrmKind::kGlobal,
+                                 IndexDirection(pairs[k], ReparamKind::kReflection), pairs[k].view);
+  }
+  const int job_rows =
+      synth->InterpolationRows(ShrmKind::kGlobal, kSynthesisGridShare * kTolerance);
+  for (int size : {48, 88}) {
+    std::vector<Rgb> taps(pairs.size(), Rgb{0, 0, 0});
+    for (size_t k = 0; k < pairs.size(); ++k) {
+      const Vec3 index = IndexDirection(pairs[k], ReparamKind::kReflection);
+      for (const CubeTap& tap : ShrmBilinearTaps(size, index)) {
+        if (tap.weight == 0) continue;
+        const Rgb v = synth->RadianceAt(
+            ShrmKind::kGlobal, CubeTexelDirection(tap.face, tap.x, tap.y, size), pairs[k].view);
+        for (int c = 0; c < 3; ++c) taps[k][c] += tap.weight * v[c];
+      }
+    }
+    const DirectionalError ref = MeasureDirectionalError(pairs, taps, exact);
+    const DirectionalError automatic = EstimateInterpolation(*synth, pairs, size, 2, exact);
+    const DirectionalError job = EstimateInterpolation(*synth, pairs, size, 2, exact, job_rows);
+    const DirectionalError one_by_one = EstimateInterpolation(*synth, pairs, size, 2);
+    std::printf(
+        "S = %d: reference front rms %.3e max %.3e; automatic grid %.3e %.3e; job grid "
+        "(%d rows) %.3e %.3e\n",
+        size, ref.front.rms, ref.front.max, automatic.front.rms, automatic.front.max, job_rows,
+        job.front.rms, job.front.max);
+    ASSERT_GT(ref.front.rms, 0);
+    EXPECT_NEAR(automatic.front.rms, ref.front.rms, kAutoGridAgreement * ref.front.rms) << size;
+    EXPECT_NEAR(automatic.front.max, ref.front.max, kAutoGridAgreement * ref.front.max) << size;
+    EXPECT_NEAR(automatic.grazing.rms, ref.grazing.rms, kAutoGridAgreement * ref.grazing.rms)
+        << size;
+    EXPECT_NEAR(job.front.rms, ref.front.rms, kSynthesisGridShare * kTolerance) << size;
+    EXPECT_NEAR(one_by_one.front.rms, ref.front.rms, kTapsAgreement) << size;
+    EXPECT_NEAR(one_by_one.front.max, ref.front.max, kTapsAgreement) << size;
+  }
 }
 
 enum class Expect {

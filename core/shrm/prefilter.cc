@@ -23,14 +23,13 @@ constexpr int kMaxAutoFaceSize = 512;
 
 bool ExplicitOrders(const PrefilterOptions& o) { return o.f >= 0 || o.p >= 0; }
 
-// The synthesis grid's interpolation error allowed (ShrmSynthesizer::InterpolationRows): a tenth of
-// the error the orders were chosen for, the per-direction tolerance or, under the paper's rule,
-// sqrt(epsilon) (the relative RMS of the energy fraction it drops). Explicit orders name no error:
-// BuildCube's fixed rule (0).
-constexpr double kInterpolationShare = 0.1;
+// The synthesis grid's interpolation error allowed (ShrmSynthesizer::InterpolationRows):
+// kSynthesisGridShare (a tenth) of the error the orders were chosen for, the per-direction
+// tolerance or, under the paper's rule, sqrt(epsilon) (the relative RMS of the energy fraction it
+// drops). Explicit orders name no error: BuildCube's fixed rule (0).
 double InterpolationTolerance(const PrefilterOptions& o) {
-  if (o.tolerance > 0) return kInterpolationShare * o.tolerance;
-  if (!ExplicitOrders(o)) return kInterpolationShare * std::sqrt(o.epsilon);
+  if (o.tolerance > 0) return kSynthesisGridShare * o.tolerance;
+  if (!ExplicitOrders(o)) return kSynthesisGridShare * std::sqrt(o.epsilon);
   return 0;
 }
 
@@ -239,7 +238,9 @@ absl::Status ChooseOrdersForTolerance(const EnvMap& env, const Brdf& brdf,
   if (options.face_size > 0) {
     choice->face_size = options.face_size;
   } else {
-    SHRM_RETURN_IF_ERROR(ChooseFaceSize(pairs, f_ref, 3, l->light, b->coefficients, topt, choice));
+    SHRM_RETURN_IF_ERROR(
+        ChooseFaceSize(pairs, f_ref, 3, l->light, b->coefficients, topt, choice,
+                       table_of_last_round.Values(choice->f, choice->p, choice->window)));
   }
   // The size budget: the most accurate choice within it when this one needs more.
   if (options.size_budget_values > 0 &&

@@ -231,11 +231,15 @@ Rgb BandTable::Value(int k, int f, int p, std::span<const double> w) const {
   return v;
 }
 
-DirectionalError BandTable::Estimate(int f, int p, RingingWindow window) const {
+std::vector<Rgb> BandTable::Values(int f, int p, RingingWindow window) const {
   const std::vector<double> w = WindowWeights(window, f);
   std::vector<Rgb> got(pairs_.size());
   for (size_t k = 0; k < pairs_.size(); ++k) got[k] = Value(static_cast<int>(k), f, p, w);
-  return MeasureDirectionalError(pairs_, got, ref_);
+  return got;
+}
+
+DirectionalError BandTable::Estimate(int f, int p, RingingWindow window) const {
+  return MeasureDirectionalError(pairs_, Values(f, p, window), ref_);
 }
 
 int BandTable::SmallestF(int p, const ToleranceTargets& t, double share,
@@ -262,20 +266,37 @@ int BandTable::SmallestF(int p, const ToleranceTargets& t, double share,
 
 DirectionalError EstimateInterpolation(const ShrmSynthesizer& synth,
                                        std::span<const DirectionPair> pairs, int face_size,
-                                       int threads) {
-  // The points: per pair its own (R, argument) and its texel centres with the argument (V, or N
-  // for kNormal) held fixed, as ShrmEvalAt holds it; evaluated in blocks of the synthesizer's
-  // batch width.
+                                       int threads, std::span<const Rgb> exact_given,
+                                       int grid_rows) {
+  const bool have_exact = exact_given.size() == pairs.size();
+  if (synth.pmax() == 0 && have_exact) {
+    ShrmGridOptions grid;
+    grid.threads = threads;
+    grid.alpha_samples = grid_rows;
+    const absl::StatusOr<ShrmCube> cube = synth.BuildCube(ShrmKind::kGlobal, face_size, grid);
+    if (cube.ok()) {
+      std::vector<Rgb> got(pairs.size());
+      for (size_t k = 0; k < pairs.size(); ++k)
+        got[k] = ShrmEval(*cube, pairs[k].index, pairs[k].view);
+      return MeasureDirectionalError(pairs, got, exact_given);
+    }
+    // (A cube it cannot make, e.g. a grid below its rows' minimum: the taps one by one below.)
+  }
+  // The points: per pair its own (R, argument) unless its exact value is given, and its texel
+  // centres with the argument (V, or N for kNormal) held fixed, as ShrmEvalAt holds it;
+  // evaluated in blocks of the synthesizer's batch width.
   std::vector<Vec3> index, argument;
   std::vector<double> weight;  // 0 for a pair's own point, the tap's weight for a texel centre
   std::vector<int> owner;
   for (size_t k = 0; k < pairs.size(); ++k) {
     const Vec3 r = IndexDirection(pairs[k], synth.reparam());
     const Vec3 arg = ShrmViewArgument(synth.view(), r, pairs[k].view);
-    index.push_back(r);
-    argument.push_back(arg);
-    weight.push_back(0);
-    owner.push_back(static_cast<int>(k));
+    if (!have_exact) {
+      index.push_back(r);
+      argument.push_back(arg);
+      weight.push_back(0);
+      owner.push_back(static_cast<int>(k));
+    }
     for (const CubeTap& tap : ShrmBilinearTaps(face_size, r)) {
       if (tap.weight == 0) continue;
       index.push_back(CubeTexelDirection(tap.face, tap.x, tap.y, face_size));
@@ -308,6 +329,7 @@ DirectionalError EstimateInterpolation(const ShrmSynthesizer& synth,
     }
   });
   std::vector<Rgb> got(pairs.size(), Rgb{0, 0, 0}), exact(pairs.size());
+  if (have_exact) exact.assign(exact_given.begin(), exact_given.end());
   for (int i = 0; i < n; ++i) {
     if (weight[i] == 0) {
       exact[owner[i]] = values[i];
@@ -407,7 +429,8 @@ absl::StatusOr<ToleranceChoice> ChooseOrdersWithinBudget(const BandTable& table,
 
 absl::Status ChooseFaceSize(std::span<const DirectionPair> pairs, int light_lmax, int channels,
                             std::span<const double> light, const BrdfCoefficients& brdf,
-                            const ToleranceOptions& options, ToleranceChoice* choice) {
+                            const ToleranceOptions& options, ToleranceChoice* choice,
+                            std::span<const Rgb> exact) {
   const ToleranceTargets targets = TargetsForTolerance(options.tolerance, brdf.view);
   ToleranceChoice& best = *choice;
 
@@ -418,22 +441,25 @@ absl::Status ChooseFaceSize(std::span<const DirectionPair> pairs, int light_lmax
       ShrmSynthesizer synth,
       ShrmSynthesizer::Create(light_lmax, channels, windowed, brdf, best.f, best.p));
   const int max_size = std::max(kMinFaceSize, options.max_face_size);
+  // The grid the job's synthesis will use (prefilter.cc), so that a P = 0 estimate is its cube's.
+  const int rows =
+      synth.InterpolationRows(ShrmKind::kGlobal, kSynthesisGridShare * options.tolerance);
   int size = std::clamp(RoundUp8(kFirstFaceSizePerOrder * (best.f + 1)), kMinFaceSize, max_size);
-  DirectionalError interp = EstimateInterpolation(synth, pairs, size, options.threads);
+  DirectionalError interp = EstimateInterpolation(synth, pairs, size, options.threads, exact, rows);
   const double ratio = std::max(interp.front.rms / (kInterpolationShare * targets.rms),
                                 interp.front.max / (kInterpolationShare * targets.max));
   if (ratio > 0) {
     const int scaled = std::clamp(RoundUp8(size * std::sqrt(ratio)), kMinFaceSize, max_size);
     if (scaled != size) {
       size = scaled;
-      interp = EstimateInterpolation(synth, pairs, size, options.threads);
+      interp = EstimateInterpolation(synth, pairs, size, options.threads, exact, rows);
     }
   }
   for (int round = 0; round < kFaceSizeRounds && size < max_size &&
                       !MeetsTargets(interp, targets, kInterpolationShare);
        ++round) {
     size = std::min(max_size, RoundUp8(size * kFaceSizeGrowth));
-    interp = EstimateInterpolation(synth, pairs, size, options.threads);
+    interp = EstimateInterpolation(synth, pairs, size, options.threads, exact, rows);
   }
   best.face_size = size;
   best.interpolation = interp;
@@ -507,7 +533,9 @@ absl::Status ChooseWithinBudget(const BandTable& table, std::span<const Directio
         ShrmSynthesizer synth,
         ShrmSynthesizer::Create(light_lmax, channels, windowed, brdf, trial.f, trial.p));
     trial.face_size = k.s_max;
-    trial.interpolation = EstimateInterpolation(synth, pairs, k.s_max, options.threads);
+    trial.interpolation = EstimateInterpolation(
+        synth, pairs, k.s_max, options.threads, table.Values(trial.f, trial.p, trial.window),
+        synth.InterpolationRows(ShrmKind::kGlobal, kSynthesisGridShare * options.tolerance));
     const double score = BudgetScore(TotalEstimate(trial), targets);
     if (best == nullptr || score < best_score) {
       best = &k;
@@ -518,7 +546,8 @@ absl::Status ChooseWithinBudget(const BandTable& table, std::span<const Directio
   ToleranceChoice chosen = best->c;
   ToleranceOptions sized = options;
   sized.max_face_size = best->s_max;
-  SHRM_RETURN_IF_ERROR(ChooseFaceSize(pairs, light_lmax, channels, light, brdf, sized, &chosen));
+  SHRM_RETURN_IF_ERROR(ChooseFaceSize(pairs, light_lmax, channels, light, brdf, sized, &chosen,
+                                      table.Values(chosen.f, chosen.p, chosen.window)));
   chosen.budget_limited = true;
   chosen.unlimited_values = needed;
   *choice = chosen;
