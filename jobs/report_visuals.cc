@@ -194,7 +194,7 @@ absl::StatusOr<nlohmann::json> PrefilterVisuals(const EnvMap& env, const Brdf& b
 
   // The seeded pairs (the job's check takes the first --verify of the same sequence).
   const std::vector<DirectionPair> pairs =
-      SeededDirectionPairs(kVerifySeed, kReportPairs, brdf.reparam());
+      StratifiedDirectionPairs(kVerifySeed, kReportPairs, brdf.reparam());
   std::vector<Vec3> index, view;
   for (const DirectionPair& p : pairs) {
     index.push_back(p.index);
@@ -203,10 +203,8 @@ absl::StatusOr<nlohmann::json> PrefilterVisuals(const EnvMap& env, const Brdf& b
   const std::vector<Rgb> ref = reference.RadianceMany(brdf, rotation, index, view, threads);
   std::vector<Rgb> got(pairs.size());
   for (size_t k = 0; k < pairs.size(); ++k) got[k] = ShrmEval(cube, index[k], view[k]);
-  Rgb floor{};
-  for (const Rgb& r : ref)
-    for (int c = 0; c < 3; ++c) floor[c] += std::abs(r[c]) / ref.size();
-  for (double& f : floor) f = std::max(f * kRelativeFloor, 1e-300);
+  Rgb floor = RelativeFloor(pairs, ref);
+  for (double& f : floor) f = std::max(f, 1e-300);
   const DirectionalError stats = MeasureDirectionalError(pairs, got, ref);
   nlohmann::json points = nlohmann::json::array();
   for (size_t k = 0; k < pairs.size(); ++k) {

@@ -198,6 +198,59 @@ TEST(ToleranceTest, SeededPairsAreTheVisiblePointsOfASphere) {
   EXPECT_NE(other[0].view.x, pairs[0].view.x);
 }
 
+// The job's check's pairs: the same distribution, a quarter drawn from the grazing band. Each
+// band's pairs follow the band's own law (N.V^2 uniform over its part of [0, 1): under density
+// N.V, E[N.V | N.V < 0.3] = 0.2 and E[N.V | N.V >= 0.3] = (2/3)(1 - 0.3^3) / (1 - 0.3^2)), and the
+// weights make the set's weighted means those of the whole distribution (E[N.V] = 2/3).
+TEST(ToleranceTest, StratifiedPairsHaveEachBandsLawAndTheWholeWeightedMean) {
+  constexpr int kCount = 20000;
+  const std::vector<DirectionPair> pairs =
+      StratifiedDirectionPairs(kVerifySeed, kCount, ReparamKind::kReflection);
+  ASSERT_EQ(pairs.size(), static_cast<size_t>(kCount));
+  const double p_graze = kGrazingCosine * kGrazingCosine;
+  const double mean_graze = 2.0 / 3 * kGrazingCosine;
+  const double mean_front = 2.0 / 3 * (1 - std::pow(kGrazingCosine, 3)) / (1 - p_graze);
+  double sum_graze = 0, sum_front = 0, weighted = 0, total_weight = 0;
+  int n_graze = 0, n_front = 0;
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    const DirectionPair& p = pairs[k];
+    const double c = p.index.Dot(p.view);
+    EXPECT_EQ(p.grazing, k % kGrazingStride == kGrazingStride - 1) << k;
+    if (p.grazing) {
+      EXPECT_LT(c, kGrazingCosine + 1e-12) << k;
+      sum_graze += c;
+      ++n_graze;
+    } else {
+      EXPECT_GE(c, kGrazingCosine - 1e-12) << k;
+      sum_front += c;
+      ++n_front;
+    }
+    weighted += p.weight * c;
+    total_weight += p.weight;
+  }
+  EXPECT_EQ(n_graze, kCount / kGrazingStride);
+  // 5 standard errors (sd of N.V within the grazing band 0.071, within the front 0.19; of the
+  // weighted mean ~0.19 / sqrt(n)).
+  EXPECT_NEAR(sum_graze / n_graze, mean_graze, 5 * 0.071 / std::sqrt(n_graze));
+  EXPECT_NEAR(sum_front / n_front, mean_front, 5 * 0.19 / std::sqrt(n_front));
+  EXPECT_NEAR(weighted / total_weight, 2.0 / 3, 5 * 0.19 / std::sqrt(kCount));
+  // The first n pairs are the set of n (the job's check and the report's error map).
+  const std::vector<DirectionPair> first =
+      StratifiedDirectionPairs(kVerifySeed, 64, ReparamKind::kReflection);
+  for (size_t k = 0; k < first.size(); ++k) {
+    EXPECT_EQ(first[k].index.x, pairs[k].index.x);
+    EXPECT_EQ(first[k].view.y, pairs[k].view.y);
+  }
+  // The floor's mean is the distribution's: a value that is 1 in front and 0 grazing has the
+  // weighted mean 1 - 0.09, not the set's 3/4.
+  std::vector<Rgb> ref(pairs.size());
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    const double v = pairs[k].grazing ? 0.0 : 1.0;
+    ref[k] = {v, v, v};
+  }
+  EXPECT_NEAR(RelativeFloor(pairs, ref)[0], kRelativeFloor * (1 - p_graze), 1e-12);
+}
+
 TEST(ToleranceTest, ErrorMeasureDividesByTheFloorWhereThereIsNoLight) {
   std::vector<DirectionPair> pairs(3);
   pairs[2].grazing = true;
@@ -267,7 +320,7 @@ TEST(ToleranceTest, BudgetLimitedChoiceFitsAndBeatsTheObviousSplitsOfTheBudget) 
   EXPECT_LE(CubeValues(r->cube.face_size, r->analysis.p_b), budget);
 
   const std::vector<DirectionPair> pairs =
-      SeededDirectionPairs(kVerifySeed, kPairs, brdf->reparam());
+      StratifiedDirectionPairs(kVerifySeed, kPairs, brdf->reparam());
   std::vector<Rgb> ref;
   for (const DirectionPair& p : pairs) ref.push_back(BruteForce(samples, *brdf, p.index, p.view));
   auto measure = [&](const ShrmCube& cube) {
@@ -493,7 +546,7 @@ TEST_P(ToleranceRealMapTest, ToleranceIsMetOrReportedAndTheEstimateHolds) {
   ASSERT_TRUE(r->tolerance_rule);
   const ToleranceChoice& ch = r->choice;
   const std::vector<DirectionPair> pairs =
-      SeededDirectionPairs(kVerifySeed, kPairs, brdf->reparam());
+      StratifiedDirectionPairs(kVerifySeed, kPairs, brdf->reparam());
   std::vector<Rgb> got, ref;
   for (const DirectionPair& p : pairs) {
     got.push_back(ShrmEval(r->cube, p.index, p.view));

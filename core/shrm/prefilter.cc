@@ -273,7 +273,8 @@ absl::StatusOr<DirectionalError> MeasureCubeError(const FastReference& reference
     return absl::InvalidArgumentError(
         absl::StrCat("verify: pairs and threads must be >= 1, got ", pairs, ", ", threads));
   }
-  const std::vector<DirectionPair> set = SeededDirectionPairs(kVerifySeed, pairs, brdf.reparam());
+  const std::vector<DirectionPair> set =
+      StratifiedDirectionPairs(kVerifySeed, pairs, brdf.reparam());
   std::vector<Vec3> index, view;
   for (const DirectionPair& p : set) {
     index.push_back(p.index);

@@ -65,9 +65,9 @@ struct PrefilterOptions {
   // are known, before the cube is allocated; a non-OK status (e.g. a memory budget's refusal)
   // stops the pipeline with it.
   std::function<absl::Status(int face_size, int p_b)> admit_cube;
-  // > 0: the synthesized cube (ShrmEval) is measured at this many seeded pairs (kVerifySeed,
-  // never the selection's) against FastReference (the brute-force sum to 1e-3 per direction):
-  // PrefilterResult::measured, stage "verify".
+  // > 0: the synthesized cube (ShrmEval) is measured at this many seeded pairs
+  // (StratifiedDirectionPairs from kVerifySeed, never the selection's) against FastReference (the
+  // brute-force sum to 1e-3 per direction): PrefilterResult::measured, stage "verify".
   int verify = 0;
   // With verify > 0: the check's FastReference is kept in PrefilterResult::reference for a
   // caller that measures against the same map again (the visual report), instead of being
@@ -102,7 +102,8 @@ struct PrefilterResult {
 };
 
 // The measured error of `cube` (made from `env` rotated by `rotation` and `brdf`) at `pairs`
-// seeded pairs (kVerifySeed) against FastReference. Errors: no samples, pairs < 1, threads < 1.
+// seeded pairs (StratifiedDirectionPairs from kVerifySeed) against FastReference. Errors: no
+// samples, pairs < 1, threads < 1.
 absl::StatusOr<DirectionalError> MeasureCubeError(const EnvMap& env, const Brdf& brdf,
                                                   const Mat3& rotation, const ShrmCube& cube,
                                                   int pairs, int threads);

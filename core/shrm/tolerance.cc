@@ -64,12 +64,15 @@ void ChooseWindow(const BandTable& table, const ToleranceOptions& options, Toler
                         kTruncationShare);
 }
 
-}  // namespace
-
-std::vector<DirectionPair> SeededDirectionPairs(uint64_t seed, int count, ReparamKind reparam) {
+// `count` pairs; pair k's N.V squared (u, uniform under density N.V) drawn from [0, 1) or, when
+// `stratified`, from its band's part of it.
+std::vector<DirectionPair> DrawPairs(uint64_t seed, int count, ReparamKind reparam,
+                                     bool stratified) {
   std::mt19937_64 rng(seed);
   std::vector<DirectionPair> pairs;
   pairs.reserve(std::max(count, 0));
+  constexpr double kGrazingU = kGrazingCosine * kGrazingCosine;  // P(N.V < kGrazingCosine)
+  int grazing = 0;
   for (int k = 0; k < count; ++k) {
     DirectionPair pr;
     pr.view = UniformSphere(rng);
@@ -81,14 +84,35 @@ std::vector<DirectionPair> SeededDirectionPairs(uint64_t seed, int count, Repara
       const Vec3 a = std::abs(v.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
       const Vec3 t = a.Cross(v).Normalized();
       const Vec3 b = v.Cross(t);
-      const double u = Uniform(rng), phi = 2 * kPi * Uniform(rng);
+      double u = Uniform(rng);
+      const double phi = 2 * kPi * Uniform(rng);
+      const bool band_grazing = k % kGrazingStride == kGrazingStride - 1;
+      if (stratified) u = band_grazing ? kGrazingU * u : kGrazingU + (1 - kGrazingU) * u;
       const double ct = std::sqrt(u), st = std::sqrt(1 - u);
       pr.index = (t * (st * std::cos(phi)) + b * (st * std::sin(phi)) + v * ct).Normalized();
-      pr.grazing = pr.index.Dot(v) < kGrazingCosine;
+      // (Stratified: the band as drawn, not as rounding may place N.V at the boundary.)
+      pr.grazing = stratified ? band_grazing : pr.index.Dot(v) < kGrazingCosine;
+      if (pr.grazing) ++grazing;
     }
     pairs.push_back(pr);
   }
+  if (stratified && grazing > 0) {
+    const int front = count - grazing;
+    for (DirectionPair& pr : pairs)
+      pr.weight = pr.grazing ? kGrazingU * count / grazing
+                             : (front > 0 ? (1 - kGrazingU) * count / front : 0.0);
+  }
   return pairs;
+}
+
+}  // namespace
+
+std::vector<DirectionPair> SeededDirectionPairs(uint64_t seed, int count, ReparamKind reparam) {
+  return DrawPairs(seed, count, reparam, false);
+}
+
+std::vector<DirectionPair> StratifiedDirectionPairs(uint64_t seed, int count, ReparamKind reparam) {
+  return DrawPairs(seed, count, reparam, true);
 }
 
 Vec3 IndexDirection(const DirectionPair& pair, ReparamKind reparam) {
@@ -96,15 +120,26 @@ Vec3 IndexDirection(const DirectionPair& pair, ReparamKind reparam) {
   return pair.index * (2 * pair.index.Dot(pair.view)) - pair.view;
 }
 
+Rgb RelativeFloor(std::span<const DirectionPair> pairs, std::span<const Rgb> ref) {
+  // Weights of 1 (a plain sample): the plain mean, as it was before the weights.
+  Rgb floor{0, 0, 0};
+  const size_t n = std::min(pairs.size(), ref.size());
+  if (n == 0) return floor;
+  double total = 0;
+  for (size_t k = 0; k < n; ++k) {
+    total += pairs[k].weight;
+    for (int c = 0; c < 3; ++c) floor[c] += pairs[k].weight * std::abs(ref[k][c]);
+  }
+  for (int c = 0; c < 3; ++c) floor[c] *= kRelativeFloor / total;
+  return floor;
+}
+
 DirectionalError MeasureDirectionalError(std::span<const DirectionPair> pairs,
                                          std::span<const Rgb> got, std::span<const Rgb> ref) {
   DirectionalError e;
   const size_t n = std::min({pairs.size(), got.size(), ref.size()});
   if (n == 0) return e;
-  Rgb floor{0, 0, 0};
-  for (size_t k = 0; k < n; ++k)
-    for (int c = 0; c < 3; ++c) floor[c] += std::abs(ref[k][c]);
-  for (int c = 0; c < 3; ++c) floor[c] *= kRelativeFloor / static_cast<double>(n);
+  const Rgb floor = RelativeFloor(pairs.first(n), ref.first(n));
   double sum_front = 0, sum_grazing = 0;
   for (size_t k = 0; k < n; ++k)
     for (int c = 0; c < 3; ++c) {
