@@ -491,6 +491,58 @@ TEST(ToleranceTest, RadialInterpolationEstimateIsTheCubesErrorAtThePairs) {
   }
 }
 
+// The memo of interpolation estimates (InterpolationMemo) is transparent: the face-size search
+// and the budget step make exactly the choice with it that they make without it, and the budget
+// step's repeats of the search's estimates come from it.
+TEST(ToleranceTest, InterpolationMemoChangesNoChoice) {
+  constexpr int kF = 40, kP = 12;
+  const EnvMap env = EnvMap::FromLatLong(LoadBundledMap("courtyard.exr", kMapWidth));
+  auto brdf = ParseOrDie("ggx:alpha=0.1,f0=0.04");
+  ASSERT_NE(brdf, nullptr);
+  PrefilterOptions opt;
+  opt.f = kF;
+  opt.p = kP;
+  opt.view = ViewVariable::kNormal;
+  opt.synthesize = false;
+  auto r = Prefilter(env, *brdf, opt);
+  ASSERT_TRUE(r.ok()) << r.status();
+  auto reference = ShrmSynthesizer::Create(r->light_lmax, 3, r->light, r->brdf, kF, kP);
+  ASSERT_TRUE(reference.ok()) << reference.status();
+  const std::vector<DirectionPair> pairs =
+      SeededDirectionPairs(kSelectionSeed, 64, ReparamKind::kReflection);
+  const BandTable table = BandTable::Compute(*reference, pairs, 2);
+  ToleranceOptions topt;
+  topt.tolerance = kTolerance;
+  topt.threads = 2;
+  const ToleranceChoice first = ChooseOrders(table, topt);
+  auto choose = [&](InterpolationMemo* memo) {
+    ToleranceChoice c = first;
+    ToleranceOptions o = topt;
+    EXPECT_TRUE(ChooseFaceSize(pairs, r->light_lmax, 3, r->light, r->brdf, o, &c,
+                               table.Values(c.f, c.p, c.window), memo)
+                    .ok());
+    // A budget of a quarter of what the choice needs: the budget step runs.
+    o.max_cube_values = CubeValues(c.face_size, c.p) / 4;
+    EXPECT_TRUE(
+        ChooseWithinBudget(table, pairs, r->light_lmax, 3, r->light, r->brdf, o, &c, memo).ok());
+    return c;
+  };
+  InterpolationMemo memo;
+  const ToleranceChoice with = choose(&memo), without = choose(nullptr);
+  EXPECT_TRUE(with.budget_limited);
+  EXPECT_EQ(with.f, without.f);
+  EXPECT_EQ(with.p, without.p);
+  EXPECT_EQ(with.window, without.window);
+  EXPECT_EQ(with.face_size, without.face_size);
+  EXPECT_EQ(with.interpolation.front.rms, without.interpolation.front.rms);
+  EXPECT_EQ(with.interpolation.front.max, without.interpolation.front.max);
+  EXPECT_EQ(with.unlimited_values, without.unlimited_values);
+  // The winner's estimate at its S was made once and is in the memo.
+  const DirectionalError* kept = memo.Find(with.f, with.p, with.window, with.face_size);
+  ASSERT_NE(kept, nullptr);
+  EXPECT_EQ(kept->front.rms, with.interpolation.front.rms);
+}
+
 enum class Expect {
   kAll,  // front RMS, front largest, no negatives; and grazing RMS in the normal variable
   // The paper's view variable and a BRDF whose rho-hat jumps to 0 at the normal's horizon (the

@@ -235,12 +235,13 @@ absl::Status ChooseOrdersForTolerance(const EnvMap& env, const Brdf& brdf,
     if (grow_p) p_ref = std::min(p_cap, 2 * p_ref);
   }
   SHRM_RETURN_IF_ERROR(clock.Begin("orders"));
+  InterpolationMemo memo;  // the face-size search's estimates, reused by the budget step
   if (options.face_size > 0) {
     choice->face_size = options.face_size;
   } else {
     SHRM_RETURN_IF_ERROR(
         ChooseFaceSize(pairs, f_ref, 3, l->light, b->coefficients, topt, choice,
-                       table_of_last_round.Values(choice->f, choice->p, choice->window)));
+                       table_of_last_round.Values(choice->f, choice->p, choice->window), &memo));
   }
   // The size budget: the most accurate choice within it when this one needs more.
   if (options.size_budget_values > 0 &&
@@ -248,7 +249,7 @@ absl::Status ChooseOrdersForTolerance(const EnvMap& env, const Brdf& brdf,
     topt.max_cube_values = options.size_budget_values;
     topt.face_size = options.face_size;
     SHRM_RETURN_IF_ERROR(ChooseWithinBudget(table_of_last_round, pairs, f_ref, 3, l->light,
-                                            b->coefficients, topt, choice));
+                                            b->coefficients, topt, choice, &memo));
   }
   clock.End();
   b->f_rho = choice->f;

@@ -462,10 +462,22 @@ absl::StatusOr<ToleranceChoice> ChooseOrdersWithinBudget(const BandTable& table,
   return best;
 }
 
+const DirectionalError* InterpolationMemo::Find(int f, int p, RingingWindow window,
+                                                int face_size) const {
+  for (const Entry& e : entries_)
+    if (e.f == f && e.p == p && e.window == window && e.face_size == face_size) return &e.estimate;
+  return nullptr;
+}
+
+void InterpolationMemo::Add(int f, int p, RingingWindow window, int face_size,
+                            const DirectionalError& e) {
+  if (Find(f, p, window, face_size) == nullptr) entries_.push_back({f, p, face_size, window, e});
+}
+
 absl::Status ChooseFaceSize(std::span<const DirectionPair> pairs, int light_lmax, int channels,
                             std::span<const double> light, const BrdfCoefficients& brdf,
                             const ToleranceOptions& options, ToleranceChoice* choice,
-                            std::span<const Rgb> exact) {
+                            std::span<const Rgb> exact, InterpolationMemo* memo) {
   const ToleranceTargets targets = TargetsForTolerance(options.tolerance, brdf.view);
   ToleranceChoice& best = *choice;
 
@@ -479,22 +491,30 @@ absl::Status ChooseFaceSize(std::span<const DirectionPair> pairs, int light_lmax
   // The grid the job's synthesis will use (prefilter.cc), so that a P = 0 estimate is its cube's.
   const int rows =
       synth.InterpolationRows(ShrmKind::kGlobal, kSynthesisGridShare * options.tolerance);
+  auto estimate = [&](int s) {
+    if (memo != nullptr) {
+      if (const DirectionalError* known = memo->Find(best.f, best.p, best.window, s)) return *known;
+    }
+    const DirectionalError e = EstimateInterpolation(synth, pairs, s, options.threads, exact, rows);
+    if (memo != nullptr) memo->Add(best.f, best.p, best.window, s, e);
+    return e;
+  };
   int size = std::clamp(RoundUp8(kFirstFaceSizePerOrder * (best.f + 1)), kMinFaceSize, max_size);
-  DirectionalError interp = EstimateInterpolation(synth, pairs, size, options.threads, exact, rows);
+  DirectionalError interp = estimate(size);
   const double ratio = std::max(interp.front.rms / (kInterpolationShare * targets.rms),
                                 interp.front.max / (kInterpolationShare * targets.max));
   if (ratio > 0) {
     const int scaled = std::clamp(RoundUp8(size * std::sqrt(ratio)), kMinFaceSize, max_size);
     if (scaled != size) {
       size = scaled;
-      interp = EstimateInterpolation(synth, pairs, size, options.threads, exact, rows);
+      interp = estimate(size);
     }
   }
   for (int round = 0; round < kFaceSizeRounds && size < max_size &&
                       !MeetsTargets(interp, targets, kInterpolationShare);
        ++round) {
     size = std::min(max_size, RoundUp8(size * kFaceSizeGrowth));
-    interp = EstimateInterpolation(synth, pairs, size, options.threads, exact, rows);
+    interp = estimate(size);
   }
   best.face_size = size;
   best.interpolation = interp;
@@ -517,7 +537,7 @@ double BudgetScore(const DirectionalError& e, const ToleranceTargets& t) {
 absl::Status ChooseWithinBudget(const BandTable& table, std::span<const DirectionPair> pairs,
                                 int light_lmax, int channels, std::span<const double> light,
                                 const BrdfCoefficients& brdf, const ToleranceOptions& options,
-                                ToleranceChoice* choice) {
+                                ToleranceChoice* choice, InterpolationMemo* memo) {
   const double needed = CubeValues(choice->face_size, choice->p);
   int max_face_size = 0;
   SHRM_ASSIGN_OR_RETURN(ToleranceChoice within,
@@ -562,15 +582,22 @@ absl::Status ChooseWithinBudget(const BandTable& table, std::span<const Directio
     const Candidate& k = candidates[i];
     if (best != nullptr && k.score >= best_score) break;
     ToleranceChoice trial = k.c;
-    const std::vector<double> windowed =
-        ApplyWindow(trial.window, trial.f, light_lmax, channels, light);
-    SHRM_ASSIGN_OR_RETURN(
-        ShrmSynthesizer synth,
-        ShrmSynthesizer::Create(light_lmax, channels, windowed, brdf, trial.f, trial.p));
     trial.face_size = k.s_max;
-    trial.interpolation = EstimateInterpolation(
-        synth, pairs, k.s_max, options.threads, table.Values(trial.f, trial.p, trial.window),
-        synth.InterpolationRows(ShrmKind::kGlobal, kSynthesisGridShare * options.tolerance));
+    const DirectionalError* known =
+        memo != nullptr ? memo->Find(trial.f, trial.p, trial.window, k.s_max) : nullptr;
+    if (known != nullptr) {
+      trial.interpolation = *known;
+    } else {
+      const std::vector<double> windowed =
+          ApplyWindow(trial.window, trial.f, light_lmax, channels, light);
+      SHRM_ASSIGN_OR_RETURN(
+          ShrmSynthesizer synth,
+          ShrmSynthesizer::Create(light_lmax, channels, windowed, brdf, trial.f, trial.p));
+      trial.interpolation = EstimateInterpolation(
+          synth, pairs, k.s_max, options.threads, table.Values(trial.f, trial.p, trial.window),
+          synth.InterpolationRows(ShrmKind::kGlobal, kSynthesisGridShare * options.tolerance));
+      if (memo != nullptr) memo->Add(trial.f, trial.p, trial.window, k.s_max, trial.interpolation);
+    }
     const double score = BudgetScore(TotalEstimate(trial), targets);
     if (best == nullptr || score < best_score) {
       best = &k;
@@ -582,7 +609,7 @@ absl::Status ChooseWithinBudget(const BandTable& table, std::span<const Directio
   ToleranceOptions sized = options;
   sized.max_face_size = best->s_max;
   SHRM_RETURN_IF_ERROR(ChooseFaceSize(pairs, light_lmax, channels, light, brdf, sized, &chosen,
-                                      table.Values(chosen.f, chosen.p, chosen.window)));
+                                      table.Values(chosen.f, chosen.p, chosen.window), memo));
   chosen.budget_limited = true;
   chosen.unlimited_values = needed;
   *choice = chosen;

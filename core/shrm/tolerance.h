@@ -227,6 +227,24 @@ absl::StatusOr<ToleranceChoice> ChooseOrdersWithinBudget(const BandTable& table,
                                                          const ToleranceOptions& options,
                                                          int* max_face_size);
 
+// Interpolation estimates one order choice has made, by (F, P, window, S): the face-size search
+// and the budget step ask for some of the same ones (courtyard GGX alpha 0.1 f0 = 0.04: two of
+// eleven, ~130 ms each). The pairs, lighting, BRDF and tolerance are the choice's: one memo per
+// ChooseOrdersForTolerance run.
+class InterpolationMemo {
+ public:
+  const DirectionalError* Find(int f, int p, RingingWindow window, int face_size) const;
+  void Add(int f, int p, RingingWindow window, int face_size, const DirectionalError& e);
+
+ private:
+  struct Entry {
+    int f, p, face_size;
+    RingingWindow window;
+    DirectionalError estimate;
+  };
+  std::vector<Entry> entries_;
+};
+
 // The whole budget step, for a choice (orders and S) whose cube exceeds options.max_cube_values.
 // With options.face_size given: ChooseOrdersWithinBudget at that S. Otherwise per view order P
 // the largest face size S_max(P) the budget allows and F the smallest meeting the targets at P
@@ -241,17 +259,18 @@ absl::StatusOr<ToleranceChoice> ChooseOrdersWithinBudget(const BandTable& table,
 absl::Status ChooseWithinBudget(const BandTable& table, std::span<const DirectionPair> pairs,
                                 int light_lmax, int channels, std::span<const double> light,
                                 const BrdfCoefficients& brdf, const ToleranceOptions& options,
-                                ToleranceChoice* choice);
+                                ToleranceChoice* choice, InterpolationMemo* memo = nullptr);
 
 // S for a choice: the interpolation estimate of the synthesizer made from `light` (degree
 // light_lmax, the choice's window applied here) and `brdf` at the chosen orders, at S ~ 2 F,
 // scaled by the h^2 law and grown until it meets its share (or options.max_face_size).
 // choice->met becomes false when it does not. Errors: those of ShrmSynthesizer::Create.
-// `exact`: the choice's values at the pairs (BandTable::Values), or empty (evaluated).
+// `exact`: the choice's values at the pairs (BandTable::Values), or empty (evaluated). `memo`:
+// estimates already made (used and added to), or nullptr.
 absl::Status ChooseFaceSize(std::span<const DirectionPair> pairs, int light_lmax, int channels,
                             std::span<const double> light, const BrdfCoefficients& brdf,
                             const ToleranceOptions& options, ToleranceChoice* choice,
-                            std::span<const Rgb> exact = {});
+                            std::span<const Rgb> exact = {}, InterpolationMemo* memo = nullptr);
 
 }  // namespace shrm
 
