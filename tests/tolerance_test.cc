@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -78,21 +79,39 @@ Rgb BruteForce(const std::vector<EnvSample>& samples, const Brdf& brdf, const Ve
   return out;
 }
 
+// `brdf` on `env` at explicit orders (F, P): the job's lighting and BRDF coefficients (its stages
+// without the synthesis) and the synthesizer made from them.
+struct Expansion {
+  PrefilterResult stages;
+  std::optional<ShrmSynthesizer> synth;
+};
+absl::StatusOr<Expansion> ExpansionAt(const EnvMap& env, const Brdf& brdf, int f, int p,
+                                      ViewVariable view = PrefilterOptions{}.view) {
+  PrefilterOptions opt;
+  opt.f = f;
+  opt.p = p;
+  opt.view = view;
+  opt.synthesize = false;
+  absl::StatusOr<PrefilterResult> r = Prefilter(env, brdf, opt);
+  if (!r.ok()) return r.status();
+  absl::StatusOr<ShrmSynthesizer> synth =
+      ShrmSynthesizer::Create(r->light_lmax, 3, r->light, r->brdf, f, p);
+  if (!synth.ok()) return synth.status();
+  Expansion e{*std::move(r), std::nullopt};
+  e.synth.emplace(*std::move(synth));
+  return e;
+}
+
 TEST(ToleranceTest, BandContributionsSumToTheDirectValueAtEveryTruncation) {
   const Image img = LoadBundledMap("courtyard.exr", 64);
   const EnvMap env = EnvMap::FromLatLong(img);
   auto brdf = ParseOrDie("microfacet:sigma=0.3");
   ASSERT_NE(brdf, nullptr);
-  PrefilterOptions opt;
-  opt.f = 12;
-  opt.p = 4;
-  opt.synthesize = false;
-  auto r = Prefilter(env, *brdf, opt);
-  ASSERT_TRUE(r.ok()) << r.status();
-  auto full = ShrmSynthesizer::Create(r->light_lmax, 3, r->light, r->brdf, 12, 4);
-  ASSERT_TRUE(full.ok()) << full.status();
+  auto e = ExpansionAt(env, *brdf, 12, 4);
+  ASSERT_TRUE(e.ok()) << e.status();
+  const PrefilterResult* r = &e->stages;
   const std::vector<DirectionPair> pairs = SeededDirectionPairs(7, 12, ReparamKind::kReflection);
-  const BandTable table = BandTable::Compute(*full, pairs, 2);
+  const BandTable table = BandTable::Compute(*e->synth, pairs, 2);
   const std::vector<double> ones(13, 1.0);
   for (const auto& [f, p] : {std::pair{12, 4}, std::pair{7, 2}, std::pair{3, 0}}) {
     auto part = ShrmSynthesizer::Create(r->light_lmax, 3, r->light, r->brdf, f, p);
@@ -443,14 +462,9 @@ TEST(ToleranceTest, RadialInterpolationEstimateIsTheCubesErrorAtThePairs) {
   const EnvMap env = EnvMap::FromLatLong(LoadBundledMap("forest.exr", kMapWidth));
   auto brdf = ParseOrDie("phong:s=128");
   ASSERT_NE(brdf, nullptr);
-  PrefilterOptions opt;
-  opt.f = kF;
-  opt.p = 0;
-  opt.synthesize = false;
-  auto r = Prefilter(env, *brdf, opt);
-  ASSERT_TRUE(r.ok()) << r.status();
-  auto synth = ShrmSynthesizer::Create(r->light_lmax, 3, r->light, r->brdf, kF, 0);
-  ASSERT_TRUE(synth.ok()) << synth.status();
+  auto e = ExpansionAt(env, *brdf, kF, 0);
+  ASSERT_TRUE(e.ok()) << e.status();
+  const std::optional<ShrmSynthesizer>& synth = e->synth;
   const std::vector<DirectionPair> pairs =
       SeededDirectionPairs(11, kInterpPairs, ReparamKind::kReflection);
   std::vector<Rgb> exact(pairs.size());
@@ -499,18 +513,12 @@ TEST(ToleranceTest, InterpolationMemoChangesNoChoice) {
   const EnvMap env = EnvMap::FromLatLong(LoadBundledMap("courtyard.exr", kMapWidth));
   auto brdf = ParseOrDie("ggx:alpha=0.1,f0=0.04");
   ASSERT_NE(brdf, nullptr);
-  PrefilterOptions opt;
-  opt.f = kF;
-  opt.p = kP;
-  opt.view = ViewVariable::kNormal;
-  opt.synthesize = false;
-  auto r = Prefilter(env, *brdf, opt);
-  ASSERT_TRUE(r.ok()) << r.status();
-  auto reference = ShrmSynthesizer::Create(r->light_lmax, 3, r->light, r->brdf, kF, kP);
-  ASSERT_TRUE(reference.ok()) << reference.status();
+  auto e = ExpansionAt(env, *brdf, kF, kP, ViewVariable::kNormal);
+  ASSERT_TRUE(e.ok()) << e.status();
+  const PrefilterResult* r = &e->stages;
   const std::vector<DirectionPair> pairs =
       SeededDirectionPairs(kSelectionSeed, 64, ReparamKind::kReflection);
-  const BandTable table = BandTable::Compute(*reference, pairs, 2);
+  const BandTable table = BandTable::Compute(*e->synth, pairs, 2);
   ToleranceOptions topt;
   topt.tolerance = kTolerance;
   topt.threads = 2;

@@ -64,6 +64,12 @@ void ChooseWindow(const BandTable& table, const ToleranceOptions& options, Toler
                         kTruncationShare);
 }
 
+// The rows of the grid the job's synthesis will use (prefilter.cc InterpolationTolerance), so that
+// a P = 0 interpolation estimate is its cube's.
+int JobGridRows(const ShrmSynthesizer& synth, double tolerance) {
+  return synth.InterpolationRows(ShrmKind::kGlobal, kSynthesisGridShare * tolerance);
+}
+
 // `count` pairs; pair k's N.V squared (u, uniform under density N.V) drawn from [0, 1) or, when
 // `stratified`, from its band's part of it.
 std::vector<DirectionPair> DrawPairs(uint64_t seed, int count, ReparamKind reparam,
@@ -488,9 +494,7 @@ absl::Status ChooseFaceSize(std::span<const DirectionPair> pairs, int light_lmax
       ShrmSynthesizer synth,
       ShrmSynthesizer::Create(light_lmax, channels, windowed, brdf, best.f, best.p));
   const int max_size = std::max(kMinFaceSize, options.max_face_size);
-  // The grid the job's synthesis will use (prefilter.cc), so that a P = 0 estimate is its cube's.
-  const int rows =
-      synth.InterpolationRows(ShrmKind::kGlobal, kSynthesisGridShare * options.tolerance);
+  const int rows = JobGridRows(synth, options.tolerance);
   auto estimate = [&](int s) {
     if (memo != nullptr) {
       if (const DirectionalError* known = memo->Find(best.f, best.p, best.window, s)) return *known;
@@ -593,9 +597,9 @@ absl::Status ChooseWithinBudget(const BandTable& table, std::span<const Directio
       SHRM_ASSIGN_OR_RETURN(
           ShrmSynthesizer synth,
           ShrmSynthesizer::Create(light_lmax, channels, windowed, brdf, trial.f, trial.p));
-      trial.interpolation = EstimateInterpolation(
-          synth, pairs, k.s_max, options.threads, table.Values(trial.f, trial.p, trial.window),
-          synth.InterpolationRows(ShrmKind::kGlobal, kSynthesisGridShare * options.tolerance));
+      trial.interpolation = EstimateInterpolation(synth, pairs, k.s_max, options.threads,
+                                                  table.Values(trial.f, trial.p, trial.window),
+                                                  JobGridRows(synth, options.tolerance));
       if (memo != nullptr) memo->Add(trial.f, trial.p, trial.window, k.s_max, trial.interpolation);
     }
     const double score = BudgetScore(TotalEstimate(trial), targets);
