@@ -370,23 +370,25 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
             err(path, "must be a string \"F,P\" with integers F, P >= 0");
           else
             orders = *parsed;
-        } else if (key == "half" || key == "report" || key == "preview" || key == "ktx2" ||
-                   key == "report_html") {
+        } else if (key == "half" || key == "peak_lights" || key == "report" || key == "preview" ||
+                   key == "ktx2" || key == "report_html") {
           if (!v.is_boolean()) {
             err(path, "must be true or false");
           } else {
-            (key == "half"      ? opt->job.half
-             : key == "report"  ? opt->report
-             : key == "preview" ? opt->preview
-             : key == "ktx2"    ? opt->ktx2
-                                : opt->report_html) = v.get<bool>();
+            (key == "half"          ? opt->job.half
+             : key == "peak_lights" ? opt->job.peak_lights
+             : key == "report"      ? opt->report
+             : key == "preview"     ? opt->preview
+             : key == "ktx2"        ? opt->ktx2
+                                    : opt->report_html) = v.get<bool>();
           }
         } else if (key == "rotate") {
           if (!ParseRotate(v, &opt->job.env.rotate_ypr_deg)) err(path, kRotateError);
         } else {
           err(path,
               "unknown option (expected epsilon, tolerance, window, view_variable, verify, kind, "
-              "size, orders, half, max_size, rotate, report, preview, ktx2, report_html)");
+              "size, orders, half, peak_lights, max_size, rotate, report, preview, ktx2, "
+              "report_html)");
         }
       }
       if (absl::Status rule = jobs::SetOrderRule(&opt->job, epsilon, tolerance, orders,

@@ -15,6 +15,7 @@
 #include "core/brdf/brdf.h"
 #include "core/envmap/lighting.h"
 #include "core/export/shrm_ktx2.h"
+#include "core/shrm/shrm_eval.h"
 #include "core/shrm/shrm_file.h"
 #include "core/shrm/shrm_reference.h"
 #include "core/shrm/shrm_synthesis.h"
@@ -65,7 +66,17 @@ absl::Status RunEval(const PointArgs& a) {
   SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrm(a.shrm));
   Vec3 index, v;
   SHRM_RETURN_IF_ERROR(ParseGeometry(a, file.cube.index == ReparamKind::kTangent, &index, &v));
-  PrintRgb(ShrmEval(file.cube, index, v), a.json);
+  if (file.cube.lights.empty()) {
+    PrintRgb(ShrmEval(file.cube, index, v), a.json);
+    return absl::OkStatus();
+  }
+  // The lights are summed with the BRDF the file was made with.
+  absl::StatusOr<std::unique_ptr<Brdf>> brdf = ParseBrdfSpec(BrdfAttribute(file));
+  if (!brdf.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        a.shrm, ": its peak lights need the BRDF of shrm:brdf: ", brdf.status().message()));
+  }
+  PrintRgb(ShrmEvalWithLights(file.cube, **brdf, index, v), a.json);
   return absl::OkStatus();
 }
 

@@ -42,8 +42,14 @@ absl::Status WriteShrmKtx2(const std::string& tmp, const ShrmCube& cube,
 // Preview: three spheres (front, side, above), each this many pixels across.
 constexpr int kPreviewSize = 256;
 
-absl::Status WritePreview(const std::string& tmp, const ShrmCube& cube) {
-  const Image spheres = jobs::RenderShrmSpheres(cube, kPreviewSize);
+// `brdf_spec`: the BRDF the cube was made with, for its lights (none: not parsed).
+absl::Status WritePreview(const std::string& tmp, const ShrmCube& cube,
+                          const std::string& brdf_spec) {
+  std::unique_ptr<Brdf> brdf;
+  if (!cube.lights.empty()) {
+    SHRM_ASSIGN_OR_RETURN(brdf, ParseBrdfSpec(brdf_spec));
+  }
+  const Image spheres = jobs::RenderShrmSpheres(cube, kPreviewSize, brdf.get());
   return WritePreviewPng(tmp, spheres, jobs::MidGreyExposure(spheres));
 }
 
@@ -136,7 +142,7 @@ absl::Status RunPrefilterRemote(const jobs::PrefilterJob& job, const PrefilterRu
     }
     if (!run.preview.empty()) {
       progress.Begin("preview");
-      SHRM_RETURN_IF_ERROR(WritePreview(outputs.Temp(run.preview), file.cube));
+      SHRM_RETURN_IF_ERROR(WritePreview(outputs.Temp(run.preview), file.cube, BrdfAttribute(file)));
       report["timings"]["preview_ms"] = progress.End();
     }
   }
@@ -215,7 +221,8 @@ absl::Status RunPrefilterEmbedded(const jobs::PrefilterJob& job, const Prefilter
   }
   if (!run.preview.empty()) {
     progress.Begin("preview");
-    SHRM_RETURN_IF_ERROR(WritePreview(outputs.Temp(run.preview), r->result.cube));
+    SHRM_RETURN_IF_ERROR(
+        WritePreview(outputs.Temp(run.preview), r->result.cube, r->provenance.brdf_spec));
     timings["preview_ms"] = progress.End();
   }
   if (!run.report_html.empty()) timings["report_ms"] = r->visuals_ms;
@@ -271,6 +278,7 @@ void AddPrefilterJobOptions(CLI::App* sub, PrefilterArgs* args) {
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   sub->add_flag("--half", args->half, Help("half"));
+  sub->add_flag("--peak-lights", args->peak_lights, Help("peak_lights"));
   sub->add_option("--max-size", args->max_size_mb, Help("max_size"))
       ->capture_default_str()
       ->check(CLI::Range(0.0, jobs::kMaxSizeMbLimit));
@@ -299,6 +307,7 @@ absl::StatusOr<jobs::PrefilterJob> PrefilterJobFromArgs(const PrefilterArgs& a) 
   job.kind = *kind;
   job.face_size = a.size;
   job.half = a.half;
+  job.peak_lights = a.peak_lights;
   job.max_size_mb = a.max_size_mb;
   return job;
 }

@@ -31,6 +31,7 @@ struct PrefilterArgs {
   std::string kind = jobs::ShrmKindName(ShrmKind::kGlobal);
   int size = 0;
   bool half = false;
+  bool peak_lights = false;
   double max_size_mb = jobs::kDefaultMaxSizeMb;
 };
 

@@ -64,7 +64,7 @@ const Option* FindOption(const std::array<Option, N>& table, std::string_view na
 }
 
 // The prefilter job's own options (after the environment's).
-const std::array<JobOption, 11> kPrefilterJobOptions = {{
+const std::array<JobOption, 12> kPrefilterJobOptions = {{
     {"brdf", "BRDF spec, e.g. microfacet:sigma=0.2 (docs/brdf.md)", kCommandLine | kWire,
      "--brdf ggx:alpha=0.3", "", [](PrefilterJob* j) { j->brdf = "ggx:alpha=0.3"; },
      "manifest: \"brdfs\" lists the specs, one job each"},
@@ -108,8 +108,13 @@ const std::array<JobOption, 11> kPrefilterJobOptions = {{
      "choice "
      "within it, reported, when the tolerance needs more",
      kEverywhere, "--max-size 32", "32", [](PrefilterJob* j) { j->max_size_mb = 32; }, ""},
+    {"peak_lights",
+     "ship the map's brightest pixels (suns, lamps) as directional lights beside the SHRM, summed "
+     "exactly where it is evaluated; the expansion holds the rest (docs/shrm.md \"Peak lights\"; "
+     "not yet for --ktx2 or shrm-view)",
+     kEverywhere, "--peak-lights", "true", [](PrefilterJob* j) { j->peak_lights = true; }, ""},
 }};
-const std::array<JobOption, 18> kPrefilterOptions =
+const std::array<JobOption, 19> kPrefilterOptions =
     Concat(EnvironmentOptions<PrefilterJob>(), kPrefilterJobOptions);
 
 // The IBL job's own options (after the environment's).

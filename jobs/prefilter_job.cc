@@ -144,6 +144,7 @@ PrefilterOptions CorePrefilterOptions(const PrefilterJob& job, int threads) {
   opt.view = ResolvedViewVariable(job);
   opt.try_other_view = AutoViewVariable(job);
   opt.verify = job.verify;
+  opt.peak_lights = job.peak_lights;
   opt.kind = job.kind;
   opt.face_size = job.face_size;
   opt.rotation = EnvironmentRotation(job.env);
@@ -195,6 +196,7 @@ std::map<std::string, std::string> PrefilterFileAttributes(const PrefilterJob& j
       {"shrm:version", kVersion},
   };
   if (job.env.rotate_ypr_deg) attrs["shrm:rotate_ypr_deg"] = RotationAttribute(job.env);
+  if (job.peak_lights) attrs["shrm:peak_lights"] = absl::StrCat(result.peak_threshold);
   if (result.tolerance_rule) {
     attrs["shrm:tolerance"] = absl::StrCat(job.tolerance);
     attrs["shrm:max_size_mb"] = absl::StrCat(job.max_size_mb);
@@ -216,6 +218,10 @@ nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProve
   report["window"] = RingingWindowName(result.window);
   report["view_variable"] = ViewVariableName(result.brdf.view);
   report["order_rule"] = OrderRuleName(job);
+  if (job.peak_lights) {
+    report["peak_lights"] = {{"count", result.cube.lights.size()},
+                             {"threshold", result.peak_threshold}};
+  }
   if (result.verified_pairs > 0) {
     report["measured"] = {{"pairs", result.verified_pairs},
                           {"front", StatsJson(result.measured.front)},
@@ -289,6 +295,8 @@ std::string WhyFileDiffers(const PrefilterJob& job, const std::string& canonical
                       job.env.rotate_ypr_deg ? RotationAttribute(job.env) : "(none)"))
            .empty())
     return why;
+  if (job.peak_lights != a.contains("shrm:peak_lights"))
+    return job.peak_lights ? "peak lights asked" : "peak lights not asked";
   if (file.cube.kind != job.kind) return absl::StrCat("kind != ", ShrmKindName(job.kind));
   if (job.face_size > 0 && file.cube.face_size != job.face_size)
     return absl::StrCat("size ", file.cube.face_size, " != ", job.face_size);

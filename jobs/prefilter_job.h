@@ -88,6 +88,8 @@ struct PrefilterJob {
   ShrmKind kind = ShrmKind::kGlobal;
   int face_size = 0;  // S_B; 0 = about 10 F_B in [16, 512]
   bool half = false;  // half floats in the SHRM file
+  // The map's brightest pixels shipped as the SHRM's lights (PrefilterOptions::peak_lights).
+  bool peak_lights = false;
   // Tolerance rule only: the size budget of the file in MB (0: none).
   double max_size_mb = kDefaultMaxSizeMb;
 

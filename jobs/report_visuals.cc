@@ -126,7 +126,7 @@ std::array<SphereView, kSphereViews> SphereViews() {
   return {{{"front", {0, 0, 1}}, {"side", {1, 0, 0}}, {"above", Vec3{0, 0.7, 0.7}.Normalized()}}};
 }
 
-Image RenderShrmSpheres(const ShrmCube& cube, int size) {
+Image RenderShrmSpheres(const ShrmCube& cube, int size, const Brdf* brdf) {
   Image img = BlankImage(kSphereViews * size, size, 3);
   const auto views = SphereViews();
   for (int s = 0; s < kSphereViews; ++s) {
@@ -136,7 +136,10 @@ Image RenderShrmSpheres(const ShrmCube& cube, int size) {
         const std::optional<Vec3> n =
             SphereNormal(f, 2 * (x + 0.5) / size - 1, 1 - 2 * (y + 0.5) / size);
         if (!n) continue;
-        const std::array<double, 3> b = ShrmEval(cube, IndexAt(cube, *n), f.view);
+        const Vec3 index = IndexAt(cube, *n);
+        const std::array<double, 3> b = brdf != nullptr
+                                            ? ShrmEvalWithLights(cube, *brdf, index, f.view)
+                                            : ShrmEval(cube, index, f.view);
         for (int c = 0; c < 3; ++c)
           img.pixels[(static_cast<size_t>(y) * img.width + s * size + x) * 3 + c] =
               static_cast<float>(b[c]);
@@ -202,7 +205,8 @@ absl::StatusOr<nlohmann::json> PrefilterVisuals(const EnvMap& env, const Brdf& b
   }
   const std::vector<Rgb> ref = reference.RadianceMany(brdf, rotation, index, view, threads);
   std::vector<Rgb> got(pairs.size());
-  for (size_t k = 0; k < pairs.size(); ++k) got[k] = ShrmEval(cube, index[k], view[k]);
+  for (size_t k = 0; k < pairs.size(); ++k)
+    got[k] = ShrmEvalWithLights(cube, brdf, index[k], view[k]);
   Rgb floor = RelativeFloor(pairs, ref);
   for (double& f : floor) f = std::max(f, 1e-300);
   const DirectionalError stats = MeasureDirectionalError(pairs, got, ref);
@@ -229,7 +233,7 @@ absl::StatusOr<nlohmann::json> PrefilterVisuals(const EnvMap& env, const Brdf& b
 
   // Spheres: the SHRM at every pixel, the brute-force sum at the cell centres.
   const int size = kSpherePixels, cells = kReferenceCells;
-  const Image shrm = RenderShrmSpheres(cube, size);
+  const Image shrm = RenderShrmSpheres(cube, size, &brdf);
   const double exposure = MidGreyExposure(shrm);
   const auto views = SphereViews();
   std::vector<Vec3> cell_index, cell_view;
@@ -265,7 +269,7 @@ absl::StatusOr<nlohmann::json> PrefilterVisuals(const EnvMap& env, const Brdf& b
   std::vector<Stats> front(kSphereViews), grazing(kSphereViews);
   for (size_t k = 0; k < cell_at.size(); ++k) {
     const auto [s, cx, cy] = cell_at[k];
-    const Rgb got_k = ShrmEval(cube, cell_index[k], cell_view[k]);
+    const Rgb got_k = ShrmEvalWithLights(cube, brdf, cell_index[k], cell_view[k]);
     const double e = PairError(got_k, cell_ref[k], floor);
     const Vec3 normal = cube.index == ReparamKind::kTangent ? cell_view[k] : cell_index[k];
     (normal.Dot(cell_view[k]) >= kGrazingCosine ? front : grazing)[s].Add(e);
@@ -290,7 +294,7 @@ absl::StatusOr<nlohmann::json> PrefilterVisuals(const EnvMap& env, const Brdf& b
   SHRM_ASSIGN_OR_RETURN(std::string ref_png,
                         PngBase64(WithDiscAlpha(TonemapPreview(ref_img, exposure), size)));
   SHRM_ASSIGN_OR_RETURN(std::string err_png, PngBase64(WithDiscAlpha(err_img, size)));
-  const Image small = RenderShrmSpheres(cube, kThumbnailSpherePixels);
+  const Image small = RenderShrmSpheres(cube, kThumbnailSpherePixels, &brdf);
   SHRM_ASSIGN_OR_RETURN(
       std::string thumb_png,
       PngBase64(WithDiscAlpha(TonemapPreview(small, exposure), kThumbnailSpherePixels)));

@@ -53,8 +53,9 @@ inline constexpr int kSphereViews = 3;
 std::array<SphereView, kSphereViews> SphereViews();
 
 // Orthographic renders of a unit sphere carrying the SHRM, the three views side by side
-// (3 size x size pixels, black outside the discs), linear radiance.
-Image RenderShrmSpheres(const ShrmCube& cube, int size);
+// (3 size x size pixels, black outside the discs), linear radiance; the cube's lights summed
+// with `brdf` when it is given (ShrmEvalWithLights).
+Image RenderShrmSpheres(const ShrmCube& cube, int size, const Brdf* brdf = nullptr);
 // Exposure (stops) that brings the mean luminance of the non-black pixels to mid-grey (0.18).
 double MidGreyExposure(const Image& linear);
 // The colour of a value in [0, 1] on the report's error scale: luminance rises monotonically

@@ -170,6 +170,7 @@ v1::PrefilterRequest EncodePrefilterRequest(const jobs::PrefilterJob& job,
   req.set_kind(job.kind == ShrmKind::kLocal ? v1::SHRM_KIND_LOCAL : v1::SHRM_KIND_GLOBAL);
   req.set_face_size(job.face_size);
   req.set_half(job.half);
+  req.set_peak_lights(job.peak_lights);
   req.set_verify(job.verify);
   req.set_max_size_mb(job.max_size_mb);
   if (visuals) {
@@ -224,6 +225,7 @@ absl::StatusOr<WirePrefilter> DecodePrefilterRequest(const v1::PrefilterRequest&
   }
   w.job.face_size = request.face_size();
   w.job.half = request.half();
+  w.job.peak_lights = request.peak_lights();
   if (request.has_verify()) w.job.verify = request.verify();  // absent: the job's default
   if (request.has_max_size_mb()) w.job.max_size_mb = request.max_size_mb();
   w.want_file = w.want_report = request.outputs_size() == 0;

@@ -32,9 +32,10 @@ absl::StatusOr<CachedPrefilterResult> CachedPrefilter(const CachedPrefilterInput
   CachedPrefilterResult out;
   PrefilterResult& r = out.result;
   StageClock clock(&r.timings, hook);
-  if (options.tolerance > 0 && !explicit_orders) {
+  if ((options.tolerance > 0 && !explicit_orders) || options.peak_lights) {
     // The tolerance rule computes rho_lpq and L_lm at reference orders it grows per job
-    // (core/shrm/prefilter.cc): the map is decoded and the core pipeline runs whole, uncached.
+    // (core/shrm/prefilter.cc), and peak lights take the lighting of the map's rest: the map is
+    // decoded and the core pipeline runs whole, uncached.
     SHRM_RETURN_IF_ERROR(clock.Begin("decode"));
     SHRM_ASSIGN_OR_RETURN(EnvMap env, EnvMap::Load(input.env));
     clock.End();

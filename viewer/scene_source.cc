@@ -90,6 +90,14 @@ absl::StatusOr<std::shared_ptr<const EnvironmentData>> LoadEnvironment(const std
 absl::StatusOr<ShrmData> ShrmDataFromCube(ShrmCube cube,
                                           std::map<std::string, std::string> attributes,
                                           std::string origin, int threads, bool convert) {
+  if (!cube.lights.empty()) {
+    // The viewer's modes shade the expansion only: a file drawn without its lights would look
+    // right and be wrong.
+    return absl::FailedPreconditionError(absl::StrCat(
+        origin, ": the SHRM carries ", cube.lights.size(),
+        " peak lights (shrm prefilter --peak-lights), which shrm-view does not shade yet: view "
+        "the SHRM of a job without them"));
+  }
   ShrmData d;
   const ShrmKind other = cube.kind == ShrmKind::kGlobal ? ShrmKind::kLocal : ShrmKind::kGlobal;
   ShrmCube converted;

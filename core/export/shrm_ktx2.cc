@@ -76,6 +76,14 @@ absl::StatusOr<std::string> EncodeShrmKtx2(const std::string& label, const ShrmC
         absl::StrCat(label, ": inconsistent SHRM cube (face size ", cube.face_size, ", P ",
                      cube.pmax, ", channels ", cube.channels, ", ", cube.data.size(), " values)"));
   }
+  if (!cube.lights.empty()) {
+    // The shipped shaders (docs/shaders.md) evaluate the expansion only: a file they would
+    // render without its lights is refused rather than written.
+    return absl::FailedPreconditionError(absl::StrCat(
+        label, ": the SHRM carries ", cube.lights.size(),
+        " peak lights (--peak-lights), which the shipped shaders do not sum yet: write the KTX2 "
+        "of a job without them"));
+  }
   ktx2::Ktx2Image image;
   image.format = half ? ktx2::Format::kR16G16B16A16Sfloat : ktx2::Format::kR32G32B32A32Sfloat;
   image.width = image.height = cube.face_size;

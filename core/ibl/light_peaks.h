@@ -21,61 +21,17 @@
 
 #include "core/base/geometry.h"
 #include "core/envmap/envmap.h"
+#include "core/envmap/light_split.h"
 #include "core/shrm/radiance_cube.h"
 
 namespace shrm::ibl {
 
-// The split-off parts of a map's brightest pixels: world directions (after the light's
-// rotation), and their radiance times the pixel's weight under the forward transform's own
-// quadrature (the Fejer-1 rule, (2 pi / W) w_j for ring j: what the pixel would have added to
-// each L_lm), in single precision (x, y, z, r, g, b each of size()).
-struct LightPeaks {
-  std::vector<float> x, y, z, r, g, b;
-  double threshold = 0;  // the luminance T above which pixels were split (0: none)
-  size_t size() const { return x.size(); }
-  bool empty() const { return x.empty(); }
-};
-
-// A row of RGB pixels' luminance (Rec. 709) summed, squared and summed, and its largest value,
-// by four partial sums (independent chains of additions): the pass over a map's pixels that
-// SplitLightPeaks and MapLightMoments (split_sum.h) make.
-struct LuminanceRow {
-  double sum = 0, sum_sq = 0, max = 0;
-};
-LuminanceRow SumLuminanceRow(const float* rgb, int width);
-
-// The split's rules. A pixel is split when its luminance exceeds kPeakRatio times the map's
-// mean luminance (over the sphere), at most kMaxPeaks pixels (the threshold rises to the
-// (kMaxPeaks + 1)-th largest luminance when more exceed it): the direct sums cost texels x
-// peaks. And only when it pays: when the split leaves the rest at most kPeakSpreadShare of the
-// map's non-constant luminance energy (sum Y^2 w - E_0), the energy that drives the degrees.
-// Measured (1% tolerance, Filament chain from 256, the sharpest level's degree): city 278 -> 158
-// (29 pixels above 32 x its mean, keeping 0.02% of the energy), interior 278 -> 203 (128 pixels,
-// 0.05%), forest 225 -> 199 (128 pixels, 11%); courtyard (no sun, its brightest pixels 98 x the
-// mean) would keep 99% and is not split.
-inline constexpr double kPeakRatio = 32;
-inline constexpr int kMaxPeaks = 128;
-inline constexpr double kPeakSpreadShare = 0.5;
-
-struct PeakSplit {
-  // The map without its peaks (a lat-long map of the same size); empty when nothing is split,
-  // the map itself then stands for it.
-  std::optional<EnvMap> rest;
-  LightPeaks peaks;  // unrotated (world directions of the map's own frame)
-  // The luminance moments of what the light is computed from (the rest, else the map) under the
-  // transform's Fejer-1 quadrature, sum Y w and sum Y^2 w, found on the way (the rest's as the
-  // map's less the split parts): what MapLightMoments (split_sum.h) sums, one pass over the
-  // pixels fewer. Known for lat-long maps.
-  bool moments_known = false;
-  double sum_y = 0, sum_y2 = 0;
-};
-// Splits a lat-long map by the rules above (other layouts, and maps whose split would not pay,
-// give no split).
-PeakSplit SplitLightPeaks(const EnvMap& map);
-
-// The peaks of the lighting rotated actively by `rotation` (directions d -> R d, as
-// RotateLighting turns the coefficients).
-LightPeaks RotatedPeaks(const LightPeaks& peaks, const Mat3& rotation);
+using shrm::LightPeaks;
+using shrm::LuminanceRow;
+using shrm::PeakSplit;
+using shrm::RotatedPeaks;
+using shrm::SplitLightPeaks;
+using shrm::SumLuminanceRow;
 
 // Adds the peaks' projection, sum_k Y_lm(d_k) (w_k L_k), l <= lmax, to RGB coefficients
 // coeffs[ShIndex(l, m) * 3 + c] ((lmax + 1)^2 * 3 values): with the rest's coefficients, the

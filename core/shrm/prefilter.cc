@@ -7,6 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
 #include "core/brdf/brdf_projection.h"
+#include "core/envmap/light_split.h"
 #include "core/envmap/lighting.h"
 #include "core/sh/sh.h"
 #include "core/shrm/fast_reference.h"
@@ -283,7 +284,8 @@ absl::StatusOr<DirectionalError> MeasureCubeError(const FastReference& reference
   }
   const std::vector<Rgb> ref = reference.RadianceMany(brdf, rotation, index, view, threads);
   std::vector<Rgb> got(set.size());
-  for (size_t k = 0; k < set.size(); ++k) got[k] = ShrmEval(cube, set[k].index, set[k].view);
+  for (size_t k = 0; k < set.size(); ++k)
+    got[k] = ShrmEvalWithLights(cube, brdf, set[k].index, set[k].view);
   return MeasureDirectionalError(set, got, ref);
 }
 
@@ -311,6 +313,30 @@ absl::StatusOr<PrefilterResult> Prefilter(const EnvMap& env, const Brdf& brdf,
                                           const PrefilterOptions& options,
                                           const PrefilterProgress& progress) {
   SHRM_RETURN_IF_ERROR(ValidatePrefilterOptions(options));
+  if (options.peak_lights) {
+    std::vector<StageTiming> split_timing;
+    StageClock clock(&split_timing, progress);
+    SHRM_RETURN_IF_ERROR(clock.Begin("lights"));
+    PeakSplit split = SplitLightPeaks(env);
+    clock.End();
+    if (split.rest) {
+      // The rest through every stage but the check, which measures the whole.
+      PrefilterOptions rest = options;
+      rest.peak_lights = false;
+      rest.verify = 0;
+      SHRM_ASSIGN_OR_RETURN(PrefilterResult r, Prefilter(*split.rest, brdf, rest, progress));
+      const LightPeaks peaks = RotatedPeaks(split.peaks, options.rotation);
+      r.cube.lights.resize(peaks.size());
+      for (size_t k = 0; k < peaks.size(); ++k) {
+        r.cube.lights[k].dir = {peaks.x[k], peaks.y[k], peaks.z[k]};
+        r.cube.lights[k].weight = {peaks.r[k], peaks.g[k], peaks.b[k]};
+      }
+      r.peak_threshold = split.peaks.threshold;
+      r.timings.insert(r.timings.begin(), split_timing.begin(), split_timing.end());
+      SHRM_RETURN_IF_ERROR(VerifyStage(env, brdf, options, progress, &r));
+      return r;
+    }
+  }
   if (options.tolerance > 0 && !ExplicitOrders(options)) {
     PrefilterResult r;
     StageClock clock(&r.timings, progress);

@@ -69,6 +69,13 @@ struct PrefilterOptions {
   // (StratifiedDirectionPairs from kVerifySeed, never the selection's) against FastReference (the
   // brute-force sum to 1e-3 per direction): PrefilterResult::measured, stage "verify".
   int verify = 0;
+  // The map's brightest pixels (a sun, lamps) split off by SplitLightPeaks
+  // (core/envmap/light_split.h) where that pays, and shipped as the cube's lights
+  // (ShrmCube::lights: summed exactly at evaluation, ShrmEvalWithLights); every other stage,
+  // the order choice included, sees the rest of the map, whose dynamic range the split caps
+  // (docs/shrm.md "Peak lights"). The check measures the whole (expansion + lights) against
+  // the whole map.
+  bool peak_lights = false;
   // With verify > 0: the check's FastReference is kept in PrefilterResult::reference for a
   // caller that measures against the same map again (the visual report), instead of being
   // built twice (~0.1-0.3 s and ~100 MB for a 1024 x 512 map).
@@ -95,15 +102,18 @@ struct PrefilterResult {
   // try_other_view: the RmsScore of the choice in each variable tried, in the order tried (empty
   // when only one was).
   std::vector<std::pair<ViewVariable, double>> view_trials;
+  // peak_lights: the luminance above which pixels were split (0: the map was not split, and
+  // cube.lights is empty).
+  double peak_threshold = 0;
   int verified_pairs = 0;     // options.verify when the cube was measured
   DirectionalError measured;  // the cube against FastReference
   // The check's reference when PrefilterOptions::keep_reference (else null).
   std::shared_ptr<const FastReference> reference;
 };
 
-// The measured error of `cube` (made from `env` rotated by `rotation` and `brdf`) at `pairs`
-// seeded pairs (StratifiedDirectionPairs from kVerifySeed) against FastReference. Errors: no
-// samples, pairs < 1, threads < 1.
+// The measured error of `cube` (made from `env` rotated by `rotation` and `brdf`; its lights
+// included, ShrmEvalWithLights) at `pairs` seeded pairs (StratifiedDirectionPairs from kVerifySeed)
+// against FastReference. Errors: no samples, pairs < 1, threads < 1.
 absl::StatusOr<DirectionalError> MeasureCubeError(const EnvMap& env, const Brdf& brdf,
                                                   const Mat3& rotation, const ShrmCube& cube,
                                                   int pairs, int threads);

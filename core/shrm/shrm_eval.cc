@@ -170,4 +170,30 @@ std::array<double, 3> ShrmTexelRadiance(const ShrmCube& cube, int face, int x, i
   return out;
 }
 
+std::array<double, 3> ShrmLightsRadiance(const ShrmCube& cube, const Brdf& brdf, const Vec3& n,
+                                         const Vec3& v) {
+  std::array<double, 3> out{0, 0, 0};
+  const int channels = brdf.channels();
+  for (const ShrmLight& light : cube.lights) {
+    const Vec3 w{light.dir[0], light.dir[1], light.dir[2]};
+    if (channels == 1) {
+      const double t = brdf.Transfer(n, v, w, 0);
+      for (int c = 0; c < 3; ++c) out[c] += light.weight[c] * t;
+    } else {
+      for (int c = 0; c < 3; ++c)
+        out[c] += light.weight[c] * brdf.Transfer(n, v, w, std::min(c, channels - 1));
+    }
+  }
+  return out;
+}
+
+std::array<double, 3> ShrmEvalWithLights(const ShrmCube& cube, const Brdf& brdf, const Vec3& n,
+                                         const Vec3& v) {
+  std::array<double, 3> out = ShrmEval(cube, n, v);
+  if (cube.lights.empty()) return out;
+  const std::array<double, 3> lit = ShrmLightsRadiance(cube, brdf, n, v);
+  for (int c = 0; c < 3; ++c) out[c] += lit[c];
+  return out;
+}
+
 }  // namespace shrm

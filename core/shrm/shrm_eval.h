@@ -13,6 +13,7 @@
 #include <array>
 
 #include "core/base/geometry.h"
+#include "core/brdf/brdf.h"
 #include "core/shrm/shrm_map.h"
 
 namespace shrm {
@@ -59,6 +60,15 @@ std::array<double, 3> ShrmEvalArgument(const ShrmCube& cube, const Vec3& index_d
 // N = ShrmViewArgument(R_texel, V)).
 std::array<double, 3> ShrmTexelRadiance(const ShrmCube& cube, int face, int x, int y,
                                         const Vec3& view);
+
+// The cube's lights at (N, V) (world, unit; `n` is the tangent T for kTangent cubes):
+// sum_k weight_k rho-hat(N, V, dir_k) with rho-hat = brdf.Transfer, the BRDF the cube was made
+// with (its shrm:brdf). Zero without lights.
+std::array<double, 3> ShrmLightsRadiance(const ShrmCube& cube, const Brdf& brdf, const Vec3& n,
+                                         const Vec3& v);
+// The whole reflection of a cube: ShrmEval plus its lights.
+std::array<double, 3> ShrmEvalWithLights(const ShrmCube& cube, const Brdf& brdf, const Vec3& n,
+                                         const Vec3& v);
 
 }  // namespace shrm
 

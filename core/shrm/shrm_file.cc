@@ -16,6 +16,10 @@
 namespace shrm {
 namespace {
 
+// A light's direction is stored to 9 digits: unit within ~1e-8; 1e-5 admits any writer's
+// single-precision rounding and refuses what is not a direction.
+constexpr double kLightUnitTolerance = 1e-5;
+
 const std::map<std::string, std::string>& ConventionAttributes() {
   static const auto* attrs = new std::map<std::string, std::string>{
       {"shrm:format", kShrmFormatTag},
@@ -32,6 +36,37 @@ const std::map<std::string, std::string>& ConventionAttributes() {
        "(alpha, beta) the SH angles of R; V_s = V in the SH frame"},
   };
   return *attrs;
+}
+
+// shrm:lights' text: the count, then per light its unit direction and its three weights.
+absl::StatusOr<std::vector<ShrmLight>> ParseShrmLights(const std::string& label,
+                                                       const std::string& text) {
+  const std::vector<std::string> words = absl::StrSplit(text, ' ', absl::SkipEmpty());
+  size_t count = 0;
+  if (words.empty() || !absl::SimpleAtoi(words[0], &count) || count > kMaxShrmLights ||
+      words.size() != 1 + 6 * count) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        label, ": bad shrm:lights (expected 'K' and K x 6 numbers, K <= ", kMaxShrmLights, ")"));
+  }
+  std::vector<ShrmLight> lights(count);
+  for (size_t k = 0; k < count; ++k) {
+    float v[6];
+    for (int i = 0; i < 6; ++i) {
+      const std::string& word = words[1 + 6 * k + i];
+      if (!absl::SimpleAtof(word, &v[i]) || !std::isfinite(v[i])) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(label, ": bad shrm:lights value '", word, "' (light ", k, ")"));
+      }
+    }
+    const double norm = std::sqrt(double{v[0]} * v[0] + double{v[1]} * v[1] + double{v[2]} * v[2]);
+    if (!(std::abs(norm - 1) <= kLightUnitTolerance)) {
+      return absl::InvalidArgumentError(absl::StrCat(label, ": bad shrm:lights direction of light ",
+                                                     k, " (norm ", norm, ", not unit)"));
+    }
+    lights[k].dir = {v[0], v[1], v[2]};
+    lights[k].weight = {v[3], v[4], v[5]};
+  }
+  return lights;
 }
 
 }  // namespace
@@ -58,6 +93,18 @@ std::map<std::string, std::string> ShrmConventionAttributes(const ShrmCube& cube
     std::string table = absl::StrCat(kFresnelIntervals, " ", ch);
     for (float v : cube.fresnel) absl::StrAppend(&table, " ", absl::StrFormat("%.9g", v));
     attrs["shrm:fresnel"] = table;
+  }
+  if (!cube.lights.empty()) {
+    absl::StrAppend(&attrs["shrm:eval"],
+                    "; plus the directional lights of shrm:lights: 'K x_1 y_1 z_1 r_1 g_1 b_1 .. "
+                    "b_K' (world unit directions, radiance x solid angle), B += sum_k w_k "
+                    "f_r(N, V, d_k) max(N.d_k, 0) with the BRDF of shrm:brdf (docs/formats.md)");
+    std::string list = absl::StrCat(cube.lights.size());
+    for (const ShrmLight& light : cube.lights) {
+      for (float v : light.dir) absl::StrAppend(&list, " ", absl::StrFormat("%.9g", v));
+      for (float v : light.weight) absl::StrAppend(&list, " ", absl::StrFormat("%.9g", v));
+    }
+    attrs["shrm:lights"] = list;
   }
   return attrs;
 }
@@ -129,9 +176,20 @@ absl::Status ParseShrmConventionAttributes(const std::string& label,
       cube->fresnel.push_back(v);
     }
   }
+  // shrm:lights: absent when the expansion is the whole reflection (and in files written before
+  // lights existed).
+  cube->lights.clear();
+  if (auto it = attributes.find("shrm:lights"); it != attributes.end()) {
+    SHRM_ASSIGN_OR_RETURN(cube->lights, ParseShrmLights(label, it->second));
+  }
   cube->kind = kind == "local" ? ShrmKind::kLocal : ShrmKind::kGlobal;
   cube->index = index == "tangent" ? ReparamKind::kTangent : ReparamKind::kReflection;
   return absl::OkStatus();
+}
+
+std::string BrdfAttribute(const ShrmFile& file) {
+  auto it = file.attributes.find("shrm:brdf");
+  return it == file.attributes.end() ? std::string() : it->second;
 }
 
 std::string ShrmChannelGroup(int p, int q) { return absl::StrCat("Y_", p, "_", q); }

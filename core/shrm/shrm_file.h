@@ -12,11 +12,13 @@
 //     shrm:frame       world/SH frame statement
 //     shrm:face_order  GL face order and orientation statement
 //     shrm:eval        how to evaluate B(N, V) from a texel (local / global formula)
+//     shrm:lights      (optional) directional lights summed beside the expansion (shrm_map.h)
 //   plus whatever the producer adds (shrm:brdf, shrm:epsilon, shrm:orders, shrm:eps_light,
 //   shrm:eps_brdf, shrm:eps_bound, shrm:source_sha256, shrm:working_space, ...).
 #ifndef SHRM_CORE_SHRM_SHRM_FILE_H_
 #define SHRM_CORE_SHRM_SHRM_FILE_H_
 
+#include <cstddef>
 #include <map>
 #include <string>
 
@@ -28,6 +30,9 @@
 namespace shrm {
 
 inline constexpr char kShrmFormatTag[] = "shrm-cube/1";
+// Most lights a file may list (shrm:lights; a prefilter ships at most kMaxPeaks = 128): bounds
+// what a reader allocates for a header.
+inline constexpr size_t kMaxShrmLights = 4096;
 
 struct ShrmFile {
   ShrmCube cube;
@@ -56,6 +61,9 @@ std::map<std::string, std::string> ShrmConventionAttributes(const ShrmCube& cube
 absl::Status ParseShrmConventionAttributes(const std::string& label,
                                            const std::map<std::string, std::string>& attributes,
                                            ShrmCube* cube);
+
+// The file's shrm:brdf (the spec its lights are summed with), or "" when it has none.
+std::string BrdfAttribute(const ShrmFile& file);
 
 // Channel group name of coefficient (p, q): "Y_<p>_<q>".
 std::string ShrmChannelGroup(int p, int q);

@@ -14,6 +14,7 @@
 #ifndef SHRM_CORE_SHRM_SHRM_MAP_H_
 #define SHRM_CORE_SHRM_SHRM_MAP_H_
 
+#include <array>
 #include <cstddef>
 #include <vector>
 
@@ -23,6 +24,17 @@
 namespace shrm {
 
 enum class ShrmKind { kLocal, kGlobal };
+
+// A directional light shipped beside the expansion (PrefilterOptions::peak_lights): one of the
+// map's brightest pixels split off (core/envmap/light_split.h), its world direction (after the
+// lighting's rotation) and its radiance times the pixel's solid angle, per channel. A cube with
+// lights holds the rest of the map's reflection; the whole is
+//   B(N, V) = the expansion + sum_k weight_k rho-hat(N, V, dir_k)    (ShrmLightsRadiance),
+// the sum the brute-force reference makes over those pixels: nothing is approximated in it.
+struct ShrmLight {
+  std::array<float, 3> dir{};
+  std::array<float, 3> weight{};
+};
 
 struct ShrmCube {
   ShrmKind kind = ShrmKind::kGlobal;
@@ -37,6 +49,8 @@ struct ShrmCube {
   // (FresnelCosine: N.R for kNormal, |R + V| / 2 for kView), (kFresnelIntervals + 1) x 1 or x
   // channels values; empty: no factor.
   std::vector<float> fresnel;
+  // Lights summed directly (empty: the expansion is the whole reflection).
+  std::vector<ShrmLight> lights;
 
   int coeff_count() const { return ShCount(pmax); }
   size_t Index(int face, int x, int y, int k, int c) const {
