@@ -120,16 +120,13 @@ TEST(PeakLightsTest, LightsSurviveTheFileAndDamagedListsAreRefused) {
 TEST(PeakLightsTest, InteriorsLampsNoLongerDefeatTheDefaultJob) {
   // interior.exr's lamps sit near the horizon of many normals: the default job without lights is
   // budget-limited at (97, 31), a 231 MB file, and measures 5.7% front RMS, 144% largest and 46%
-  // grazing RMS at 1024 pairs (docs/results.md, "Accuracy, session 35"). With them, at pairs the
-  // job neither chose nor checked with, against the pixel sum of the whole map (FastReference,
-  // within 2e-3 of it per direction: fast_reference_test), the file is (38, 12) at S 48 (28 MB)
-  // and measures 1.2% front RMS, 27% largest and 3.0% grazing RMS (docs/results.md, "Peak
-  // lights"). The front targets (1%, 5%) are NOT met yet: the rest's view expansion at P = 12
-  // is chosen by a selection estimate that misses its heavy tail. These bounds are the step
-  // this test holds: the front RMS within twice its target (a fifth of the error without
-  // lights) and the grazing RMS within its 5% target (a tenth).
-  constexpr double kFrontRmsBound = 0.02;
-  constexpr double kGrazingRmsBound = 0.05;
+  // grazing RMS at 1024 pairs (docs/results.md, "Accuracy, session 35"). With them (and the
+  // rest's orders chosen at 1024 pairs, kLightsSelectionFactor), at pairs the job neither chose
+  // nor checked with, against the pixel sum of the whole map (FastReference, within 2e-3 of it
+  // per direction: fast_reference_test), the file is (37, 25) at S 56 (153 MB) and meets both RMS
+  // targets: 0.39% front, 1.9% grazing. The largest front error, 8.4% at this seed (3.9% at the
+  // job's own 1024 pairs), is printed, not asserted: its 5% target is not met at every seed yet
+  // (docs/results.md, "Peak lights, session 36").
   constexpr double kTolerance = 0.01;  // the default job's
   constexpr int kPairs = 512;
   constexpr uint64_t kTestSeed = 0x5045414b4c495431;  // "PEAKLIT1": neither job seed
@@ -163,8 +160,10 @@ TEST(PeakLightsTest, InteriorsLampsNoLongerDefeatTheDefaultJob) {
       "largest %.4f; grazing RMS %.4f\n",
       r->cube.lights.size(), r->analysis.f_b, r->analysis.p_b, r->cube.face_size, e.front.rms,
       e.front.max, e.grazing.rms);
-  EXPECT_LE(e.front.rms, kFrontRmsBound);
-  EXPECT_LE(e.grazing.rms, kGrazingRmsBound);
+  const ToleranceTargets targets = TargetsForTolerance(kTolerance, r->cube.view);
+  EXPECT_LE(e.front.rms, targets.rms);
+  ASSERT_TRUE(targets.grazing);  // the normal variable's grazing RMS is a target
+  EXPECT_LE(e.grazing.rms, targets.grazing_rms);
   EXPECT_EQ(e.negative, 0);
 }
 

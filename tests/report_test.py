@@ -211,6 +211,10 @@ def main():
         check_report(shrm, root, "courtyard.exr", "microfacet:sigma=0.2", ["--epsilon", "0.03"],
                      tmp)
         check_report(shrm, root, "city.exr", "phong:s=128", ["--tolerance", "0.01"], tmp)
+        # Peak lights (docs/shrm.md): the page, `shrm eval` (which sums the file's lights with
+        # its shrm:brdf) and the brute force of the whole map agree.
+        check_report(shrm, root, "city.exr", "microfacet:sigma=0.3",
+                     ["--epsilon", "0.1", "--peak-lights"], tmp)
     print(f"report_test: {len(FAILURES)} failures")
     return 1 if FAILURES else 0
 

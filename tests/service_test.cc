@@ -302,6 +302,19 @@ TEST_F(ServiceTest, ToleranceJobRunsRemotelyWithTheEmbeddedBytes) {
   EXPECT_NE(report.find("\"measured\": {"), std::string::npos);
 }
 
+// Peak lights (the epsilon rule's cached path hands such jobs to the core pipeline whole): the
+// embedded bytes, the lights in the report.
+TEST_F(ServiceTest, PeakLightsJobRunsRemotelyWithTheEmbeddedBytes) {
+  auto c = StartServer();
+  const std::string report = RemoteReportWithEmbeddedBytes(
+      absl::StrCat("--env ", MapPath("city.exr"),
+                   " --brdf microfacet:sigma=0.3 --epsilon 0.1 --peak-lights --rotate 30,10,5 "
+                   "--verify 16"),
+      port_);
+  EXPECT_NE(report.find("\"peak_lights\": {"), std::string::npos) << report.substr(0, 400);
+  EXPECT_NE(report.find("\"count\": 29"), std::string::npos) << report.substr(0, 400);
+}
+
 // Runs `command` through the shell; returns its stdout ("" and a failure when it exits non-zero).
 std::string CliOutput(const std::string& command) {
   const std::string out = testing::UniqueTempPath("cli_stdout.txt");
