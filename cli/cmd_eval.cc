@@ -71,12 +71,8 @@ absl::Status RunEval(const PointArgs& a) {
     return absl::OkStatus();
   }
   // The lights are summed with the BRDF the file was made with.
-  absl::StatusOr<std::unique_ptr<Brdf>> brdf = ParseBrdfSpec(BrdfAttribute(file));
-  if (!brdf.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        a.shrm, ": its peak lights need the BRDF of shrm:brdf: ", brdf.status().message()));
-  }
-  PrintRgb(ShrmEvalWithLights(file.cube, **brdf, index, v), a.json);
+  SHRM_ASSIGN_OR_RETURN(std::unique_ptr<Brdf> brdf, ShrmFileBrdf(file, a.shrm));
+  PrintRgb(ShrmEvalWithLights(file.cube, *brdf, index, v), a.json);
   return absl::OkStatus();
 }
 
@@ -150,6 +146,14 @@ absl::Status RunInfo(const std::string& path, bool json) {
     if (k == "shrm:fresnel" && !c.fresnel.empty()) {  // 129 numbers: their summary (--json: all)
       std::printf("  %-20s %zu values: w(N.R) = %.6g at N.R = 1 .. %.6g at N.R = 0\n", k.c_str(),
                   c.fresnel.size(), ShrmFresnel(c, 1.0, 0), ShrmFresnel(c, 0.0, 0));
+      continue;
+    }
+    if (k == "shrm:lights" && !c.lights.empty()) {  // 6 numbers a light (--json: all)
+      double total[3] = {0, 0, 0};
+      for (const ShrmLight& l : c.lights)
+        for (int ch = 0; ch < 3; ++ch) total[ch] += l.weight[ch];
+      std::printf("  %-20s %zu directional lights, L dOmega summed (%.6g, %.6g, %.6g)\n", k.c_str(),
+                  c.lights.size(), total[0], total[1], total[2]);
       continue;
     }
     std::printf("  %-20s %s\n", k.c_str(), v.c_str());

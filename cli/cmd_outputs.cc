@@ -53,6 +53,11 @@ absl::Status RunRender(const OutputArgs& a) {
   SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrm(a.shrm));
   SHRM_ASSIGN_OR_RETURN(RadianceCube map,
                         ReflectionMapForView(file.cube, v, ResolveThreads(a.threads)));
+  if (!file.cube.lights.empty()) {
+    // The file's peak lights, summed with the BRDF it was made with (docs/shrm.md).
+    SHRM_ASSIGN_OR_RETURN(std::unique_ptr<Brdf> brdf, ShrmFileBrdf(file, a.shrm));
+    AddLightsToViewMap(file.cube, *brdf, v, map, ResolveThreads(a.threads));
+  }
   if (absl::EndsWith(a.output, ".ktx2")) {
     // A cube map an engine (or the shader tests, docs/shaders.md) reads as it is: RGBA32F, A = 1.
     ktx2::Ktx2Image image;
@@ -86,6 +91,12 @@ absl::Status RunExplicit(const OutputArgs& a) {
   if (a.tb < 1) return absl::InvalidArgumentError("--tb must be >= 1");
   SHRM_RETURN_IF_ERROR(CheckOutputPath(absl::StrCat(a.output, "_0.exr"), "--output"));
   SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrm(a.shrm));
+  if (!file.cube.lights.empty()) {
+    return absl::FailedPreconditionError(
+        absl::StrCat(a.shrm, ": the SHRM carries ", file.cube.lights.size(),
+                     " peak lights, which the explicit forms do not hold yet: make their SHRM "
+                     "without --peak-lights"));
+  }
   const int threads = ResolveThreads(a.threads);
   std::vector<RadianceCube> maps;
   if (a.form == "cabral") {

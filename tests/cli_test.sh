@@ -317,6 +317,20 @@ fi
 head -c 300 h.shrm.ktx2 >"$TMP/truncated.shrm.ktx2"
 expect_error truncated_shrm_ktx2 1 'truncated\.shrm\.ktx2.*(outside|truncated|runs past)' \
   "$SHRM" render --shrm "$TMP/truncated.shrm.ktx2" --view 0,0,1 -o r.exr
+# Peak lights: the KTX2 (for shaders that sum no lights yet) is refused and nothing is written;
+# the explicit forms refuse a file that has lights (docs/shrm.md "Peak lights").
+CITY="$ROOT/data/envmaps/city.exr"
+expect_error peak_lights_ktx2 1 'peak lights.*shaders do not sum' \
+  "$SHRM" prefilter --env "$CITY" --brdf phong:s=32 --epsilon 0.1 --verify 0 --size 16 \
+  --peak-lights -o lit.shrm.exr --ktx2 lit.shrm.ktx2
+if "$SHRM" prefilter --env "$CITY" --brdf phong:s=32 --epsilon 0.1 --verify 0 --size 16 \
+  --peak-lights -o "$TMP/lit.shrm.exr" >/dev/null 2>&1; then
+  expect_error peak_lights_explicit 1 'peak lights.*explicit forms' \
+    "$SHRM" explicit --shrm "$TMP/lit.shrm.exr" -o x
+  rm -f "$TMP/lit.shrm.exr"
+else
+  fail "peak_lights: prefilter --peak-lights failed"
+fi
 expect_error unwritable_ktx2 1 '/nonexistent/x\.shrm\.ktx2' \
   "$SHRM" prefilter --env "$IN/ok.pfm" --brdf phong:s=32 --size 16 -o out.shrm.exr \
   --ktx2 /nonexistent/x.shrm.ktx2

@@ -14,6 +14,7 @@
 #include "core/base/parallel.h"
 #include "core/sh/hbasis.h"
 #include "core/sh/sh.h"
+#include "core/shrm/shrm_eval.h"
 #include "core/shrm/shrm_synthesis.h"
 
 namespace shrm {
@@ -59,6 +60,26 @@ absl::StatusOr<RadianceCube> ReflectionMapForView(const ShrmCube& cube, const Ve
   auto maps = ReflectionMapsForViews(cube, views, threads);
   if (!maps.ok()) return maps.status();
   return std::move((*maps)[0]);
+}
+
+void AddLightsToViewMap(const ShrmCube& cube, const Brdf& brdf, const Vec3& view, RadianceCube& map,
+                        int threads) {
+  if (cube.lights.empty()) return;
+  const int size = map.face_size;
+  ParallelChunks(6 * size, std::max(threads, 1), [&](int begin, int end) {
+    for (int row = begin; row < end; ++row) {
+      const int face = row / size, y = row % size;
+      for (int x = 0; x < size; ++x) {
+        const Vec3 r = CubeTexelDirection(face, x, y, size);
+        const Vec3 n = cube.index == ReparamKind::kTangent
+                           ? r
+                           : ShrmViewArgument(ViewVariable::kNormal, r, view);
+        const std::array<double, 3> lit = ShrmLightsRadiance(cube, brdf, n, view);
+        for (int c = 0; c < map.channels; ++c)
+          map.data[map.Index(face, x, y, c)] += static_cast<float>(lit[std::min(c, 2)]);
+      }
+    }
+  });
 }
 
 namespace {

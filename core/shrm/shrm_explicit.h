@@ -18,6 +18,7 @@
 
 #include "absl/status/statusor.h"
 #include "core/base/geometry.h"
+#include "core/brdf/brdf.h"
 #include "core/shrm/radiance_cube.h"
 #include "core/shrm/shrm_map.h"
 
@@ -26,6 +27,12 @@ namespace shrm {
 // Eq. 5.35 for one world view. Errors: empty or inconsistent cube, threads < 1.
 absl::StatusOr<RadianceCube> ReflectionMapForView(const ShrmCube& cube, const Vec3& view,
                                                   int threads = 1);
+// Adds the cube's lights (ShrmLightsRadiance with `brdf`, the BRDF it was made with) to `map`,
+// the reflection map of `cube` for `view` (ReflectionMapForView): texel R gets them at the normal
+// N = (R + V) / |R + V| that reflects V into R (the tangent R itself for kTangent cubes). Rows
+// of faces split over `threads`. Nothing to do without lights.
+void AddLightsToViewMap(const ShrmCube& cube, const Brdf& brdf, const Vec3& view, RadianceCube& map,
+                        int threads = 1);
 // Eq. 5.35 for many views at once. Global cubes run a blocked product per texel row (each row's
 // coefficients transposed once, then sum_k Y_k(V) T_k[texel, channel] per view, float
 // accumulation of the (P + 1)^2 terms); local cubes evaluate each texel in its own frame.

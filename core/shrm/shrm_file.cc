@@ -192,6 +192,15 @@ std::string BrdfAttribute(const ShrmFile& file) {
   return it == file.attributes.end() ? std::string() : it->second;
 }
 
+absl::StatusOr<std::unique_ptr<Brdf>> ShrmFileBrdf(const ShrmFile& file, const std::string& label) {
+  absl::StatusOr<std::unique_ptr<Brdf>> brdf = ParseBrdfSpec(BrdfAttribute(file));
+  if (!brdf.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        label, ": its peak lights need the BRDF of shrm:brdf: ", brdf.status().message()));
+  }
+  return brdf;
+}
+
 std::string ShrmChannelGroup(int p, int q) { return absl::StrCat("Y_", p, "_", q); }
 
 namespace {

@@ -20,10 +20,12 @@
 
 #include <cstddef>
 #include <map>
+#include <memory>
 #include <string>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "core/brdf/brdf.h"
 #include "core/io/image.h"
 #include "core/shrm/shrm_map.h"
 
@@ -64,6 +66,9 @@ absl::Status ParseShrmConventionAttributes(const std::string& label,
 
 // The file's shrm:brdf (the spec its lights are summed with), or "" when it has none.
 std::string BrdfAttribute(const ShrmFile& file);
+// The BRDF of shrm:brdf, for summing the file's lights; errors (no or a bad spec, a table file
+// that is gone) name `label`.
+absl::StatusOr<std::unique_ptr<Brdf>> ShrmFileBrdf(const ShrmFile& file, const std::string& label);
 
 // Channel group name of coefficient (p, q): "Y_<p>_<q>".
 std::string ShrmChannelGroup(int p, int q);
