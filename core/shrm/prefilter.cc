@@ -202,8 +202,9 @@ int SelectionPairs(const Brdf& brdf, const PrefilterOptions& options) {
 // measures 2.3% front RMS and 65% largest at 1024 other pairs, with 1024 pairs it takes P = 25
 // and measures 0.51% / 12.5%; interior's seven rows meet every target on five instead of none
 // (docs/results.md, "Peak lights, session 36"). The rest's orders are low enough that the 4x
-// dearer choice still leaves the job quicker than the map's whole expansion (interior microfacet
-// sigma 0.2: 2.2 s against 8.0 s).
+// dearer choice still leaves 12 of the 14 city and interior jobs quicker than the whole map's
+// expansion (interior microfacet sigma 0.2: 1.2 s against 4.4 s on 2 threads); forest's rest
+// needs more P than the whole map was given and its jobs take 1.3-4x longer.
 constexpr int kLightsSelectionFactor = 4;
 
 // The tolerance rule (core/shrm/tolerance.h): rho_lpq and L_lm at reference orders, the band
