@@ -315,9 +315,9 @@ std::string LobePlot(const json& lobe, const std::string& brdf) {
 // Stage timings as horizontal bars.
 std::string TimingsPlot(const json& timings) {
   // The pipeline's order; other stages (a front end's own) after them.
-  static constexpr const char* kOrder[] = {"upload", "decode",   "brdf",      "lighting",
-                                           "orders", "analysis", "synthesis", "verify",
-                                           "report", "write",    "ktx2",      "preview"};
+  static constexpr const char* kOrder[] = {"upload", "decode",   "lights",    "brdf",   "lighting",
+                                           "orders", "analysis", "synthesis", "verify", "report",
+                                           "write",  "ktx2",     "preview"};
   auto rank = [](const std::string& name) {
     for (size_t i = 0; i < std::size(kOrder); ++i)
       if (absl::StartsWith(name, kOrder[i])) return static_cast<int>(i);
