@@ -84,6 +84,15 @@ void PrintSummary(const jobs::PrefilterJob& job, const PrefilterRun& run,
                   trial.value("view_variable", "").c_str(), trial.value("rms_score", 0.0));
     std::printf("%s\n", t.value("view_trials", nlohmann::json::array()).empty() ? "" : ")");
   }
+  if (report.contains("peak_lights")) {
+    const nlohmann::json& l = report["peak_lights"];
+    if (l.value("count", 0) > 0) {
+      std::printf("  peak lights: %d pixels above luminance %.4g, summed beside the SHRM\n",
+                  l.value("count", 0), l.value("threshold", 0.0));
+    } else {
+      std::printf("  peak lights: none (no peak pays to split, or not a lat-long map)\n");
+    }
+  }
   std::printf("  time:");
   for (const auto& [k, v] : report["timings"].items())
     std::printf(" %s %.1f", k.c_str(), v.get<double>());
