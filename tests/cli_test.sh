@@ -317,19 +317,30 @@ fi
 head -c 300 h.shrm.ktx2 >"$TMP/truncated.shrm.ktx2"
 expect_error truncated_shrm_ktx2 1 'truncated\.shrm\.ktx2.*(outside|truncated|runs past)' \
   "$SHRM" render --shrm "$TMP/truncated.shrm.ktx2" --view 0,0,1 -o r.exr
-# Peak lights: the KTX2 (for shaders that sum no lights yet) is refused and nothing is written;
-# the explicit forms refuse a file that has lights (docs/shrm.md "Peak lights").
+# Peak lights: the KTX2 carries them ("shrm:lights") and the shaders' copy of the BRDF
+# ("shrm:light_model": Phong is model 2, v_0 = s), so a render from it is the render from the EXR,
+# byte for byte; the explicit forms refuse a file that has lights (docs/shrm.md "Peak lights").
 CITY="$ROOT/data/envmaps/city.exr"
-expect_error peak_lights_ktx2 1 'peak lights.*shaders do not sum' \
-  "$SHRM" prefilter --env "$CITY" --brdf phong:s=32 --epsilon 0.1 --verify 0 --size 16 \
-  --peak-lights -o lit.shrm.exr --ktx2 lit.shrm.ktx2
+CHECKS=$((CHECKS + 1))
 if "$SHRM" prefilter --env "$CITY" --brdf phong:s=32 --epsilon 0.1 --verify 0 --size 16 \
-  --peak-lights -o "$TMP/lit.shrm.exr" >/dev/null 2>&1; then
+  --peak-lights -o "$TMP/lit.shrm.exr" --ktx2 "$TMP/lit.shrm.ktx2" >/dev/null 2>lit.stderr; then
+  if ! "$SHRM" render --shrm "$TMP/lit.shrm.exr" --view 0.3,0.5,0.8 -o lit_exr.exr >/dev/null 2>&1 ||
+    ! "$SHRM" render --shrm "$TMP/lit.shrm.ktx2" --view 0.3,0.5,0.8 -o lit_ktx2.exr \
+      >/dev/null 2>&1; then
+    fail "peak_lights: render of the lit SHRM failed"
+  elif ! cmp -s lit_exr.exr lit_ktx2.exr; then
+    fail "peak_lights: the render from lit.shrm.ktx2 differs from the one from lit.shrm.exr"
+  elif ! grep -aq 'shrm:lights' "$TMP/lit.shrm.ktx2" ||
+    ! grep -aq 'shrm:light_model.2 32 0 0' "$TMP/lit.shrm.ktx2"; then
+    fail "peak_lights: lit.shrm.ktx2 lacks shrm:lights or shrm:light_model '2 32 0 0 ..'"
+  else
+    echo "ok: peak lights in KTX2: render from the KTX2 = render from the EXR (byte for byte)"
+  fi
   expect_error peak_lights_explicit 1 'peak lights.*explicit forms' \
     "$SHRM" explicit --shrm "$TMP/lit.shrm.exr" -o x
-  rm -f "$TMP/lit.shrm.exr"
+  rm -f "$TMP/lit.shrm.exr" "$TMP/lit.shrm.ktx2"
 else
-  fail "peak_lights: prefilter --peak-lights failed"
+  fail "peak_lights: prefilter --peak-lights --ktx2 failed: $(head -c 400 lit.stderr)"
 fi
 expect_error unwritable_ktx2 1 '/nonexistent/x\.shrm\.ktx2' \
   "$SHRM" prefilter --env "$IN/ok.pfm" --brdf phong:s=32 --size 16 -o out.shrm.exr \
@@ -673,6 +684,10 @@ if (cd "$TMP/brdf_table_ok" && "$SHRM" brdf-table --brdf ggx:alpha=0.3,f0=1 --si
 else
   fail "brdf-table happy path: $(head -c 400 "$TMP/brdf_table_ok/stderr")"
 fi
+# A table BRDF has no shader copy: its peak lights cannot go into a KTX2, and nothing is written.
+expect_error peak_lights_table_ktx2 1 'peak lights.*analytic models' \
+  "$SHRM" prefilter --env "$CITY" --brdf "table:$TMP/brdf_table_ok/t.shrmbrdf" --orders 6,2 \
+  --size 8 --verify 0 --peak-lights -o t.shrm.exr --ktx2 t.shrm.ktx2
 
 echo "$CHECKS checks, $FAILURES failures"
 [ "$FAILURES" -eq 0 ]

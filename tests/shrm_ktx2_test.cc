@@ -11,6 +11,8 @@
 #include <cstring>
 #include <string>
 
+#include "core/brdf/brdf.h"
+#include "core/brdf/brdf_shader_params.h"
 #include "core/io/atomic_file.h"
 #include "core/shrm/shrm_file.h"
 #include "gtest/gtest.h"
@@ -228,6 +230,59 @@ TEST(ShrmKtx2Test, EncoderRefusesInconsistentCubesAndForeignAttributes) {
   ShrmCube inf = MakeCube(1, 2, ShrmKind::kGlobal);
   inf.data[3] = INFINITY;
   EXPECT_FALSE(EncodeShrmKtx2("x", inf, {}, false).ok());
+}
+
+// Peak lights: the list round-trips exactly (%.9g of floats), and "shrm:light_model" holds the
+// shaders' copy of the BRDF: the model number of docs/shaders.md and its parameters in the
+// documented slots (GGX: v_0 alpha, v_1 f0; Lafortune: v_0 rho_d, v_1 the lobe count, lobe k at
+// v_4+4k). Models the shaders cannot evaluate are refused, with nothing encoded.
+TEST(ShrmKtx2Test, PeakLightsCarryTheirListAndTheShadersBrdf) {
+  ShrmCube c = MakeCube(1, 2, ShrmKind::kGlobal);
+  c.lights = {{{0.6f, 0.8f, 0.0f}, {1.5f, 0.25f, 3e-7f}}, {{0.0f, -1.0f, 0.0f}, {2, 2, 2}}};
+  absl::StatusOr<std::string> bytes =
+      EncodeShrmKtx2("lit", c, {{"shrm:brdf", "ggx:alpha=0.2,f0=0.04"}}, false);
+  ASSERT_TRUE(bytes.ok()) << bytes.status();
+  absl::StatusOr<ShrmFile> back = DecodeShrmKtx2("lit", *bytes, ImageLimits{});
+  ASSERT_TRUE(back.ok()) << back.status();
+  ASSERT_EQ(back->cube.lights.size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {
+    EXPECT_EQ(back->cube.lights[k].dir, c.lights[k].dir);
+    EXPECT_EQ(back->cube.lights[k].weight, c.lights[k].weight);
+  }
+  ASSERT_TRUE(back->attributes.count("shrm:light_model"));
+  const std::string& model = back->attributes.at("shrm:light_model");
+  EXPECT_EQ(model.substr(0, model.find(' ')), "6");
+  absl::StatusOr<BrdfShaderParams> p = ParseBrdfShaderParams(model);
+  ASSERT_TRUE(p.ok()) << p.status();
+  EXPECT_EQ(p->model, BrdfShaderModel::kGgx);
+  EXPECT_FLOAT_EQ(p->values[0], 0.2f);
+  EXPECT_FLOAT_EQ(p->values[1], 0.04f);
+  for (int i = 2; i < kBrdfShaderValues; ++i) EXPECT_EQ(p->values[i], 0.0f) << i;
+
+  const absl::StatusOr<BrdfShaderParams> laf = BrdfShaderParamsFor(
+      *ParseBrdfSpec("lafortune:rho_d=0.1;cx=-0.9,cz=0.8,n=15,rho=1.5;cx=-1,cz=1,n=40,rho=0.5")
+           .value());
+  ASSERT_TRUE(laf.ok()) << laf.status();
+  EXPECT_EQ(laf->model, BrdfShaderModel::kLafortune);
+  const float want[] = {0.1f, 2, 0, 0, -0.9f, 0.8f, 15, 1.5f, -1, 1, 40, 0.5f};
+  for (int i = 0; i < 12; ++i) EXPECT_FLOAT_EQ(laf->values[i], want[i]) << i;
+
+  // No BRDF, or one without a shader copy: refused.
+  EXPECT_FALSE(EncodeShrmKtx2("lit", c, {}, false).ok());
+  const absl::StatusOr<std::string> five_lobes =
+      EncodeShrmKtx2("lit", c,
+                     {{"shrm:brdf",
+                       "lafortune:cx=-1,cz=1,n=2,rho=1;cx=-1,cz=1,n=3,rho=1;cx=-1,cz=1,n=4,rho=1;"
+                       "cx=-1,cz=1,n=5,rho=1;cx=-1,cz=1,n=6,rho=1"}},
+                     false);
+  ASSERT_FALSE(five_lobes.ok());
+  EXPECT_NE(five_lobes.status().message().find("at most 4 lobes"), std::string::npos)
+      << five_lobes.status();
+  // The key's text is validated when read back.
+  EXPECT_FALSE(ParseBrdfShaderParams("6 0.2").ok());
+  EXPECT_FALSE(ParseBrdfShaderParams("9 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0").ok());
+  EXPECT_FALSE(ParseBrdfShaderParams("6 nan 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0").ok());
+  EXPECT_TRUE(ParseBrdfShaderParams(FormatBrdfShaderParams(*laf)).ok());
 }
 
 TEST(ShrmKtx2Test, ReadShrmNamesAMissingFile) {

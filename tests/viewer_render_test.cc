@@ -24,16 +24,19 @@
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "core/base/parallel.h"
 #include "core/brdf/brdf.h"
+#include "core/brdf/brdf_shader_params.h"
 #include "core/envmap/envmap.h"
 #include "core/io/image.h"
 #include "core/shrm/prefilter.h"
 #include "core/shrm/shrm_reference.h"
+#include "shrm/shaders.h"
 #include "tests/test_maps.h"
 #include "viewer/camera.h"
 #include "viewer/cpu_images.h"
@@ -199,14 +202,16 @@ class ViewerRenderTest : public ::testing::Test {
   // Modes 1 and 2 at every view of kViews against the CPU's evaluation of the scene's SHRMs
   // (`data`): mode 1 by eq. 5.35 for the central view, mode 2 by eq. 5.10 per pixel.
   static void ExpectModesMatchCpu(const ShrmData& data, const std::string& label,
-                                  double min_cos_view = -1) {
+                                  double min_cos_view = -1, const Brdf* lights_brdf = nullptr) {
     for (const OrbitView& view : kViews) {
       const OrbitCamera camera(view);
       const GeometryBuffer g = SphereGeometry(camera, kWidth, kHeight);
       const std::vector<float> m1 = RenderMode(1, camera), m2 = RenderMode(2, camera);
-      const Image c1 =
-          ShadeImage(g, ShrmPixelShader(data.global, ViewModel::kCentral, camera.CentralView()), 2);
-      const Image c2 = ShadeImage(g, ShrmPixelShader(data.local, ViewModel::kPerPixel, {}), 2);
+      const Image c1 = ShadeImage(
+          g, ShrmPixelShader(data.global, ViewModel::kCentral, camera.CentralView(), lights_brdf),
+          2);
+      const Image c2 =
+          ShadeImage(g, ShrmPixelShader(data.local, ViewModel::kPerPixel, {}, lights_brdf), 2);
       std::printf("view %g,%g,%g\n", view.azimuth_deg, view.elevation_deg, view.distance);
       const std::string tag =
           absl::StrCat(label, "cpu_", view.azimuth_deg, "_", view.elevation_deg);
@@ -292,6 +297,182 @@ TEST_F(ViewerRenderTest, NormalVariableModesMatchCpuEvaluation) {
   SceneData back;
   back.shrm = shrm_;
   ASSERT_TRUE(renderer_->SetScene(back).ok());
+}
+
+// Peak lights (shaders/glsl/shrm_lights.glsl, SHRM_LIGHTS): mode 1's pass adds them at each
+// texel's own normal, mode 2 at the pixel's N and V; against the CPU's evaluation of the same
+// cubes plus core's exact light sum (ShrmLightsRadiance with the core BRDF). Three lights of
+// about a sun pixel's L dOmega, on the microfacet cubes (view variable) and on GGX cubes in the
+// normal variable with the Fresnel table.
+TEST_F(ViewerRenderTest, PeakLightsModesMatchCpuEvaluation) {
+  ASSERT_NE(renderer_, nullptr);
+  const std::vector<ShrmLight> lights = {{{0.3f, 0.8f, 0.5f}, {0.5f, 0.45f, 0.4f}},
+                                         {{-0.7f, 0.2f, 0.6f}, {0.2f, 0.3f, 0.1f}},
+                                         {{0.1f, -0.4f, -0.9f}, {0.3f, 0.3f, 0.35f}}};
+  auto with_lights = [&](ShrmCube cube) {
+    cube.lights = lights;
+    for (ShrmLight& l : cube.lights) {
+      const Vec3 d = Vec3{l.dir[0], l.dir[1], l.dir[2]}.Normalized();
+      l.dir = {static_cast<float>(d.x), static_cast<float>(d.y), static_cast<float>(d.z)};
+    }
+    return cube;
+  };
+  const EnvMap env = EnvMap::FromLatLong(*map_);
+  const std::unique_ptr<Brdf> ggx = ParseBrdfSpec("ggx:alpha=0.3,f0=0.04").value();
+  for (const Brdf* brdf : {static_cast<const Brdf*>(brdf_), static_cast<const Brdf*>(ggx.get())}) {
+    auto data = std::make_shared<ShrmData>(*shrm_);
+    if (brdf == ggx.get()) {
+      PrefilterOptions opt;
+      opt.f = kF;
+      opt.p = kP;
+      opt.face_size = kFaceSize;
+      opt.threads = 2;
+      opt.view = ViewVariable::kNormal;
+      opt.kind = ShrmKind::kGlobal;
+      data->global = Prefilter(env, *ggx, opt).value().cube;
+      opt.kind = ShrmKind::kLocal;
+      data->local = Prefilter(env, *ggx, opt).value().cube;
+    }
+    data->global = with_lights(data->global);
+    data->local = with_lights(data->local);
+    data->light_brdf = BrdfShaderParamsFor(*brdf).value();
+    SceneData scene;
+    scene.shrm = data;
+    ASSERT_TRUE(renderer_->SetScene(scene).ok());
+    EXPECT_NE(renderer_->ModeStatus(1).find("3 peak lights"), std::string::npos)
+        << renderer_->ModeStatus(1);
+    ExpectModesMatchCpu(*data, absl::StrCat(brdf->spec(), " + 3 peak lights: "),
+                        kFresnelSilhouetteCos, brdf);
+  }
+  SceneData back;
+  back.shrm = shrm_;
+  ASSERT_TRUE(renderer_->SetScene(back).ok());
+}
+
+// The shaders' copy of each analytic BRDF (ShrmLightTransfer, shaders/glsl/shrm_lights.glsl)
+// against core's Brdf::Transfer (double) at 4096 seeded (N, V, w) triples per model, half of them
+// with w near the mirror direction where the lobes are large. Triples within kHorizonMargin of a
+// cut (N.w, N.V, R.w or Kajiya-Kay's cos(theta_i' - theta_o') = 0) are skipped: float and double
+// may fall on either side there.
+TEST_F(ViewerRenderTest, LightTransferMatchesCoreModels) {
+  ASSERT_NE(renderer_, nullptr);
+  constexpr int kSide = 64, kTriples = kSide * kSide;
+  constexpr double kHorizonMargin = 0.02;
+  // Float shader arithmetic against double. The Gaussian of microfacet amplifies the error of
+  // llvmpipe's asin (theta_h, ~2e-5 rad) by 2 theta_h / sigma^2: measured 6e-4 at sigma 0.15;
+  // the other models measured below 7e-5 (pow of exponents up to 64, exp, sqrt).
+  constexpr double kTransferTol = 2e-3;
+  // Values below this fraction of the model's largest are judged by that absolute floor.
+  constexpr double kTransferFloor = 1e-3;
+  const char* kSpecs[] = {"lambert:albedo=0.8",
+                          "phong:s=64",
+                          "microfacet:sigma=0.15",
+                          "lafortune:rho_d=0.1;cx=-0.9,cz=0.8,n=15,rho=1.5;cx=-1,cz=1,n=40,rho=0.5",
+                          "ward:alpha=0.2,rho_s=0.1,rho_d=0.05",
+                          "ward:alpha_x=0.15,alpha_y=0.4,rho_s=0.2,rho_d=0",
+                          "ggx:alpha=0.1,f0=0.04",
+                          "ggx:alpha=0.4,f0=1",
+                          "kajiya-kay:s=32"};
+  const std::string fragment =
+      absl::StrCat("#version 330 core\n#define PMAX 0\n#define SHRM_LIGHTS\n", shaders::kCommonGlsl,
+                   shaders::kLightsGlsl, R"(
+uniform sampler2D u_triples;  // 64 x 192: N, V, w in rows y, y + 64, y + 128
+out vec4 o_color;
+void main() {
+  ivec2 p = ivec2(gl_FragCoord.xy);
+  vec3 n = texelFetch(u_triples, p, 0).xyz;
+  vec3 v = texelFetch(u_triples, p + ivec2(0, 64), 0).xyz;
+  vec3 w = texelFetch(u_triples, p + ivec2(0, 128), 0).xyz;
+  o_color = vec4(ShrmLightTransfer(n, v, w), 0.0, 0.0, 1.0);
+}
+)");
+  absl::StatusOr<GlProgram> program =
+      BuildProgram(kFullscreenVertexShader, fragment, "ShrmLightTransfer test");
+  ASSERT_TRUE(program.ok()) << program.status();
+  absl::StatusOr<std::unique_ptr<Framebuffer>> fb = Framebuffer::Create(kSide, kSide, {GL_RGBA32F});
+  ASSERT_TRUE(fb.ok()) << fb.status();
+  GlTexture input = GlTexture::Generate();
+  GlVertexArray vao = GlVertexArray::Generate();
+  std::mt19937_64 rng(20261206);
+  std::normal_distribution<double> gauss;
+  std::uniform_real_distribution<double> unit(0, 1);
+  auto random_dir = [&] { return Vec3{gauss(rng), gauss(rng), gauss(rng)}.Normalized(); };
+  for (const char* spec : kSpecs) {
+    const std::unique_ptr<Brdf> brdf = ParseBrdfSpec(spec).value();
+    const BrdfShaderParams params = BrdfShaderParamsFor(*brdf).value();
+    const bool tangent = brdf->reparam() == ReparamKind::kTangent;
+    std::vector<Vec3> n(kTriples), v(kTriples), w(kTriples);
+    std::vector<float> texels(static_cast<size_t>(kTriples) * 3 * 4, 0.0f);
+    std::vector<bool> skip(kTriples, false);
+    for (int i = 0; i < kTriples; ++i) {
+      n[i] = random_dir();
+      v[i] = random_dir();
+      if (!tangent && v[i].Dot(n[i]) < 0) v[i] = v[i] * -1.0;
+      const Vec3 mirror = tangent ? v[i] * -1.0 : n[i] * (2 * n[i].Dot(v[i])) - v[i];
+      w[i] = i % 2 ? random_dir() : (mirror + random_dir() * (0.4 * unit(rng))).Normalized();
+      const double nw = n[i].Dot(w[i]), nv = n[i].Dot(v[i]), rw = mirror.Dot(w[i]);
+      const double si = std::sqrt(std::max(0.0, 1 - nw * nw)),
+                   so = std::sqrt(std::max(0.0, 1 - nv * nv));
+      skip[i] = std::abs(nw) < kHorizonMargin || std::abs(nv) < kHorizonMargin ||
+                std::abs(rw) < kHorizonMargin || std::abs(nw * nv + si * so) < kHorizonMargin;
+      Vec3* rows[3] = {&n[i], &v[i], &w[i]};
+      for (int r = 0; r < 3; ++r) {
+        const size_t t = (static_cast<size_t>(r) * kTriples + i) * 4;
+        texels[t] = static_cast<float>(rows[r]->x);
+        texels[t + 1] = static_cast<float>(rows[r]->y);
+        texels[t + 2] = static_cast<float>(rows[r]->z);
+        // The shader sees the float vectors: so does the reference.
+        *rows[r] = {texels[t], texels[t + 1], texels[t + 2]};
+      }
+    }
+    glBindTexture(GL_TEXTURE_2D, input.get());
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, kSide, 3 * kSide, 0, GL_RGBA, GL_FLOAT,
+                 texels.data());
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glBindFramebuffer(GL_FRAMEBUFFER, (*fb)->id());
+    glViewport(0, 0, kSide, kSide);
+    glDisable(GL_DEPTH_TEST);
+    glUseProgram(program->get());
+    SetUniform(program->get(), "u_triples", 0);
+    SetUniform(program->get(), "shrm_light_model", static_cast<int>(params.model));
+    glUniform4fv(glGetUniformLocation(program->get(), "shrm_light_brdf"), kBrdfShaderValues / 4,
+                 params.values.data());
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, input.get());
+    glBindVertexArray(vao.get());
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glUseProgram(0);
+    const std::vector<float> gpu = (*fb)->ReadRgba(0);  // rows from the top
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    std::vector<double> cpu(kTriples);
+    double largest = 0;
+    for (int i = 0; i < kTriples; ++i) {
+      cpu[i] = brdf->Transfer(n[i], v[i], w[i], 0);
+      largest = std::max(largest, std::abs(cpu[i]));
+    }
+    ASSERT_GT(largest, 0) << spec;
+    int compared = 0, nonzero = 0;
+    double worst = 0;
+    for (int i = 0; i < kTriples; ++i) {
+      if (skip[i]) continue;
+      const int x = i % kSide, y = i / kSide;
+      const double g = gpu[(static_cast<size_t>(kSide - 1 - y) * kSide + x) * 4];
+      const double rel =
+          std::abs(g - cpu[i]) / std::max(std::abs(cpu[i]), kTransferFloor * largest);
+      worst = std::max(worst, rel);
+      ++compared;
+      if (cpu[i] > kTransferFloor * largest) ++nonzero;
+      EXPECT_LE(rel, kTransferTol)
+          << spec << " triple " << i << ": shader " << g << ", core " << cpu[i];
+      if (rel > kTransferTol) break;
+    }
+    std::printf("[%s] %d triples (%d lit), largest relative difference %.2e\n", spec, compared,
+                nonzero, worst);
+    EXPECT_GT(compared, kTriples / 2) << spec;
+    EXPECT_GT(nonzero, kTriples / 8) << spec;
+  }
 }
 
 TEST_F(ViewerRenderTest, ModesMatchBruteForce) {

@@ -2,7 +2,9 @@
 
 #include <cmath>
 
+#include "core/base/cubemap.h"
 #include "core/base/parallel.h"
+#include "core/shrm/shrm_eval.h"
 #include "core/shrm/shrm_synthesis.h"
 
 namespace shrm::viewer {
@@ -56,24 +58,39 @@ Image ShadeImage(const GeometryBuffer& g, const PixelShader& shader, int threads
   return img;
 }
 
-PixelShader ShrmPixelShader(const ShrmCube& cube, ViewModel model, const Vec3& central_view) {
-  return [&cube, model, central_view](const PixelGeometry& p) {
-    const Vec3 index = cube.index == ReparamKind::kTangent
-                           ? p.tangent
-                           : p.normal * (2 * p.normal.Dot(p.view)) - p.view;
+PixelShader ShrmPixelShader(const ShrmCube& cube, ViewModel model, const Vec3& central_view,
+                            const Brdf* lights_brdf) {
+  return [&cube, model, central_view, lights_brdf](const PixelGeometry& p) {
+    const bool tangent = cube.index == ReparamKind::kTangent;
+    const Vec3 index = tangent ? p.tangent : p.normal * (2 * p.normal.Dot(p.view)) - p.view;
+    std::array<double, 3> out{0, 0, 0};
     if (model == ViewModel::kCentral && cube.view == ViewVariable::kNormal) {
       // Eq. 5.35's map in the normal variable: each texel at its own normal (R_texel + V) /
       // |R_texel + V|, then bilinear in R (what the GPU pass and its filtering compute).
-      std::array<double, 3> out{0, 0, 0};
       for (const CubeTap& tap : ShrmBilinearTaps(cube.face_size, index)) {
         if (tap.weight == 0) continue;
         const std::array<double, 3> t =
             ShrmTexelRadiance(cube, tap.face, tap.x, tap.y, central_view);
         for (int c = 0; c < 3; ++c) out[c] += tap.weight * t[c];
       }
+    } else {
+      out = ShrmEvalAt(cube, index, model == ViewModel::kCentral ? central_view : p.view);
+    }
+    if (lights_brdf == nullptr || cube.lights.empty()) return out;
+    if (model == ViewModel::kPerPixel) {
+      const std::array<double, 3> lit =
+          ShrmLightsRadiance(cube, *lights_brdf, tangent ? p.tangent : p.normal, p.view);
+      for (int c = 0; c < 3; ++c) out[c] += lit[c];
       return out;
     }
-    return ShrmEvalAt(cube, index, model == ViewModel::kCentral ? central_view : p.view);
+    for (const CubeTap& tap : ShrmBilinearTaps(cube.face_size, index)) {
+      if (tap.weight == 0) continue;
+      const Vec3 r = CubeTexelDirection(tap.face, tap.x, tap.y, cube.face_size);
+      const Vec3 n = tangent ? r : ShrmViewArgument(ViewVariable::kNormal, r, central_view);
+      const std::array<double, 3> lit = ShrmLightsRadiance(cube, *lights_brdf, n, central_view);
+      for (int c = 0; c < 3; ++c) out[c] += tap.weight * lit[c];
+    }
+    return out;
   };
 }
 

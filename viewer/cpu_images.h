@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/base/geometry.h"
+#include "core/brdf/brdf.h"
 #include "core/io/image.h"
 #include "core/shrm/shrm_map.h"
 #include "viewer/camera.h"
@@ -49,8 +50,12 @@ Image ShadeImage(const GeometryBuffer& g, const PixelShader& shader, int threads
 
 // The SHRM as the GPU modes evaluate it: index direction = R = 2 (N.V_pixel) N - V_pixel (or T
 // for tangent-indexed cubes), then ShrmEvalAt with V = the pixel's view (kPerPixel) or
-// `central_view` (kCentral).
-PixelShader ShrmPixelShader(const ShrmCube& cube, ViewModel model, const Vec3& central_view);
+// `central_view` (kCentral). With `lights_brdf`, plus the cube's peak lights summed with it
+// (ShrmLightsRadiance) as the modes sum them: at the pixel's own N (T) and V (kPerPixel), or at
+// each texel of the per-view map, interpolated bilinearly in R (kCentral, core's
+// AddLightsToViewMap).
+PixelShader ShrmPixelShader(const ShrmCube& cube, ViewModel model, const Vec3& central_view,
+                            const Brdf* lights_brdf = nullptr);
 
 }  // namespace shrm::viewer
 

@@ -74,22 +74,28 @@ class GlobalShrmMode final : public RenderMode {
     // The per-frame pass of the shipped shader library (shaders/glsl/shrm_global.glsl).
     // shrm:view_variable "normal": the pass takes Y_pq of each texel's normal (SHRM_VIEW_NORMAL).
     const bool view_normal = cube.view == ViewVariable::kNormal;
-    if (!pass_ || pmax_ != cube.pmax || view_normal_ != view_normal) {
+    // Peak lights: the pass adds them per texel (SHRM_LIGHTS, shaders/glsl/shrm_lights.glsl).
+    const bool lights = !cube.lights.empty();
+    if (!pass_ || pmax_ != cube.pmax || view_normal_ != view_normal || lights_ != lights) {
       pass_.reset();
       pmax_ = -1;
-      const std::string fragment = absl::StrCat("#version 330 core\n#define PMAX ", cube.pmax,
-                                                "\n#define SHRM_GLOBAL_PASS\n",
-                                                view_normal ? "#define SHRM_VIEW_NORMAL\n" : "",
-                                                shaders::kCommonGlsl, shaders::kGlobalGlsl);
+      const std::string fragment = absl::StrCat(
+          "#version 330 core\n#define PMAX ", cube.pmax, "\n#define SHRM_GLOBAL_PASS\n",
+          view_normal ? "#define SHRM_VIEW_NORMAL\n" : "", lights ? "#define SHRM_LIGHTS\n" : "",
+          shaders::kCommonGlsl, lights ? shaders::kLightsGlsl : "", shaders::kGlobalGlsl);
       SHRM_ASSIGN_OR_RETURN(
           pass_, BuildProgram(absl::StrCat("#version 330 core\n", shaders::kFullscreenVert),
                               fragment, "mode 1 (eq. 5.35 pass, shaders/glsl/shrm_global.glsl)"));
       pmax_ = cube.pmax;
       view_normal_ = view_normal;
+      lights_ = lights;
     }
     // The coefficients exactly as the KTX2 SHRM stores them (shaders' binding shrm_coeffs).
     std::vector<float> layers;
     SHRM_RETURN_IF_ERROR(UploadShrmCoefficients(cube, &coeffs_, &layers));
+    SHRM_RETURN_IF_ERROR(UploadShrmLights(cube.lights, &lights_texture_));
+    light_count_ = static_cast<int>(cube.lights.size());
+    light_brdf_ = scene.shrm->light_brdf;
     if (!map_ || size_ != s) {
       map_ = GlTexture::Generate();
       glBindTexture(GL_TEXTURE_CUBE_MAP, map_.get());
@@ -142,6 +148,7 @@ class GlobalShrmMode final : public RenderMode {
       glBindTexture(GL_TEXTURE_2D_ARRAY, coeffs_.get());
       SetUniform(pass, "shrm_coeffs", 0);
       SetShrmFresnel(pass, fresnel_);
+      if (lights_) SetShrmLights(pass, lights_texture_, light_count_, light_brdf_, 1);
       for (int f = 0; f < 6; ++f) {
         glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0,
                                GL_TEXTURE_CUBE_MAP_POSITIVE_X + f, map_.get(), 0);
@@ -166,18 +173,21 @@ class GlobalShrmMode final : public RenderMode {
 
   std::string Status() const override {
     if (!ready_) return "";
-    return absl::StrFormat("per-view map %dx%dx6, P %d, GPU pass (eq. 5.35, shrm_global.glsl)",
-                           size_, size_, pmax_);
+    return absl::StrFormat("per-view map %dx%dx6, P %d, GPU pass (eq. 5.35, shrm_global.glsl)%s",
+                           size_, size_, pmax_,
+                           lights_ ? absl::StrFormat(" + %d peak lights", light_count_) : "");
   }
 
  private:
   // Destroyed in reverse order: the GL objects, then the programs.
   GlProgram program_, pass_;
-  GlTexture coeffs_, map_;
+  GlTexture coeffs_, map_, lights_texture_;
   GlFramebuffer fbo_;
   GlVertexArray vao_;
   int pmax_ = -1, size_ = 0;
-  bool tangent_index_ = false, view_normal_ = false, ready_ = false;
+  bool tangent_index_ = false, view_normal_ = false, lights_ = false, ready_ = false;
+  int light_count_ = 0;
+  BrdfShaderParams light_brdf_;
   std::vector<float> fresnel_;  // the SHRM's Fresnel table (shrm_common.glsl ShrmFresnel)
 };
 

@@ -45,6 +45,10 @@ void main() {
   // that pass 1 left: the others fail the depth test before shading).
   o_color = vec4(ShrmLocal(index, arg), 1.0);
 #endif
+#ifdef SHRM_LIGHTS
+  // The peak lights at the pixel's own normal (tangent) and view.
+  o_color.rgb += ShrmLights(u_tangent_index != 0 ? index : n, v);
+#endif
 }
 )";
 
@@ -66,16 +70,18 @@ class LocalShrmMode final : public RenderMode {
     fast_path_ = major >= 4;  // cube map arrays (GL 4.0)
     // shrm:view_variable "normal": SHRM_VIEW_NORMAL (the Fresnel table's argument is N.R).
     const bool view_normal = cube.view == ViewVariable::kNormal;
-    if (!taps_program_ || pmax_ != cube.pmax || program_view_normal_ != view_normal) {
+    const bool lights = !cube.lights.empty();  // SHRM_LIGHTS: shaders/glsl/shrm_lights.glsl
+    if (!taps_program_ || pmax_ != cube.pmax || program_view_normal_ != view_normal ||
+        program_lights_ != lights) {
       taps_program_.reset();
       filtered_program_.reset();
       pmax_ = -1;
       for (int fast = 0; fast <= (fast_path_ ? 1 : 0); ++fast) {
         const std::string fragment = absl::StrCat(
             fast ? "#version 400 core\n#define SHRM_FILTERED\n" : "#version 330 core\n",
-            view_normal ? "#define SHRM_VIEW_NORMAL\n" : "", "#define FAST_PATH ", fast,
-            "\n#define PMAX ", cube.pmax, "\n", shaders::kCommonGlsl, shaders::kLocalGlsl,
-            kFragmentMain);
+            view_normal ? "#define SHRM_VIEW_NORMAL\n" : "", lights ? "#define SHRM_LIGHTS\n" : "",
+            "#define FAST_PATH ", fast, "\n#define PMAX ", cube.pmax, "\n", shaders::kCommonGlsl,
+            lights ? shaders::kLightsGlsl : "", shaders::kLocalGlsl, kFragmentMain);
         SHRM_ASSIGN_OR_RETURN((fast ? filtered_program_ : taps_program_),
                               BuildProgram(kMeshVertexShader, fragment,
                                            fast ? "mode 2 (local SHRM, filtered pass)"
@@ -83,12 +89,16 @@ class LocalShrmMode final : public RenderMode {
       }
       pmax_ = cube.pmax;
       program_view_normal_ = view_normal;
+      program_lights_ = lights;
     }
     // Layer k * 6 + face holds coefficient k of that face, texels in GL order: the KTX2 SHRM's
     // level as it is, the layout of a 2D array texture (exact texel fetches) and of a cube-map
     // array (filtered pass) alike.
     std::vector<float> layered;
     SHRM_RETURN_IF_ERROR(UploadShrmCoefficients(cube, &texture_, &layered));
+    SHRM_RETURN_IF_ERROR(UploadShrmLights(cube.lights, &lights_texture_));
+    light_count_ = static_cast<int>(cube.lights.size());
+    light_brdf_ = scene.shrm->light_brdf;
     if (fast_path_) {
       if (!filtered_) filtered_ = GlTexture::Generate();
       glBindTexture(GL_TEXTURE_CUBE_MAP_ARRAY, filtered_.get());
@@ -121,9 +131,10 @@ class LocalShrmMode final : public RenderMode {
 
   std::string Status() const override {
     if (!ready_) return "";
-    return absl::StrFormat("local coefficients %dx%dx6 x %d, per-pixel Y_pq(Rot^T V), %s", size_,
-                           size_, ShCount(pmax_),
-                           fast_path_ ? "filtered (4 taps near the poles)" : "4 taps");
+    return absl::StrFormat(
+        "local coefficients %dx%dx6 x %d, per-pixel Y_pq(Rot^T V), %s%s", size_, size_,
+        ShCount(pmax_), fast_path_ ? "filtered (4 taps near the poles)" : "4 taps",
+        program_lights_ ? absl::StrFormat(" + %d peak lights", light_count_) : "");
   }
 
  private:
@@ -136,6 +147,7 @@ class LocalShrmMode final : public RenderMode {
     SetUniform(program, "u_tangent_index", tangent_index_ ? 1 : 0);
     SetUniform(program, "u_view_normal", view_normal_ ? 1 : 0);
     SetShrmFresnel(program, fresnel_);
+    if (program_lights_) SetShrmLights(program, lights_texture_, light_count_, light_brdf_, 2);
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_2D_ARRAY, texture_.get());
     SetUniform(program, "shrm_coeffs", 0);
@@ -152,9 +164,12 @@ class LocalShrmMode final : public RenderMode {
 
   // Destroyed in reverse order: the textures, then the programs.
   GlProgram filtered_program_, taps_program_;
-  GlTexture filtered_, texture_;
+  GlTexture filtered_, texture_, lights_texture_;
   std::vector<float> fresnel_;        // the SHRM's Fresnel table (shrm_common.glsl ShrmFresnel)
   bool program_view_normal_ = false;  // the programs were built with SHRM_VIEW_NORMAL
+  bool program_lights_ = false;       // ... and with SHRM_LIGHTS
+  int light_count_ = 0;
+  BrdfShaderParams light_brdf_;
   int pmax_ = -1, size_ = 0;
   bool tangent_index_ = false, view_normal_ = false, ready_ = false, fast_path_ = false;
 };

@@ -90,13 +90,15 @@ absl::StatusOr<std::shared_ptr<const EnvironmentData>> LoadEnvironment(const std
 absl::StatusOr<ShrmData> ShrmDataFromCube(ShrmCube cube,
                                           std::map<std::string, std::string> attributes,
                                           std::string origin, int threads, bool convert) {
+  BrdfShaderParams light_brdf;
   if (!cube.lights.empty()) {
-    // The viewer's modes shade the expansion only: a file drawn without its lights would look
-    // right and be wrong.
-    return absl::FailedPreconditionError(absl::StrCat(
-        origin, ": the SHRM carries ", cube.lights.size(),
-        " peak lights (shrm prefilter --peak-lights), which shrm-view does not shade yet: view "
-        "the SHRM of a job without them"));
+    // The modes sum the lights with the shaders' copy of the BRDF (shrm_lights.glsl); a file
+    // drawn without them would look right and be wrong, so a BRDF they cannot evaluate is refused.
+    auto it = attributes.find("shrm:brdf");
+    SHRM_ASSIGN_OR_RETURN(
+        light_brdf,
+        PeakLightShaderParams(origin, it == attributes.end() ? std::string() : it->second,
+                              cube.lights.size(), "view the SHRM of a job without --peak-lights"));
   }
   ShrmData d;
   const ShrmKind other = cube.kind == ShrmKind::kGlobal ? ShrmKind::kLocal : ShrmKind::kGlobal;
@@ -114,6 +116,7 @@ absl::StatusOr<ShrmData> ShrmDataFromCube(ShrmCube cube,
     d.global = std::move(converted);
   }
   d.origin = std::move(origin);
+  d.light_brdf = light_brdf;
   d.p_b = d.global.pmax;
   if (auto it = attributes.find("shrm:brdf"); it != attributes.end()) d.brdf_spec = it->second;
   if (auto it = attributes.find("shrm:orders"); it != attributes.end()) {

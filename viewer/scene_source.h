@@ -23,6 +23,7 @@
 
 #include "absl/status/statusor.h"
 #include "core/brdf/brdf.h"
+#include "core/brdf/brdf_shader_params.h"
 #include "core/envmap/envmap.h"
 #include "core/io/image.h"
 #include "core/shrm/fast_reference.h"
@@ -73,6 +74,8 @@ struct ShrmData {
   ShrmCube global, local;
   std::map<std::string, std::string> attributes;  // shrm:* of the file (or as prefilter writes)
   std::string brdf_spec;  // the BRDF (file attribute shrm:brdf, or the computed one)
+  // The peak lights' BRDF as the shaders take it (shrm_lights.glsl), when the SHRM has lights.
+  BrdfShaderParams light_brdf;
   int f_b = -1, p_b = -1;
   std::string epsilon;  // "0.03" or "explicit orders" (or "" when unknown)
   double eps_bound = -1;

@@ -43,4 +43,40 @@ void SetShrmFresnel(GLuint program, std::span<const float> fresnel) {
   glUniform1i(glGetUniformLocation(program, "shrm_fresnel_count"), kNodes);
 }
 
+absl::Status UploadShrmLights(std::span<const ShrmLight> lights, GlTexture* texture) {
+  if (lights.empty()) return absl::OkStatus();
+  GLint max_size = 0;
+  glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
+  const int k = static_cast<int>(lights.size());
+  if (k > max_size) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat(k, " peak lights exceed GL_MAX_TEXTURE_SIZE ", max_size));
+  }
+  std::vector<float> texels(static_cast<size_t>(k) * 2 * 4, 0.0f);
+  for (int i = 0; i < k; ++i)
+    for (int c = 0; c < 3; ++c) {
+      texels[static_cast<size_t>(i) * 4 + c] = lights[i].dir[c];
+      texels[(static_cast<size_t>(k) + i) * 4 + c] = lights[i].weight[c];
+    }
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  if (!*texture) *texture = GlTexture::Generate();
+  glBindTexture(GL_TEXTURE_2D, texture->get());
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, k, 2, 0, GL_RGBA, GL_FLOAT, texels.data());
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  return absl::OkStatus();
+}
+
+void SetShrmLights(GLuint program, const GlTexture& texture, int count,
+                   const BrdfShaderParams& brdf, int unit) {
+  glActiveTexture(GL_TEXTURE0 + unit);
+  glBindTexture(GL_TEXTURE_2D, texture.get());
+  glActiveTexture(GL_TEXTURE0);
+  glUniform1i(glGetUniformLocation(program, "shrm_lights"), unit);
+  glUniform1i(glGetUniformLocation(program, "shrm_light_count"), count);
+  glUniform1i(glGetUniformLocation(program, "shrm_light_model"), static_cast<int>(brdf.model));
+  glUniform4fv(glGetUniformLocation(program, "shrm_light_brdf"), kBrdfShaderValues / 4,
+               brdf.values.data());
+}
+
 }  // namespace shrm::viewer

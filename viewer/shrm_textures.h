@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "core/brdf/brdf_shader_params.h"
 #include "core/shrm/shrm_map.h"
 #include "viewer/gl_util.h"
 
@@ -23,6 +24,16 @@ namespace shrm::viewer {
 // bound `program` from an SHRM's ShrmCube::fresnel (a 1-channel table in all three components),
 // or count 0 for an empty one.
 void SetShrmFresnel(GLuint program, std::span<const float> fresnel);
+
+// The SHRM's peak lights as shrm_lights.glsl binds them: a K x 2 RGBA32F texture (texel (k, 0) the
+// direction, (k, 1) the weight) in *texture (generated on first use). ResourceExhausted when K
+// exceeds GL_MAX_TEXTURE_SIZE. Nothing is uploaded for K = 0.
+[[nodiscard]] absl::Status UploadShrmLights(std::span<const ShrmLight> lights, GlTexture* texture);
+
+// Sets shrm_lights.glsl's uniforms of the bound `program`: the lights' texture on texture unit
+// `unit` (bound here), their count and the BRDF's model and parameters.
+void SetShrmLights(GLuint program, const GlTexture& texture, int count,
+                   const BrdfShaderParams& brdf, int unit);
 
 }  // namespace shrm::viewer
 

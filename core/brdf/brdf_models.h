@@ -27,6 +27,7 @@ namespace shrm {
 class LambertBrdf final : public Brdf {
  public:
   explicit LambertBrdf(double albedo) : albedo_(albedo) {}
+  double albedo() const { return albedo_; }
   std::string spec() const override;
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override { return {16, 8}; }
@@ -57,6 +58,7 @@ class PhongBrdf final : public Brdf {
 class MicrofacetBrdf final : public Brdf {
  public:
   explicit MicrofacetBrdf(double sigma) : sigma_(sigma) {}
+  double sigma() const { return sigma_; }
   std::string spec() const override;
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
@@ -83,6 +85,8 @@ class LafortuneBrdf final : public Brdf {
  public:
   LafortuneBrdf(std::vector<LafortuneLobe> lobes, double rho_d)
       : lobes_(std::move(lobes)), rho_d_(rho_d) {}
+  const std::vector<LafortuneLobe>& lobes() const { return lobes_; }
+  double rho_d() const { return rho_d_; }
   std::string spec() const override;
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
@@ -111,6 +115,8 @@ class WardBrdf final : public Brdf {
   bool isotropic() const { return alpha_x_ == alpha_y_; }
   double alpha_x() const { return alpha_x_; }
   double alpha_y() const { return alpha_y_; }
+  double rho_s() const { return rho_s_; }
+  double rho_d() const { return rho_d_; }
   // "ward:alpha=..,rho_s=..,rho_d=.." when isotropic, else "ward:alpha_x=..,alpha_y=..,...".
   std::string spec() const override;
   bool clipped_at_normal_horizon() const override { return true; }
@@ -154,6 +160,7 @@ class GgxBrdf final : public Brdf {
 class KajiyaKayBrdf final : public Brdf {
  public:
   explicit KajiyaKayBrdf(double s);
+  double exponent() const { return s_; }
   std::string spec() const override;
   ReparamKind reparam() const override { return ReparamKind::kTangent; }
   bool azimuth_independent() const override { return true; }

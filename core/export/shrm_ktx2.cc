@@ -11,6 +11,7 @@
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
+#include "core/brdf/brdf_shader_params.h"
 #include "core/export/ktx2.h"
 #include "core/sh/sh.h"
 #include "shrm/version.h"
@@ -76,13 +77,17 @@ absl::StatusOr<std::string> EncodeShrmKtx2(const std::string& label, const ShrmC
         absl::StrCat(label, ": inconsistent SHRM cube (face size ", cube.face_size, ", P ",
                      cube.pmax, ", channels ", cube.channels, ", ", cube.data.size(), " values)"));
   }
+  std::string light_model;
   if (!cube.lights.empty()) {
-    // The shipped shaders (docs/shaders.md) evaluate the expansion only: a file they would
-    // render without its lights is refused rather than written.
-    return absl::FailedPreconditionError(absl::StrCat(
-        label, ": the SHRM carries ", cube.lights.size(),
-        " peak lights (--peak-lights), which the shipped shaders do not sum yet: write the KTX2 "
-        "of a job without them"));
+    // The shipped shaders sum the lights with their own copy of the BRDF (shrm_lights.glsl): the
+    // key "shrm:light_model" holds its model and parameters. A BRDF they cannot evaluate is
+    // refused rather than written as a file they would render without its lights.
+    auto it = extra.find("shrm:brdf");
+    SHRM_ASSIGN_OR_RETURN(
+        const BrdfShaderParams params,
+        PeakLightShaderParams(label, it == extra.end() ? std::string() : it->second,
+                              cube.lights.size(), "write the KTX2 of a job without --peak-lights"));
+    light_model = FormatBrdfShaderParams(params);
   }
   ktx2::Ktx2Image image;
   image.format = half ? ktx2::Format::kR16G16B16A16Sfloat : ktx2::Format::kR32G32B32A32Sfloat;
@@ -98,6 +103,7 @@ absl::StatusOr<std::string> EncodeShrmKtx2(const std::string& label, const ShrmC
   }
   for (auto& [k, v] : ShrmConventionAttributes(cube)) image.key_values[k] = std::move(v);
   for (const auto& [k, v] : Ktx2LayoutAttributes()) image.key_values[k] = v;
+  if (!light_model.empty()) image.key_values["shrm:light_model"] = light_model;
   absl::StatusOr<std::string> bytes =
       ktx2::EncodeKtx2(image, {.writer = absl::StrCat("shrm ", kVersion)});
   if (!bytes.ok())

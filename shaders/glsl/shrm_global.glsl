@@ -4,7 +4,9 @@
 // own normal N = (R + V) / |R + V| (ShrmViewNormal), times the Fresnel table's w(N.R) where the SHRM
 // has one (shrm_common.glsl ShrmFresnel),
 // i.e. an ordinary reflection cube map for this frame's view, which the shading then samples by
-// R (or T) with hardware filtering. Include after shrm_common.glsl. docs/shaders.md.
+// R (or T) with hardware filtering. Include after shrm_common.glsl (and shrm_lights.glsl with
+// SHRM_LIGHTS defined for an SHRM with peak lights: the pass adds them at each texel's own
+// normal, ShrmLightsAtTexel). docs/shaders.md.
 //
 // The per-frame pass (define SHRM_GLOBAL_PASS in the fragment shader, vertex shader
 // shrm_fullscreen.vert): six draws of a full-screen triangle, draw f rendering into face f of an
@@ -35,17 +37,23 @@ void main() {
   EvalSh(ShFrame(ShrmViewNormal(r, v)), y);
   // The Fresnel table's factor at the texel's N.R = |R + V| / 2 (1 without a table; exact, and
   // without the cancellation of dot(N, R) near V = -R).
-  shrm_color = vec4(ShrmGlobalTexel(shrm_face, ivec2(gl_FragCoord.xy), y) *
-                        ShrmFresnel(0.5 * length(r + v)),
-                    1.0);
+  vec3 sum =
+      ShrmGlobalTexel(shrm_face, ivec2(gl_FragCoord.xy), y) * ShrmFresnel(0.5 * length(r + v));
+#ifdef SHRM_LIGHTS
+  sum += ShrmLightsAtTexel(r, v);
+#endif
+  shrm_color = vec4(sum, 1.0);
 #else
   vec3 v = normalize(shrm_view);
   EvalSh(ShFrame(v), y);
   vec3 sum = ShrmGlobalTexel(shrm_face, ivec2(gl_FragCoord.xy), y);
-  if (shrm_fresnel_count != 0) {  // the table's factor at N.V = |R + V| / 2 (conventions 4)
-    vec2 st = (floor(gl_FragCoord.xy) + 0.5) / float(textureSize(shrm_coeffs, 0).x);
-    sum *= ShrmFresnel(0.5 * length(normalize(CubeFaceDirection(shrm_face, st)) + v));
-  }
+  vec2 st = (floor(gl_FragCoord.xy) + 0.5) / float(textureSize(shrm_coeffs, 0).x);
+  vec3 r = normalize(CubeFaceDirection(shrm_face, st));
+  // The table's factor at N.V = |R + V| / 2 (conventions 4).
+  if (shrm_fresnel_count != 0) sum *= ShrmFresnel(0.5 * length(r + v));
+#ifdef SHRM_LIGHTS
+  sum += ShrmLightsAtTexel(r, v);
+#endif
   shrm_color = vec4(sum, 1.0);
 #endif
 }
