@@ -208,20 +208,25 @@ mkdir -p "$SHRMS"
 # The "-n" pair: in the normal variable (shrm:view_variable "normal", docs/shaders.md) with GGX
 # f0 0.04, whose SHRMs carry the Fresnel table (shrm:fresnel) the shaders multiply by; the "-v"
 # pair: the same BRDF in the view variable, which carries the table too (conventions 4).
-for name in global local global-n local-n global-v local-v; do
-  kind=${name%-[nv]}
+# The "-l" pair: GGX f0 0.04 in the normal variable with peak lights (shrm:lights and
+# shrm:light_model), from city.exr, whose sun splits off as 29 lights (courtyard has none).
+for name in global local global-n local-n global-v local-v global-l local-l; do
+  kind=${name%-[nvl]}
   variable=view
   brdf=microfacet:sigma=0.3
+  map=$COURTYARD
+  lights=()
   case "$name" in
   *-n) variable=normal brdf=ggx:alpha=0.3,f0=0.04 ;;
   *-v) brdf=ggx:alpha=0.3,f0=0.04 ;;
+  *-l) variable=normal brdf=ggx:alpha=0.3,f0=0.04 map="$ROOT/data/envmaps/city.exr" lights=(--peak-lights) ;;
   esac
-  if "$SHRM" prefilter --env "$COURTYARD" --brdf "$brdf" --orders 8,3 --size 16 \
+  if "$SHRM" prefilter --env "$map" --brdf "$brdf" --orders 8,3 --size 16 "${lights[@]}" \
     --kind "$kind" --view-variable "$variable" -o "$SHRMS/$name.shrm.exr" \
     --ktx2 "$SHRMS/$name.shrm.ktx2" --threads 2 >"$TMP/shrm-$name.log" 2>&1 &&
     "$SHRM" render --shrm "$SHRMS/$name.shrm.ktx2" --view 0.3,0.5,0.8 -o "$SHRMS/$name-ref.ktx2" \
       >>"$TMP/shrm-$name.log" 2>&1; then
-    echo "PASS: shrm prefilter --brdf $brdf --kind $kind --view-variable $variable --ktx2, shrm render --view 0.3,0.5,0.8 (courtyard)"
+    echo "PASS: shrm prefilter --brdf $brdf --kind $kind --view-variable $variable ${lights[*]} --ktx2, shrm render --view 0.3,0.5,0.8 ($(basename "$map"))"
   else
     echo "FAIL: shrm prefilter/render ($name):"
     cat "$TMP/shrm-$name.log"
@@ -232,7 +237,8 @@ if [ "$FAILURES" -eq "$before" ]; then
   CHROMIUM="$CHROMIUM" run_node shaders run_shaders.mjs "$ROOT/shaders/wgsl/shrm.wgsl" \
     "$SHRMS/global.shrm.ktx2" "$SHRMS/global-ref.ktx2" "$SHRMS/local.shrm.ktx2" "$SHRMS/local-ref.ktx2" \
     "$SHRMS/global-n.shrm.ktx2" "$SHRMS/global-n-ref.ktx2" "$SHRMS/local-n.shrm.ktx2" "$SHRMS/local-n-ref.ktx2" \
-    "$SHRMS/global-v.shrm.ktx2" "$SHRMS/global-v-ref.ktx2" "$SHRMS/local-v.shrm.ktx2" "$SHRMS/local-v-ref.ktx2"
+    "$SHRMS/global-v.shrm.ktx2" "$SHRMS/global-v-ref.ktx2" "$SHRMS/local-v.shrm.ktx2" "$SHRMS/local-v-ref.ktx2" \
+    "$SHRMS/global-l.shrm.ktx2" "$SHRMS/global-l-ref.ktx2" "$SHRMS/local-l.shrm.ktx2" "$SHRMS/local-l-ref.ktx2"
 fi
 echo "(shaders done: $(($(date +%s) - START)) s)"
 

@@ -2,7 +2,8 @@
 //   - eq. 5.35, a GLOBAL SHRM evaluated once per frame: the compute entry point shrm_global_pass
 //     writes this frame's reflection cube map (B~(R) = sum_pq B^_pq(R) Y_pq(V); for an SHRM with
 //     shrm:view_variable "normal", set the override SHRM_VIEW_NORMAL: Y_pq of each texel's normal);
-//   - eq. 5.10, a LOCAL SHRM per pixel: fn shrm_local(index, view) for the host's own shaders.
+//   - eq. 5.10, a LOCAL SHRM per pixel: fn shrm_local(index, view) for the host's own shaders;
+//   - the peak lights of an SHRM that has them: shrm_global_pass_lights, fn shrm_lights_sum.
 // docs/shaders.md documents the bindings and the SHRM file (`shrm prefilter --ktx2`).
 //
 // The host prepends the SHRM's order P_B (KTX2 key "shrm:pmax") to this text:
@@ -22,6 +23,9 @@
 //     key "shrm:fresnel", text "K C v_0 .. v_K" with K = 128 and C channels per node): count =
 //     K + 1 and node k in nodes[k].rgb (C = 1: the value in all three), or count = 0 without the
 //     key (w = 1). SHRMs with the key are the sum times w(N.V) (docs/shaders.md).
+//   4 shrm_lights, 5 shrm_light: the peak lights of an SHRM with the keys "shrm:lights" and
+//     "shrm:light_model" (the section "peak lights" below; entry point shrm_global_pass_lights,
+//     fn shrm_lights_sum).
 
 const SHRM_SH_COUNT: i32 = (SHRM_PMAX + 1) * (SHRM_PMAX + 1);
 
@@ -201,6 +205,19 @@ fn shrm_global_texel(face: i32, xy: vec2i, y: array<f32, SHRM_SH_COUNT>) -> vec3
   return sum;
 }
 
+// Eq. 5.35 at texel xy of `face` (direction r, world, unit) for the frame's view (world, unit).
+fn shrm_global_value(face: i32, xy: vec2i, r: vec3f, view: vec3f) -> vec3f {
+  // The Fresnel table's factor at the texel's N.V = |R + V| / 2 (either view variable; exact,
+  // and without the cancellation of dot(N, R) near V = -R).
+  let w = shrm_fresnel_at(0.5 * length(r + view));
+  var d = view;
+  if (SHRM_VIEW_NORMAL) {
+    d = shrm_view_normal(r, view);
+  }
+  let y = shrm_eval_sh(shrm_sh_frame(d));
+  return shrm_global_texel(face, xy, y) * w;
+}
+
 // Dispatch (ceil(S / 8), ceil(S / 8), 6) workgroups per frame.
 @compute @workgroup_size(8, 8, 1)
 fn shrm_global_pass(@builtin(global_invocation_id) id: vec3u) {
@@ -209,16 +226,159 @@ fn shrm_global_pass(@builtin(global_invocation_id) id: vec3u) {
     return;
   }
   let face = i32(id.z);
-  var d = normalize(shrm.view);
   let r = normalize(shrm_cube_face_direction(face, (vec2f(id.xy) + 0.5) / f32(s)));
-  // The Fresnel table's factor at the texel's N.V = |R + V| / 2 (either view variable; exact,
-  // and without the cancellation of dot(N, R) near V = -R).
-  let w = shrm_fresnel_at(0.5 * length(r + d));
-  if (SHRM_VIEW_NORMAL) {
-    d = shrm_view_normal(r, d);
+  let sum = shrm_global_value(face, vec2i(id.xy), r, normalize(shrm.view));
+  textureStore(shrm_out, vec2i(id.xy), face, vec4f(sum, 1.0));
+}
+
+// ---- peak lights (shrm:lights, shrm:light_model; docs/shaders.md "Peak lights") ------------------
+// An SHRM made with `shrm prefilter --peak-lights` ships the map's brightest pixels as directional
+// lights beside the expansion: the reflection is the SHRM's value plus
+// sum_k weight_k rho-hat(N, V, d_k), rho-hat the BRDF's transfer (f_r max(N.d, 0) for the ordinary
+// models), evaluated here by a copy of each analytic model (core/brdf/brdf_models.cc).
+// Bindings (group 0; only the entry points below that use them need them bound):
+//   4 shrm_lights: texture_2d<f32> (rgba32float, unfilterable), K x 2 texels: (k, 0).xyz = d_k
+//     (world, unit), (k, 1).rgb = weight_k (radiance x solid angle).
+//   5 shrm_light: ShrmLightParams (uniform buffer, 96 bytes): count K at byte 0, the model (the
+//     first number of "shrm:light_model") at byte 4, its 20 values from byte 16.
+// The global pass with lights is the entry point shrm_global_pass_lights; for local SHRMs add
+// shrm_lights_sum(N, V) (N the tangent T for Kajiya-Kay) to shrm_local.
+struct ShrmLightParams {
+  count: i32,
+  model: i32,
+  brdf: array<vec4f, 5>,
+}
+@group(0) @binding(4) var shrm_lights: texture_2d<f32>;
+@group(0) @binding(5) var<uniform> shrm_light: ShrmLightParams;
+
+const SHRM_LIGHT_LAMBERT: i32 = 1;
+const SHRM_LIGHT_PHONG: i32 = 2;
+const SHRM_LIGHT_MICROFACET: i32 = 3;
+const SHRM_LIGHT_LAFORTUNE: i32 = 4;
+const SHRM_LIGHT_WARD: i32 = 5;
+const SHRM_LIGHT_GGX: i32 = 6;
+const SHRM_LIGHT_KAJIYA_KAY: i32 = 7;
+const SHRM_PI: f32 = 3.14159265358979;
+
+fn shrm_smith_lambda(a2: f32, c: f32) -> f32 {
+  return 0.5 * (sqrt(1.0 + a2 * (1.0 - c * c) / (c * c)) - 1.0);
+}
+
+// rho-hat(N, V, w) of the lights' BRDF (N is the unit tangent T for Kajiya-Kay); world, unit.
+fn shrm_light_transfer(n: vec3f, v: vec3f, w: vec3f) -> f32 {
+  let p = shrm_light.brdf[0];
+  let model = shrm_light.model;
+  let nw = dot(n, w);
+  let nv = dot(n, v);
+  if (model == SHRM_LIGHT_PHONG) {  // radially symmetric about R: no horizon test
+    let rw = dot(2.0 * nv * n - v, w);
+    if (rw <= 0.0) {
+      return 0.0;
+    }
+    return (p.x + 1.0) / (2.0 * SHRM_PI) * pow(rw, p.x);
   }
-  let y = shrm_eval_sh(shrm_sh_frame(d));
-  let sum = shrm_global_texel(face, vec2i(id.xy), y) * w;
+  if (model == SHRM_LIGHT_KAJIYA_KAY) {
+    let c = nw * nv + sqrt(max(0.0, 1.0 - nw * nw)) * sqrt(max(0.0, 1.0 - nv * nv));
+    if (c <= 0.0) {
+      return 0.0;
+    }
+    return p.y * pow(c, p.x);
+  }
+  if (nw <= 0.0 || nv <= 0.0) {
+    return 0.0;
+  }
+  if (model == SHRM_LIGHT_LAMBERT) {
+    return p.x / SHRM_PI * nw;
+  }
+  let h_sum = v + w;
+  let len = length(h_sum);
+  if (len <= 0.0) {
+    return 0.0;
+  }
+  if (model == SHRM_LIGHT_MICROFACET) {
+    let theta_h = 2.0 * asin(min(1.0, 0.5 * length(n - h_sum / len))) / p.x;
+    return exp(-theta_h * theta_h) / (4.0 * SHRM_PI * p.x * p.x);
+  }
+  if (model == SHRM_LIGHT_LAFORTUNE) {
+    var f = p.x / SHRM_PI;
+    let tangential = dot(w, v) - nw * nv;
+    let lobes = i32(p.y + 0.5);
+    for (var k = 0; k < min(lobes, 4); k++) {
+      let lobe = shrm_light.brdf[1 + k];  // C_xy, C_z, n, rho
+      let d = lobe.x * tangential + lobe.y * nw * nv;
+      if (d > 0.0) {
+        f += lobe.w * pow(d, lobe.z);
+      }
+    }
+    return f * nw;
+  }
+  if (model == SHRM_LIGHT_WARD) {  // p = (alpha_x, alpha_y, rho_s, rho_d)
+    let nh = dot(n, h_sum);
+    var e: f32;
+    if (p.x == p.y) {
+      let nh2 = nh * nh / dot(h_sum, h_sum);
+      e = (1.0 - nh2) / nh2 / (p.x * p.x);
+    } else {
+      var axis = vec3f(0.0, 1.0, 0.0);
+      if (abs(n.x) < 1.0 - 1e-6) {
+        axis = vec3f(1.0, 0.0, 0.0);
+      }
+      let t = normalize(axis - n * dot(n, axis));
+      let b = cross(n, t);
+      let ht = dot(h_sum, t) / (nh * p.x);
+      let hb = dot(h_sum, b) / (nh * p.y);
+      e = ht * ht + hb * hb;
+    }
+    let f = p.w / SHRM_PI + p.z * exp(-e) / (4.0 * SHRM_PI * p.x * p.y * sqrt(nw * nv));
+    return f * nw;
+  }
+  if (model == SHRM_LIGHT_GGX) {  // p = (alpha, f0)
+    let h = h_sum / len;
+    let nh = dot(n, h);
+    let vh = max(0.0, dot(v, h));
+    let a2 = p.x * p.x;
+    let den = nh * nh * (a2 - 1.0) + 1.0;
+    let d = a2 / (SHRM_PI * den * den);
+    let g = 1.0 / (1.0 + shrm_smith_lambda(a2, nv) + shrm_smith_lambda(a2, nw));
+    let x = 1.0 - vh;
+    let x2 = x * x;
+    let fresnel = p.y + (1.0 - p.y) * (x2 * x2 * x);
+    return fresnel * d * g / (4.0 * nv);  // f_r (N.w) with f_r = F D G / (4 (N.w)(N.V))
+  }
+  return 0.0;
+}
+
+// The lights' reflection at (N, V) (world, unit; N is T for Kajiya-Kay).
+fn shrm_lights_sum(n: vec3f, v: vec3f) -> vec3f {
+  var sum = vec3f(0.0);
+  for (var k = 0; k < shrm_light.count; k++) {
+    let d = textureLoad(shrm_lights, vec2i(k, 0), 0).xyz;
+    let weight = textureLoad(shrm_lights, vec2i(k, 1), 0).rgb;
+    sum += weight * shrm_light_transfer(n, v, d);
+  }
+  return sum;
+}
+
+// The lights at a texel of the per-view map for the view V: the texel direction R (unit) is the
+// reflection vector of N = (R + V) / |R + V|, or the tangent T itself for Kajiya-Kay.
+fn shrm_lights_at_texel(r: vec3f, v: vec3f) -> vec3f {
+  if (shrm_light.model == SHRM_LIGHT_KAJIYA_KAY) {
+    return shrm_lights_sum(r, v);
+  }
+  return shrm_lights_sum(shrm_view_normal(r, v), v);
+}
+
+// shrm_global_pass plus the lights at each texel (bindings 4 and 5 as well).
+@compute @workgroup_size(8, 8, 1)
+fn shrm_global_pass_lights(@builtin(global_invocation_id) id: vec3u) {
+  let s = u32(shrm.size);
+  if (id.x >= s || id.y >= s || id.z >= 6u) {
+    return;
+  }
+  let face = i32(id.z);
+  let r = normalize(shrm_cube_face_direction(face, (vec2f(id.xy) + 0.5) / f32(s)));
+  let v = normalize(shrm.view);
+  let sum = shrm_global_value(face, vec2i(id.xy), r, v) + shrm_lights_at_texel(r, v);
   textureStore(shrm_out, vec2i(id.xy), face, vec4f(sum, 1.0));
 }
 

@@ -19,7 +19,10 @@
 //            every texel; and for a mirrored view it differs (negative control);
 //   local:   shrm_local at every texel centre = the CPU's B(R_texel, V); at random directions
 //            inside faces = the bilinear interpolation of those texel values (what eq. 5.10's
-//            four-tap form is: each tap evaluated in its own frame, then interpolated).
+//            four-tap form is: each tap evaluated in its own frame, then interpolated);
+//   lights:  (the optional last four, SHRMs with peak lights, shrm:lights and shrm:light_model)
+//            shrm_global_pass_lights and shrm_local + shrm_lights_at_texel = the CPU's map with
+//            the lights summed by core's BRDF; without the lights they differ (negative control).
 import { readFileSync } from 'node:fs';
 import { resolve } from 'node:path';
 import { read } from 'ktx-parse';
@@ -27,7 +30,8 @@ import { checker, launchChromium, serve, openPage, requireChromium } from './har
 import { faceCoordinates, normalize, texelDirection } from './ktx_cube.mjs';
 
 const [wgslPath, globalPath, globalRefPath, localPath, localRefPath, globalNPath, globalNRefPath, localNPath,
-  localNRefPath, globalVPath, globalVRefPath, localVPath, localVRefPath] =
+  localNRefPath, globalVPath, globalVRefPath, localVPath, localVRefPath, globalLPath, globalLRefPath, localLPath,
+  localLRefPath] =
   process.argv.slice(2).map((p) => resolve(p));
 if (!localRefPath) {
   console.error('usage: node run_shaders.mjs SHRM_WGSL GLOBAL.ktx2 GLOBAL_REF.ktx2 LOCAL.ktx2 LOCAL_REF.ktx2');
@@ -45,6 +49,11 @@ const GLOBAL_REL = 1e-6;
 // st in float (2^-24 relative of S), within the same scale.
 const LOCAL_REL = 2e-6;
 const RANDOM_POINTS = 2000;
+// Peak lights: the shaders' float copy of the BRDF against core's double one, relative to the
+// texel's sum|c_k| plus its value: a few float roundings per light of GGX's D, G and F (measured
+// here: 1e-7; on llvmpipe the model alone stays below 7e-5 at any (N, V, w),
+// tests/viewer_render_test.cc LightTransferMatchesCoreModels).
+const LIGHTS_REL = 1e-5;
 
 // ktx-parse gives the keys it knows (KTXorientation, KTXwriter) as strings, others as bytes.
 const text = (kv, key) => {
@@ -82,8 +91,20 @@ function loadShrm(path, name) {
     for (let i = 0; i < nodes; ++i)
       fresnel.push([0, 1, 2].map((c) => w[2 + i * ch + Math.min(c, ch - 1)]));
   }
+  // shrm:lights "K x y z r g b .." as [K][6], shrm:light_model "M v_0 .. v_19" as 21 numbers.
+  let lights = null, lightModel = null;
+  const lt = text(k.keyValue, 'shrm:lights');
+  if (lt !== undefined) {
+    const w = lt.trim().split(/\s+/).map(Number);
+    check(w.length === 1 + 6 * w[0] && w[0] > 0, `ktx2 ${name}: shrm:lights lists ${w[0]} lights of 6 numbers`);
+    lights = [];
+    for (let i = 0; i < w[0]; ++i) lights.push(w.slice(1 + 6 * i, 7 + 6 * i));
+    lightModel = (text(k.keyValue, 'shrm:light_model') ?? '').trim().split(/\s+/).map(Number);
+    check(lightModel.length === 21 && lightModel.every(Number.isFinite),
+      `ktx2 ${name}: shrm:light_model has a model and 20 values (model ${lightModel[0]})`);
+  }
   return { pmax, count, size: k.pixelWidth, layers, kind: text(k.keyValue, 'shrm:kind'),
-    view: text(k.keyValue, 'shrm:view_variable') ?? 'view', fresnel };
+    view: text(k.keyValue, 'shrm:view_variable') ?? 'view', fresnel, lights, lightModel };
 }
 
 function loadRef(path) {
@@ -104,7 +125,7 @@ function magnitude(shrm, face, x, y, c) {
 }
 
 // Compares per texel; returns [worst error / scale, texels beyond rel].
-function compareTexels(shrm, got, want, rel) {
+function compareTexels(shrm, got, want, rel, withValue = false) {
   const s = shrm.size;
   let worst = 0, over = 0;
   for (let f = 0; f < 6; ++f)
@@ -112,7 +133,7 @@ function compareTexels(shrm, got, want, rel) {
       for (let x = 0; x < s; ++x)
         for (let c = 0; c < 3; ++c) {
           const i = ((f * s + y) * s + x) * 4 + c;
-          const scale = magnitude(shrm, f, x, y, c) + 1e-30;
+          const scale = magnitude(shrm, f, x, y, c) + (withValue ? Math.abs(want[i]) : 0) + 1e-30;
           const e = Math.abs(got[i] - want[i]) / scale;
           worst = Math.max(worst, e);
           if (e > rel) ++over;
@@ -134,7 +155,7 @@ try {
   const { page, log } = await openPage(browser, `${server.base}/engines/shaders_page.html`, 64, 64);
   const run = (args) => page.evaluate((a) => window.runShrm(a), args);
   const common = (shrm) => ({ code, pmax: shrm.pmax, size: shrm.size, layers: Array.from(shrm.layers),
-    fresnel: shrm.fresnel });
+    fresnel: shrm.fresnel, lights: shrm.lights, lightModel: shrm.lightModel });
 
   // Eq. 5.35.
   let r = await run({ ...common(shrmGlobal), view: refGlobal.view });
@@ -285,6 +306,41 @@ try {
       check(overBare > 0.1 * 6 * 3 * lV.size ** 2,
         `local view negative control: without the Fresnel table ${overBare} channel values differ`);
       check(r.errors.length === 0, `local view fresnel: no WebGPU errors ${r.errors.join('; ')}`);
+    }
+  }
+  // SHRMs with peak lights: the expansion plus the lights, summed by the shaders' BRDF copy.
+  if (localLRefPath) {
+    const gL = loadShrm(globalLPath, 'global lights');
+    const lL = loadShrm(localLPath, 'local lights');
+    const gRef = loadRef(globalLRefPath);
+    const lRef = loadRef(localLRefPath);
+    check(gL.lights?.length > 0 && lL.lights?.length > 0,
+      `lights inputs: ${gL.lights?.length} peak lights (global), ${lL.lights?.length} (local), model ${gL.lightModel?.[0]}`);
+    r = await run({ ...common(gL), view: gRef.view, viewNormal: gL.view === 'normal' });
+    if (r.error) {
+      fail(`global lights: ${r.error}`);
+    } else {
+      const [worst, over] = compareTexels(gL, r.global, gRef.data, LIGHTS_REL, true);
+      check(over === 0, `global lights: shrm_global_pass_lights = CPU eq. 5.35 plus the lights at each texel's ` +
+        `normal, 6 x ${gL.size}^2 texels: worst error ${worst.toExponential(2)} of sum|c_k| + |B| (limit ${LIGHTS_REL})`);
+      const dark = await run({ ...common(gL), lights: null, view: gRef.view, viewNormal: gL.view === 'normal' });
+      const [, overDark] = compareTexels(gL, dark.global, gRef.data, LIGHTS_REL, true);
+      check(overDark > 0.1 * 6 * 3 * gL.size ** 2,
+        `global lights negative control: without the lights ${overDark} channel values differ`);
+      check(r.errors.length === 0, `global lights: no WebGPU errors ${r.errors.join('; ')}`);
+    }
+    const centresL = [];
+    for (let f = 0; f < 6; ++f)
+      for (let y = 0; y < lL.size; ++y)
+        for (let x = 0; x < lL.size; ++x) centresL.push(texelDirection(f, x, y, lL.size));
+    r = await run({ ...common(lL), view: lRef.view, dirs: centresL, viewNormal: lL.view === 'normal' });
+    if (r.error) {
+      fail(`local lights: ${r.error}`);
+    } else {
+      const [worst, over] = compareTexels(lL, r.local, lRef.data, LIGHTS_REL, true);
+      check(over === 0, `local lights: shrm_local + shrm_lights_at_texel at the ${centresL.length} texel centres = ` +
+        `CPU eq. 5.10 plus the lights: worst error ${worst.toExponential(2)} of sum|c_k| + |B| (limit ${LIGHTS_REL})`);
+      check(r.errors.length === 0, `local lights: no WebGPU errors ${r.errors.join('; ')}`);
     }
   }
   const pageErrors = log.filter((l) => l.startsWith('pageerror') || l.startsWith('error'));

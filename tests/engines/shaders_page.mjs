@@ -31,7 +31,11 @@ async function readTexture(dev, tex, size, layers) {
 // args: { code (WGSL), pmax, size, layers (the KTX2 level as float RGBA, [k][face][y][x][4]),
 //         view [x, y, z], dirs (optional: index directions for shrm_local, [n][3]),
 //         viewNormal (optional: the SHRM's shrm:view_variable is "normal": the override SHRM_VIEW_NORMAL),
-//         fresnel (optional: the SHRM's Fresnel table, [K + 1][3]) }
+//         fresnel (optional: the SHRM's Fresnel table, [K + 1][3]),
+//         lights (optional: the peak lights, [K][6] direction and weight),
+//         lightModel (optional, with lights: the 21 numbers of shrm:light_model) }
+// With lights, the global pass is shrm_global_pass_lights and the local test adds
+// shrm_lights_at_texel(R, V) (what `shrm render` adds: the lights at N = (R + V) / |R + V|).
 window.runShrm = async (args) => {
   const dev = await device();
   const errors = [];
@@ -40,8 +44,8 @@ window.runShrm = async (args) => {
   const count = (pmax + 1) * (pmax + 1);
   const prelude = `const SHRM_PMAX: i32 = ${pmax};\n`;
   const test = `
-@group(0) @binding(4) var<storage, read> test_dirs: array<vec4f>;
-@group(0) @binding(5) var<storage, read_write> test_out: array<vec4f>;
+@group(0) @binding(8) var<storage, read> test_dirs: array<vec4f>;
+@group(0) @binding(9) var<storage, read_write> test_out: array<vec4f>;
 @compute @workgroup_size(64)
 fn test_local(@builtin(global_invocation_id) id: vec3u) {
   if (id.x >= arrayLength(&test_dirs)) {
@@ -53,6 +57,19 @@ fn test_local(@builtin(global_invocation_id) id: vec3u) {
     arg = shrm_view_normal(normalize(d), arg);  // shrm:view_variable "normal": the argument is N
   }
   test_out[id.x] = vec4f(shrm_local(d, arg), 1.0);
+}
+@compute @workgroup_size(64)
+fn test_local_lights(@builtin(global_invocation_id) id: vec3u) {
+  if (id.x >= arrayLength(&test_dirs)) {
+    return;
+  }
+  let d = test_dirs[id.x].xyz;
+  let v = normalize(shrm.view);
+  var arg = v;
+  if (SHRM_VIEW_NORMAL) {
+    arg = shrm_view_normal(normalize(d), arg);
+  }
+  test_out[id.x] = vec4f(shrm_local(d, arg) + shrm_lights_at_texel(normalize(d), v), 1.0);
 }
 `;
   const module = dev.createShaderModule({ code: prelude + args.code + test });
@@ -79,17 +96,38 @@ fn test_local(@builtin(global_invocation_id) id: vec3u) {
   const fresnel = dev.createBuffer({ size: table.byteLength, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
   dev.queue.writeBuffer(fresnel, 0, table);
   const coeffView = coeffs.createView({ dimension: '2d-array' });
+  // The peak lights (bindings 4 and 5): a K x 2 rgba32float texture and ShrmLightParams.
+  const lit = Array.isArray(args.lights) && args.lights.length > 0;
+  const lightEntries = [];
+  if (lit) {
+    const k = args.lights.length;
+    const texels = new Float32Array(k * 2 * 4);
+    args.lights.forEach((l, i) => {
+      texels.set([l[0], l[1], l[2], 0], i * 4);
+      texels.set([l[3], l[4], l[5], 0], (k + i) * 4);
+    });
+    const tex = dev.createTexture({ size: [k, 2, 1], format: 'rgba32float',
+      usage: GPUTextureUsage.TEXTURE_BINDING | GPUTextureUsage.COPY_DST });
+    dev.queue.writeTexture({ texture: tex }, texels, { bytesPerRow: k * 16, rowsPerImage: 2 }, [k, 2, 1]);
+    const lp = new ArrayBuffer(96);
+    new Int32Array(lp, 0, 2).set([k, args.lightModel[0]]);
+    new Float32Array(lp, 16, 20).set(args.lightModel.slice(1, 21));
+    const lpBuf = dev.createBuffer({ size: 96, usage: GPUBufferUsage.UNIFORM | GPUBufferUsage.COPY_DST });
+    dev.queue.writeBuffer(lpBuf, 0, lp);
+    lightEntries.push({ binding: 4, resource: tex.createView() }, { binding: 5, resource: { buffer: lpBuf } });
+  }
   const constants = args.viewNormal ? { SHRM_VIEW_NORMAL: 1 } : {};
 
   if (!args.dirs) {
     // Eq. 5.35: the per-frame pass into an S x S x 6 storage texture.
     const out = dev.createTexture({ size: [size, size, 6], format: 'rgba32float',
       usage: GPUTextureUsage.STORAGE_BINDING | GPUTextureUsage.COPY_SRC });
-    const pipeline = dev.createComputePipeline({ layout: 'auto', compute: { module, entryPoint: 'shrm_global_pass', constants } });
+    const pipeline = dev.createComputePipeline({ layout: 'auto',
+      compute: { module, entryPoint: lit ? 'shrm_global_pass_lights' : 'shrm_global_pass', constants } });
     const group = dev.createBindGroup({ layout: pipeline.getBindGroupLayout(0), entries: [
       { binding: 0, resource: coeffView }, { binding: 1, resource: { buffer: uniform } },
       { binding: 2, resource: out.createView({ dimension: '2d-array' }) },
-      { binding: 3, resource: { buffer: fresnel } }] });
+      { binding: 3, resource: { buffer: fresnel } }, ...lightEntries] });
     const enc = dev.createCommandEncoder();
     const pass = enc.beginComputePass();
     pass.setPipeline(pipeline);
@@ -108,11 +146,12 @@ fn test_local(@builtin(global_invocation_id) id: vec3u) {
   dev.queue.writeBuffer(dirBuf, 0, dirs);
   const outBuf = dev.createBuffer({ size: dirs.byteLength, usage: GPUBufferUsage.STORAGE | GPUBufferUsage.COPY_SRC });
   const readBuf = dev.createBuffer({ size: dirs.byteLength, usage: GPUBufferUsage.COPY_DST | GPUBufferUsage.MAP_READ });
-  const pipeline = dev.createComputePipeline({ layout: 'auto', compute: { module, entryPoint: 'test_local', constants } });
+  const pipeline = dev.createComputePipeline({ layout: 'auto',
+    compute: { module, entryPoint: lit ? 'test_local_lights' : 'test_local', constants } });
   const group = dev.createBindGroup({ layout: pipeline.getBindGroupLayout(0), entries: [
     { binding: 0, resource: coeffView }, { binding: 1, resource: { buffer: uniform } },
-    { binding: 3, resource: { buffer: fresnel } },
-    { binding: 4, resource: { buffer: dirBuf } }, { binding: 5, resource: { buffer: outBuf } }] });
+    { binding: 3, resource: { buffer: fresnel } }, ...lightEntries,
+    { binding: 8, resource: { buffer: dirBuf } }, { binding: 9, resource: { buffer: outBuf } }] });
   const enc = dev.createCommandEncoder();
   const pass = enc.beginComputePass();
   pass.setPipeline(pipeline);
