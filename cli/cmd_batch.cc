@@ -370,17 +370,25 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
             err(path, "must be a string \"F,P\" with integers F, P >= 0");
           else
             orders = *parsed;
-        } else if (key == "half" || key == "peak_lights" || key == "report" || key == "preview" ||
-                   key == "ktx2" || key == "report_html") {
+        } else if (key == "peak_lights") {
+          // "auto", "on", "off"; true and false (the bool it was until session 37) are on and off.
+          std::optional<PeakLights> mode;
+          if (v.is_boolean()) mode = v.get<bool>() ? PeakLights::kOn : PeakLights::kOff;
+          if (v.is_string()) mode = ParsePeakLights(v.get<std::string>());
+          if (!mode)
+            err(path, "must be \"auto\", \"on\" or \"off\" (or true / false)");
+          else
+            opt->job.peak_lights = *mode;
+        } else if (key == "half" || key == "report" || key == "preview" || key == "ktx2" ||
+                   key == "report_html") {
           if (!v.is_boolean()) {
             err(path, "must be true or false");
           } else {
-            (key == "half"          ? opt->job.half
-             : key == "peak_lights" ? opt->job.peak_lights
-             : key == "report"      ? opt->report
-             : key == "preview"     ? opt->preview
-             : key == "ktx2"        ? opt->ktx2
-                                    : opt->report_html) = v.get<bool>();
+            (key == "half"      ? opt->job.half
+             : key == "report"  ? opt->report
+             : key == "preview" ? opt->preview
+             : key == "ktx2"    ? opt->ktx2
+                                : opt->report_html) = v.get<bool>();
           }
         } else if (key == "rotate") {
           if (!ParseRotate(v, &opt->job.env.rotate_ypr_deg)) err(path, kRotateError);

@@ -91,18 +91,27 @@ absl::Status RunExplicit(const OutputArgs& a) {
   if (a.tb < 1) return absl::InvalidArgumentError("--tb must be >= 1");
   SHRM_RETURN_IF_ERROR(CheckOutputPath(absl::StrCat(a.output, "_0.exr"), "--output"));
   SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrm(a.shrm));
+  std::unique_ptr<Brdf> lights_brdf;
   if (!file.cube.lights.empty()) {
-    return absl::FailedPreconditionError(
-        absl::StrCat(a.shrm, ": the SHRM carries ", file.cube.lights.size(),
-                     " peak lights, which the explicit forms do not hold yet: make their SHRM "
-                     "without --peak-lights"));
+    if (a.form == "kautz-mccool") {
+      return absl::FailedPreconditionError(absl::StrCat(
+          a.shrm, ": the SHRM carries ", file.cube.lights.size(),
+          " peak lights, which the Kautz-McCool slices (averaged over the view's azimuth) do not "
+          "hold: use --form cabral or grid, or make the SHRM with --peak-lights off"));
+    }
+    // The views' maps get the lights as `shrm render` adds them (docs/shrm.md "Peak lights").
+    SHRM_ASSIGN_OR_RETURN(lights_brdf, ShrmFileBrdf(file, a.shrm));
   }
   const int threads = ResolveThreads(a.threads);
   std::vector<RadianceCube> maps;
+  std::vector<Vec3> views;
   if (a.form == "cabral") {
     SHRM_ASSIGN_OR_RETURN(maps, CabralMaps(file.cube, threads));
+    const std::array<Vec3, 12> ico = IcosahedronVertices();
+    views.assign(ico.begin(), ico.end());
   } else if (a.form == "grid") {
     SHRM_ASSIGN_OR_RETURN(maps, ViewGridMaps(file.cube, a.tb, threads));
+    views = ViewGrid(a.tb);
   } else if (a.form == "kautz-mccool") {
     if (file.cube.kind != ShrmKind::kLocal) {
       return absl::InvalidArgumentError(
@@ -112,6 +121,10 @@ absl::Status RunExplicit(const OutputArgs& a) {
   } else {
     return absl::InvalidArgumentError(
         absl::StrCat("--form must be cabral, grid or kautz-mccool, got '", a.form, "'"));
+  }
+  if (lights_brdf != nullptr) {
+    for (size_t i = 0; i < maps.size() && i < views.size(); ++i)
+      AddLightsToViewMap(file.cube, *lights_brdf, views[i], maps[i], threads);
   }
   for (size_t i = 0; i < maps.size(); ++i) {
     SHRM_RETURN_IF_ERROR(WriteRadianceCross(absl::StrCat(a.output, "_", i, ".exr"), maps[i]));

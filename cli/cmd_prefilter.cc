@@ -84,13 +84,14 @@ void PrintSummary(const jobs::PrefilterJob& job, const PrefilterRun& run,
                   trial.value("view_variable", "").c_str(), trial.value("rms_score", 0.0));
     std::printf("%s\n", t.value("view_trials", nlohmann::json::array()).empty() ? "" : ")");
   }
-  if (report.contains("peak_lights")) {
+  if (report.contains("peak_lights") && report["peak_lights"].value("mode", "") != "off") {
     const nlohmann::json& l = report["peak_lights"];
     if (l.value("count", 0) > 0) {
-      std::printf("  peak lights: %d pixels above luminance %.4g, summed beside the SHRM\n",
-                  l.value("count", 0), l.value("threshold", 0.0));
+      std::printf("  peak lights (%s): %d pixels above luminance %.4g, summed beside the SHRM\n",
+                  l.value("mode", "").c_str(), l.value("count", 0), l.value("threshold", 0.0));
     } else {
-      std::printf("  peak lights: none (no peak pays to split, or not a lat-long map)\n");
+      std::printf("  peak lights (%s): none (%s)\n", l.value("mode", "").c_str(),
+                  l.value("note", "").c_str());
     }
   }
   std::printf("  time:");
@@ -287,7 +288,11 @@ void AddPrefilterJobOptions(CLI::App* sub, PrefilterArgs* args) {
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   sub->add_flag("--half", args->half, Help("half"));
-  sub->add_flag("--peak-lights", args->peak_lights, Help("peak_lights"));
+  // A bare --peak-lights (the flag it was until session 37) leaves "" here: "on".
+  sub->add_option("--peak-lights", args->peak_lights,
+                  Help("peak_lights") + " [default: auto; a bare --peak-lights: on]")
+      ->expected(0, 1)
+      ->check(CLI::IsMember({"", "auto", "on", "off"}));  // (default auto: in the help text)
   sub->add_option("--max-size", args->max_size_mb, Help("max_size"))
       ->capture_default_str()
       ->check(CLI::Range(0.0, jobs::kMaxSizeMbLimit));
@@ -316,7 +321,9 @@ absl::StatusOr<jobs::PrefilterJob> PrefilterJobFromArgs(const PrefilterArgs& a) 
   job.kind = *kind;
   job.face_size = a.size;
   job.half = a.half;
-  job.peak_lights = a.peak_lights;
+  job.peak_lights = a.peak_lights.empty()
+                        ? PeakLights::kOn
+                        : ParsePeakLights(a.peak_lights).value_or(PeakLights::kAuto);
   job.max_size_mb = a.max_size_mb;
   return job;
 }

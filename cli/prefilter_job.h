@@ -31,7 +31,7 @@ struct PrefilterArgs {
   std::string kind = jobs::ShrmKindName(ShrmKind::kGlobal);
   int size = 0;
   bool half = false;
-  bool peak_lights = false;
+  std::string peak_lights = PeakLightsName(PeakLights::kAuto);
   double max_size_mb = jobs::kDefaultMaxSizeMb;
 };
 

@@ -109,10 +109,13 @@ const std::array<JobOption, 12> kPrefilterJobOptions = {{
      "within it, reported, when the tolerance needs more",
      kEverywhere, "--max-size 32", "32", [](PrefilterJob* j) { j->max_size_mb = 32; }, ""},
     {"peak_lights",
-     "ship the map's brightest pixels (suns, lamps) as directional lights beside the SHRM, summed "
-     "exactly where it is evaluated; the expansion holds the rest (docs/shrm.md \"Peak lights\"; "
-     "not yet for --ktx2 or shrm-view)",
-     kEverywhere, "--peak-lights", "true", [](PrefilterJob* j) { j->peak_lights = true; }, ""},
+     "auto|on|off: ship the map's brightest pixels as directional lights beside the SHRM, summed "
+     "exactly wherever it is evaluated (shrm eval and render, shrm-view, the shipped shaders "
+     "through --ktx2); the expansion holds the rest. auto: a sun's pixels, with the tolerance "
+     "rule and a view-dependent analytic BRDF; on: wherever a split pays (docs/shrm.md \"Peak "
+     "lights\")",
+     kEverywhere, "--peak-lights off", "\"off\"",
+     [](PrefilterJob* j) { j->peak_lights = PeakLights::kOff; }, ""},
 }};
 const std::array<JobOption, 19> kPrefilterOptions =
     Concat(EnvironmentOptions<PrefilterJob>(), kPrefilterJobOptions);

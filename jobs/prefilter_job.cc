@@ -196,7 +196,9 @@ std::map<std::string, std::string> PrefilterFileAttributes(const PrefilterJob& j
       {"shrm:version", kVersion},
   };
   if (job.env.rotate_ypr_deg) attrs["shrm:rotate_ypr_deg"] = RotationAttribute(job.env);
-  if (job.peak_lights) attrs["shrm:peak_lights"] = absl::StrCat(result.peak_threshold);
+  attrs["shrm:peak_lights"] = PeakLightsName(job.peak_lights);
+  if (!result.cube.lights.empty())
+    attrs["shrm:peak_threshold"] = absl::StrCat(result.peak_threshold);
   if (result.tolerance_rule) {
     attrs["shrm:tolerance"] = absl::StrCat(job.tolerance);
     attrs["shrm:max_size_mb"] = absl::StrCat(job.max_size_mb);
@@ -218,10 +220,10 @@ nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProve
   report["window"] = RingingWindowName(result.window);
   report["view_variable"] = ViewVariableName(result.brdf.view);
   report["order_rule"] = OrderRuleName(job);
-  if (job.peak_lights) {
-    report["peak_lights"] = {{"count", result.cube.lights.size()},
-                             {"threshold", result.peak_threshold}};
-  }
+  report["peak_lights"] = {{"mode", PeakLightsName(job.peak_lights)},
+                           {"count", result.cube.lights.size()},
+                           {"threshold", result.peak_threshold}};
+  if (!result.peak_lights_note.empty()) report["peak_lights"]["note"] = result.peak_lights_note;
   if (result.verified_pairs > 0) {
     report["measured"] = {{"pairs", result.verified_pairs},
                           {"front", StatsJson(result.measured.front)},
@@ -295,8 +297,15 @@ std::string WhyFileDiffers(const PrefilterJob& job, const std::string& canonical
                       job.env.rotate_ypr_deg ? RotationAttribute(job.env) : "(none)"))
            .empty())
     return why;
-  if (job.peak_lights != a.contains("shrm:peak_lights"))
-    return job.peak_lights ? "peak lights asked" : "peak lights not asked";
+  {
+    // Files written before the modes held the threshold (made "on") or nothing ("off").
+    auto it = a.find("shrm:peak_lights");
+    const std::string have = it == a.end()                             ? "off"
+                             : ParsePeakLights(it->second).has_value() ? it->second
+                                                                       : "on";
+    if (have != PeakLightsName(job.peak_lights))
+      return absl::StrCat("peak lights ", have, " != ", PeakLightsName(job.peak_lights));
+  }
   if (file.cube.kind != job.kind) return absl::StrCat("kind != ", ShrmKindName(job.kind));
   if (job.face_size > 0 && file.cube.face_size != job.face_size)
     return absl::StrCat("size ", file.cube.face_size, " != ", job.face_size);

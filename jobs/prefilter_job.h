@@ -88,8 +88,9 @@ struct PrefilterJob {
   ShrmKind kind = ShrmKind::kGlobal;
   int face_size = 0;  // S_B; 0 = about 10 F_B in [16, 512]
   bool half = false;  // half floats in the SHRM file
-  // The map's brightest pixels shipped as the SHRM's lights (PrefilterOptions::peak_lights).
-  bool peak_lights = false;
+  // The map's brightest pixels shipped as the SHRM's lights (PrefilterOptions::peak_lights):
+  // by default a sun's, with the tolerance rule and a view-dependent analytic BRDF.
+  PeakLights peak_lights = PeakLights::kAuto;
   // Tolerance rule only: the size budget of the file in MB (0: none).
   double max_size_mb = kDefaultMaxSizeMb;
 

@@ -48,6 +48,11 @@ constexpr std::pair<std::optional<ViewVariable>, v1::ViewVariable> kViewVariable
     {ViewVariable::kView, v1::VIEW_VARIABLE_VIEW},
     {ViewVariable::kNormal, v1::VIEW_VARIABLE_NORMAL}};
 
+constexpr std::pair<PeakLights, v1::PeakLights> kPeakLights[] = {
+    {PeakLights::kAuto, v1::PEAK_LIGHTS_AUTO},
+    {PeakLights::kOn, v1::PEAK_LIGHTS_ON},
+    {PeakLights::kOff, v1::PEAK_LIGHTS_OFF}};
+
 // The core value of a proto enum value (InvalidArgument naming `field` for unknown values).
 template <typename Core, typename Proto, size_t N>
 absl::StatusOr<Core> FromProto(const std::pair<Core, Proto> (&table)[N], int value,
@@ -170,7 +175,7 @@ v1::PrefilterRequest EncodePrefilterRequest(const jobs::PrefilterJob& job,
   req.set_kind(job.kind == ShrmKind::kLocal ? v1::SHRM_KIND_LOCAL : v1::SHRM_KIND_GLOBAL);
   req.set_face_size(job.face_size);
   req.set_half(job.half);
-  req.set_peak_lights(job.peak_lights);
+  req.set_peak_lights(ToProto(kPeakLights, job.peak_lights));
   req.set_verify(job.verify);
   req.set_max_size_mb(job.max_size_mb);
   if (visuals) {
@@ -225,7 +230,8 @@ absl::StatusOr<WirePrefilter> DecodePrefilterRequest(const v1::PrefilterRequest&
   }
   w.job.face_size = request.face_size();
   w.job.half = request.half();
-  w.job.peak_lights = request.peak_lights();
+  SHRM_ASSIGN_OR_RETURN(w.job.peak_lights,
+                        FromProto(kPeakLights, request.peak_lights(), "peak_lights"));
   if (request.has_verify()) w.job.verify = request.verify();  // absent: the job's default
   if (request.has_max_size_mb()) w.job.max_size_mb = request.max_size_mb();
   w.want_file = w.want_report = request.outputs_size() == 0;

@@ -32,7 +32,9 @@ absl::StatusOr<CachedPrefilterResult> CachedPrefilter(const CachedPrefilterInput
   CachedPrefilterResult out;
   PrefilterResult& r = out.result;
   StageClock clock(&r.timings, hook);
-  if ((options.tolerance > 0 && !explicit_orders) || options.peak_lights) {
+  const bool may_split =
+      options.peak_lights != PeakLights::kOff && PeakLightsSkipReason(options, brdf).empty();
+  if ((options.tolerance > 0 && !explicit_orders) || may_split) {
     // The tolerance rule computes rho_lpq and L_lm at reference orders it grows per job
     // (core/shrm/prefilter.cc), and peak lights take the lighting of the map's rest: the map is
     // decoded and the core pipeline runs whole, uncached.
@@ -108,6 +110,7 @@ absl::StatusOr<CachedPrefilterResult> CachedPrefilter(const CachedPrefilterInput
     r.verified_pairs = options.verify;
     clock.End();
   }
+  r.peak_lights_note = PeakLightsSkipReason(options, brdf);  // the embedded run's note
   return out;
 }
 

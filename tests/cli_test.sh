@@ -319,7 +319,7 @@ expect_error truncated_shrm_ktx2 1 'truncated\.shrm\.ktx2.*(outside|truncated|ru
   "$SHRM" render --shrm "$TMP/truncated.shrm.ktx2" --view 0,0,1 -o r.exr
 # Peak lights: the KTX2 carries them ("shrm:lights") and the shaders' copy of the BRDF
 # ("shrm:light_model": Phong is model 2, v_0 = s), so a render from it is the render from the EXR,
-# byte for byte; the explicit forms refuse a file that has lights (docs/shrm.md "Peak lights").
+# byte for byte (docs/shrm.md "Peak lights").
 CITY="$ROOT/data/envmaps/city.exr"
 CHECKS=$((CHECKS + 1))
 if "$SHRM" prefilter --env "$CITY" --brdf phong:s=32 --epsilon 0.1 --verify 0 --size 16 \
@@ -336,8 +336,19 @@ if "$SHRM" prefilter --env "$CITY" --brdf phong:s=32 --epsilon 0.1 --verify 0 --
   else
     echo "ok: peak lights in KTX2: render from the KTX2 = render from the EXR (byte for byte)"
   fi
-  expect_error peak_lights_explicit 1 'peak lights.*explicit forms' \
-    "$SHRM" explicit --shrm "$TMP/lit.shrm.exr" -o x
+  # The explicit forms of views carry the lights as `shrm render` adds them: the one-view grid
+  # (T_B = 1: V = (0, 0, -1)) is the render for that view, value for value (idiff); the
+  # Kautz-McCool slices (averaged over the view's azimuth) refuse them.
+  CHECKS=$((CHECKS + 1))
+  if "$SHRM" explicit --shrm "$TMP/lit.shrm.exr" --form grid --tb 1 -o lit_grid >/dev/null 2>&1 &&
+    "$SHRM" render --shrm "$TMP/lit.shrm.exr" --view 0,0,-1 -o lit_back.exr >/dev/null 2>&1 &&
+    idiff lit_grid_0.exr lit_back.exr >/dev/null 2>&1; then
+    echo "ok: peak lights in shrm explicit: the grid's map = the render for its view"
+  else
+    fail "peak_lights: shrm explicit --form grid --tb 1 differs from shrm render --view 0,0,-1"
+  fi
+  expect_error peak_lights_kautz_mccool 1 'peak lights.*Kautz-McCool' \
+    "$SHRM" explicit --shrm "$TMP/lit.shrm.exr" --form kautz-mccool -o x
   rm -f "$TMP/lit.shrm.exr" "$TMP/lit.shrm.ktx2"
 else
   fail "peak_lights: prefilter --peak-lights --ktx2 failed: $(head -c 400 lit.stderr)"

@@ -67,6 +67,7 @@ TEST(PrefilterJob, FileAttributesAreTheDocumentedHeader) {
                                                    {"shrm:source_sha256", std::string(64, 'a')},
                                                    {"shrm:working_space", "lin_rec709"},
                                                    {"shrm:layout", "latlong"},
+                                                   {"shrm:peak_lights", "auto"},
                                                    {"shrm:version", kVersion}};
   EXPECT_EQ(jobs::PrefilterFileAttributes(job, Provenance(), Result()), want);
   // Explicit orders and a rotation.

@@ -54,7 +54,7 @@ TEST(PeakLightsTest, LightsAreTheSplitPixelsOfTheMapRotated) {
   options.f = 6;  // the expansion is not under test: small orders keep the job quick
   options.p = 2;
   options.face_size = 8;
-  options.peak_lights = true;
+  options.peak_lights = PeakLights::kOn;
   options.rotation = RotationFromYawPitchRoll(25, -20, 60);
   absl::StatusOr<PrefilterResult> r = Prefilter(map, **brdf, options);
   ASSERT_TRUE(r.ok()) << r.status();
@@ -98,7 +98,7 @@ TEST(PeakLightsTest, LightsAreTheSplitPixelsOfTheMapRotated) {
               << "face " << face << " texel " << x << "," << y;
       }
   // Without the split asked, no lights.
-  options.peak_lights = false;
+  options.peak_lights = PeakLights::kOff;
   absl::StatusOr<PrefilterResult> plain = Prefilter(map, **brdf, options);
   ASSERT_TRUE(plain.ok()) << plain.status();
   EXPECT_TRUE(plain->cube.lights.empty());
@@ -164,10 +164,10 @@ TEST(PeakLightsTest, InteriorsLampsNoLongerDefeatTheDefaultJob) {
   options.try_other_view = true;
   options.size_budget_values = 256e6 / 4;
   options.threads = 2;
-  options.peak_lights = true;
+  options.peak_lights = PeakLights::kAuto;  // the job layer's default: interior's lamps split
   absl::StatusOr<PrefilterResult> r = Prefilter(*map, **brdf, options);
   ASSERT_TRUE(r.ok()) << r.status();
-  ASSERT_FALSE(r->cube.lights.empty());
+  ASSERT_FALSE(r->cube.lights.empty()) << r->peak_lights_note;
   const std::vector<DirectionPair> pairs =
       StratifiedDirectionPairs(kTestSeed, kPairs, ReparamKind::kReflection);
   absl::StatusOr<FastReference> reference = FastReference::Create(*map);
@@ -188,6 +188,65 @@ TEST(PeakLightsTest, InteriorsLampsNoLongerDefeatTheDefaultJob) {
   ASSERT_TRUE(targets.grazing);  // the normal variable's grazing RMS is a target
   EXPECT_LE(e.grazing.rms, targets.grazing_rms);
   EXPECT_EQ(e.negative, 0);
+}
+
+// The default, auto: a sun's pixels are split, a bright sky's are not. The split's rest share on
+// the four bundled maps against values computed independently from their pixels (a script over
+// `oiiotool --dumpdata`: Rec. 709 luminance, sin(theta) pixel weights; the transform's Fejer
+// weights differ in the third digit): city 0.0002, interior 0.0005, forest 0.112 (128 pixels);
+// courtyard's brightest pixels (98 x its mean) would leave 99.7%. Auto leaves the whole map to the
+// expansion for a radially symmetric BRDF, a tabulated one, and the epsilon rule, saying why.
+TEST(PeakLightsTest, AutoSplitsASunOnlyAndSaysWhyNot) {
+  struct Expected {
+    const char* map;
+    double share_min, share_max;
+    bool auto_splits;
+  };
+  const Expected kMaps[] = {{"city.exr", 0, 0.001, true},
+                            {"interior.exr", 0, 0.002, true},
+                            {"forest.exr", 0.09, 0.14, false},
+                            {"courtyard.exr", 0.5, 1.0, false}};
+  for (const Expected& e : kMaps) {
+    auto map = LoadBundled(e.map);
+    ASSERT_TRUE(map.ok()) << map.status();
+    const PeakSplit split = SplitLightPeaks(*map, kAutoPeakRestShare);
+    std::printf("%s: rest share %.5f\n", e.map, split.rest_share);
+    EXPECT_GE(split.rest_share, e.share_min) << e.map;
+    EXPECT_LE(split.rest_share, e.share_max) << e.map;
+    EXPECT_EQ(split.rest.has_value(), e.auto_splits) << e.map;
+  }
+  // The decision inside Prefilter, on a small city (its sun still splits at 128 x 64) and a job
+  // kept small by a loose tolerance and a tiny cube.
+  const EnvMap city = EnvMap::FromLatLong(testing::LoadBundledMap("city.exr", 128));
+  PrefilterOptions options;
+  options.tolerance = 0.2;
+  options.view = ViewVariable::kNormal;
+  options.face_size = 8;
+  options.threads = 2;
+  options.peak_lights = PeakLights::kAuto;
+  struct Case {
+    const char* brdf;
+    bool epsilon;
+    bool lights;
+    const char* note;
+  };
+  const Case kCases[] = {{"ggx:alpha=0.3,f0=0.04", false, true, ""},
+                         {"phong:s=32", false, false, "radially symmetric"},
+                         {"ggx:alpha=0.3,f0=0.04", true, false, "tolerance rule only"}};
+  for (const Case& c : kCases) {
+    auto brdf = ParseBrdfSpec(c.brdf);
+    ASSERT_TRUE(brdf.ok()) << brdf.status();
+    PrefilterOptions o = options;
+    if (c.epsilon) {
+      o.tolerance = 0;
+      o.epsilon = 0.1;
+    }
+    absl::StatusOr<PrefilterResult> r = Prefilter(city, **brdf, o);
+    ASSERT_TRUE(r.ok()) << r.status();
+    EXPECT_EQ(!r->cube.lights.empty(), c.lights) << c.brdf << " " << r->peak_lights_note;
+    EXPECT_NE(r->peak_lights_note.find(c.note), std::string::npos)
+        << c.brdf << ": '" << r->peak_lights_note << "'";
+  }
 }
 
 }  // namespace

@@ -32,7 +32,7 @@ LuminanceRow SumLuminanceRow(const float* rgb, int width) {
   return out;
 }
 
-PeakSplit SplitLightPeaks(const EnvMap& map) {
+PeakSplit SplitLightPeaks(const EnvMap& map, double max_rest_share) {
   PeakSplit out;
   const Image* img = map.lat_long_image();
   if (img == nullptr || img->width < 1 || img->height < 1 || img->channels != 3) return out;
@@ -87,7 +87,8 @@ PeakSplit SplitLightPeaks(const EnvMap& map) {
   }
   const double spread = sum_sq - sum * sum / (4 * kPi);
   const double rest_spread = rest_sum_sq - rest_sum * rest_sum / (4 * kPi);
-  if (!(rest_spread <= kPeakSpreadShare * spread)) return out;
+  if (spread > 0) out.rest_share = std::max(0.0, rest_spread / spread);
+  if (!(rest_spread <= max_rest_share * spread)) return out;
   // The split: T / Y of each candidate's radiance stays, the rest of it becomes a peak.
   std::sort(candidates.begin(), candidates.end(),
             [](const Candidate& a, const Candidate& b) { return a.index < b.index; });

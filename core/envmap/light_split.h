@@ -67,10 +67,14 @@ struct PeakSplit {
   // pixels fewer. Known for lat-long maps.
   bool moments_known = false;
   double sum_y = 0, sum_y2 = 0;
+  // The share of the map's non-constant luminance energy the candidate split leaves in the rest
+  // (whether or not it was made; 1 when no pixel is a candidate, or the map is not lat-long).
+  double rest_share = 1;
 };
 // Splits a lat-long map by the rules above (other layouts, and maps whose split would not pay,
-// give no split).
-PeakSplit SplitLightPeaks(const EnvMap& map);
+// give no split). `max_rest_share` replaces kPeakSpreadShare: the split is made only when the
+// rest keeps at most this share of the map's non-constant luminance energy.
+PeakSplit SplitLightPeaks(const EnvMap& map, double max_rest_share = kPeakSpreadShare);
 
 // The peaks of the lighting rotated actively by `rotation` (directions d -> R d, as
 // RotateLighting turns the coefficients).

@@ -5,8 +5,10 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "core/base/status_macros.h"
 #include "core/brdf/brdf_projection.h"
+#include "core/brdf/brdf_shader_params.h"
 #include "core/envmap/light_split.h"
 #include "core/envmap/lighting.h"
 #include "core/sh/sh.h"
@@ -320,20 +322,53 @@ absl::Status VerifyStage(const EnvMap& env, const Brdf& brdf, const PrefilterOpt
 
 }  // namespace
 
+const char* PeakLightsName(PeakLights mode) {
+  switch (mode) {
+    case PeakLights::kOff:
+      return "off";
+    case PeakLights::kAuto:
+      return "auto";
+    case PeakLights::kOn:
+      return "on";
+  }
+  return "?";
+}
+
+std::optional<PeakLights> ParsePeakLights(std::string_view name) {
+  for (PeakLights m : {PeakLights::kOff, PeakLights::kAuto, PeakLights::kOn})
+    if (name == PeakLightsName(m)) return m;
+  return std::nullopt;
+}
+
+std::string PeakLightsSkipReason(const PrefilterOptions& options, const Brdf& brdf) {
+  if (options.peak_lights != PeakLights::kAuto) return "";
+  if (!(options.tolerance > 0) || ExplicitOrders(options)) {
+    return "auto: with the tolerance rule only (the epsilon rule and explicit orders see the "
+           "whole map)";
+  }
+  if (brdf.radially_symmetric())
+    return "auto: not for a radially symmetric BRDF (one degree per band already)";
+  if (!BrdfShaderParamsFor(brdf).ok())
+    return "auto: not for a BRDF the shipped shaders cannot sum lights with";
+  return "";
+}
+
 absl::StatusOr<PrefilterResult> Prefilter(const EnvMap& env, const Brdf& brdf,
                                           const PrefilterOptions& options,
                                           const PrefilterProgress& progress) {
   SHRM_RETURN_IF_ERROR(ValidatePrefilterOptions(options));
-  if (options.peak_lights) {
+  std::string peak_note = PeakLightsSkipReason(options, brdf);
+  if (options.peak_lights != PeakLights::kOff && peak_note.empty()) {
     std::vector<StageTiming> split_timing;
     StageClock clock(&split_timing, progress);
     SHRM_RETURN_IF_ERROR(clock.Begin("lights"));
-    PeakSplit split = SplitLightPeaks(env);
+    PeakSplit split = SplitLightPeaks(
+        env, options.peak_lights == PeakLights::kAuto ? kAutoPeakRestShare : kPeakSpreadShare);
     clock.End();
     if (split.rest) {
       // The rest through every stage but the check, which measures the whole.
       PrefilterOptions rest = options;
-      rest.peak_lights = false;
+      rest.peak_lights = PeakLights::kOff;
       rest.verify = 0;
       if (!brdf.radially_symmetric()) rest.selection_pairs *= kLightsSelectionFactor;
       SHRM_ASSIGN_OR_RETURN(PrefilterResult r, Prefilter(*split.rest, brdf, rest, progress));
@@ -348,6 +383,24 @@ absl::StatusOr<PrefilterResult> Prefilter(const EnvMap& env, const Brdf& brdf,
       SHRM_RETURN_IF_ERROR(VerifyStage(env, brdf, options, progress, &r));
       return r;
     }
+    if (env.lat_long_image() == nullptr) {
+      peak_note = "not a lat-long map";
+    } else if (split.rest_share >= 1) {
+      peak_note = absl::StrFormat("no pixel above %g x the mean luminance", kPeakRatio);
+    } else {
+      peak_note = absl::StrFormat(
+          "no sun: the brightest pixels would leave %.3g%% of the map's luminance energy in the "
+          "rest (split at most %g%%)",
+          100 * split.rest_share,
+          100 * (options.peak_lights == PeakLights::kAuto ? kAutoPeakRestShare : kPeakSpreadShare));
+    }
+  }
+  if (!peak_note.empty()) {
+    PrefilterOptions plain = options;
+    plain.peak_lights = PeakLights::kOff;
+    SHRM_ASSIGN_OR_RETURN(PrefilterResult r, Prefilter(env, brdf, plain, progress));
+    r.peak_lights_note = std::move(peak_note);
+    return r;
   }
   if (options.tolerance > 0 && !ExplicitOrders(options)) {
     PrefilterResult r;

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -27,6 +28,22 @@
 #include "core/shrm/tolerance.h"
 
 namespace shrm {
+
+// Peak lights (PrefilterOptions::peak_lights): off, on (split where it pays: the rest keeps at
+// most kPeakSpreadShare of the energy), or auto (only a sun, and only where it helps: below).
+enum class PeakLights { kOff, kAuto, kOn };
+const char* PeakLightsName(PeakLights mode);  // "off", "auto", "on"
+std::optional<PeakLights> ParsePeakLights(std::string_view name);
+// kAuto splits a map when its peaks take all but this share of the non-constant luminance
+// energy: a sun (city.exr keeps 0.02% in the rest, interior.exr 0.05%), not a bright sky
+// (forest.exr's 128 brightest pixels leave 11%; with lights its SHRMs got 1.3-4x slower and no
+// more accurate, docs/results.md "Peak lights, session 36").
+inline constexpr double kAutoPeakRestShare = 0.01;
+
+struct PrefilterOptions;
+// Why `options.peak_lights` (kAuto) splits nothing whatever the map: the rule, the BRDF (the
+// report's note); "" when the map decides (kOn, kOff, and kAuto where a sun would be split).
+std::string PeakLightsSkipReason(const PrefilterOptions& options, const Brdf& brdf);
 
 struct PrefilterOptions {
   double epsilon = 0.03;  // tolerance for the order selection, in (0, 1)
@@ -74,8 +91,11 @@ struct PrefilterOptions {
   // (ShrmCube::lights: summed exactly at evaluation, ShrmEvalWithLights); every other stage,
   // the order choice included, sees the rest of the map, whose dynamic range the split caps
   // (docs/shrm.md "Peak lights"). The check measures the whole (expansion + lights) against
-  // the whole map.
-  bool peak_lights = false;
+  // the whole map. kAuto (the job layer's default) splits only a sun, and only under the
+  // tolerance rule (the epsilon rule's analysis and explicit orders see the whole map): for a
+  // view-dependent BRDF the shipped shaders evaluate (BrdfShaderParamsFor), when the split
+  // leaves at most kAutoPeakRestShare of the map's non-constant energy in the rest.
+  PeakLights peak_lights = PeakLights::kOff;
   // With verify > 0: the check's FastReference is kept in PrefilterResult::reference for a
   // caller that measures against the same map again (the visual report), instead of being
   // built twice (~0.1-0.3 s and ~100 MB for a 1024 x 512 map).
@@ -105,6 +125,8 @@ struct PrefilterResult {
   // peak_lights: the luminance above which pixels were split (0: the map was not split, and
   // cube.lights is empty).
   double peak_threshold = 0;
+  // Why no lights were split when peak_lights asked for them ("" when some were).
+  std::string peak_lights_note;
   int verified_pairs = 0;     // options.verify when the cube was measured
   DirectionalError measured;  // the cube against FastReference
   // The check's reference when PrefilterOptions::keep_reference (else null).
