@@ -302,8 +302,8 @@ TEST_F(ServiceTest, ToleranceJobRunsRemotelyWithTheEmbeddedBytes) {
   EXPECT_NE(report.find("\"measured\": {"), std::string::npos);
 }
 
-// Peak lights (the epsilon rule's cached path hands such jobs to the core pipeline whole): the
-// embedded bytes, the lights in the report.
+// Peak lights (the epsilon rule's cached path hands such jobs to the core pipeline whole; the
+// tolerance rule's runs it anyway): the embedded bytes, the lights in the report.
 TEST_F(ServiceTest, PeakLightsJobRunsRemotelyWithTheEmbeddedBytes) {
   auto c = StartServer();
   const std::string report = RemoteReportWithEmbeddedBytes(
@@ -313,6 +313,14 @@ TEST_F(ServiceTest, PeakLightsJobRunsRemotelyWithTheEmbeddedBytes) {
       port_);
   EXPECT_NE(report.find("\"peak_lights\": {"), std::string::npos) << report.substr(0, 400);
   EXPECT_NE(report.find("\"count\": 29"), std::string::npos) << report.substr(0, 400);
+  // The default (auto: the wire's PEAK_LIGHTS_AUTO = 0, no flag) with the tolerance rule splits
+  // city's sun on both sides alike; a loose tolerance keeps the job short.
+  const std::string by_default = RemoteReportWithEmbeddedBytes(
+      absl::StrCat("--env ", MapPath("city.exr"),
+                   " --brdf microfacet:sigma=0.3 --tolerance 0.05 --verify 16 --threads 2"),
+      port_);
+  EXPECT_NE(by_default.find("\"mode\": \"auto\""), std::string::npos) << by_default.substr(0, 400);
+  EXPECT_NE(by_default.find("\"count\": 29"), std::string::npos) << by_default.substr(0, 400);
 }
 
 // Runs `command` through the shell; returns its stdout ("" and a failure when it exits non-zero).
