@@ -208,6 +208,16 @@ int SelectionPairs(const Brdf& brdf, const PrefilterOptions& options) {
 // expansion (interior microfacet sigma 0.2: 1.2 s against 4.4 s on 2 threads); forest's rest
 // needs more P than the whole map was given and its jobs take 1.3-4x longer.
 constexpr int kLightsSelectionFactor = 4;
+// From this many pairs on, a view-dependent BRDF's selection is drawn stratified as the check's
+// (StratifiedDirectionPairs: a quarter grazing), so the grazing estimate rests on 256 pairs
+// instead of ~92 while 768 remain in front. Measured on the 14 city and interior default rows
+// (peak lights, 1024 pairs; docs/results.md "Stratified selection, session 37"): every row meets
+// every target instead of 11 (city microfacet sigma 0.1's grazing RMS 6.1% -> 5.0%, interior's
+// sharpest lobes' largest 5.4-5.7% -> 3.2-4.2%) and 10 of the 14 files are smaller (city GGX
+// alpha 0.1 f0 0.04: 184 -> 58 MB). At the 256 pairs of an unsplit map the 192 front pairs missed
+// more front tails (forest and courtyard: 3 of 14 rows met, 1 stratified), so those keep the plain
+// draw.
+constexpr int kStratifiedSelectionPairs = 1024;
 
 // The tolerance rule (core/shrm/tolerance.h): rho_lpq and L_lm at reference orders, the band
 // table at the selection pairs, the choice; the reference grows while the choice is near it.
@@ -218,8 +228,13 @@ absl::Status ChooseOrdersForTolerance(const EnvMap& env, const Brdf& brdf,
   const int p_cap = brdf.radially_symmetric() ? 0 : std::min(kMaxReferenceP, kMaxBrdfPmax);
   int f_ref = std::min(kFirstReferenceF, f_cap);
   int p_ref = std::min(kFirstReferenceP, p_cap);
+  // Many pairs of a view-dependent BRDF (a split map's rest, kLightsSelectionFactor): drawn
+  // stratified, a quarter of them grazing (kStratifiedSelectionPairs).
+  const int count = SelectionPairs(brdf, options);
   const std::vector<DirectionPair> pairs =
-      SeededDirectionPairs(kSelectionSeed, SelectionPairs(brdf, options), brdf.reparam());
+      !brdf.radially_symmetric() && count >= kStratifiedSelectionPairs
+          ? StratifiedDirectionPairs(kSelectionSeed, count, brdf.reparam())
+          : SeededDirectionPairs(kSelectionSeed, count, brdf.reparam());
   l->energy = LightingEnergy(env);
   ToleranceOptions topt;
   topt.tolerance = options.tolerance;
