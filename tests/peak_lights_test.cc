@@ -144,12 +144,13 @@ TEST(PeakLightsTest, InteriorsLampsNoLongerDefeatTheDefaultJob) {
   // interior.exr's lamps sit near the horizon of many normals: the default job without lights is
   // budget-limited at (97, 31), a 231 MB file, and measures 5.7% front RMS, 144% largest and 46%
   // grazing RMS at 1024 pairs (docs/results.md, "Accuracy, session 35"). With them (and the
-  // rest's orders chosen at 1024 pairs, kLightsSelectionFactor), at pairs the job neither chose
-  // nor checked with, against the pixel sum of the whole map (FastReference, within 2e-3 of it
-  // per direction: fast_reference_test), the file is (37, 25) at S 56 (153 MB) and meets both RMS
-  // targets: 0.39% front, 1.9% grazing. The largest front error, 8.4% at this seed (3.9% at the
-  // job's own 1024 pairs), is printed, not asserted: its 5% target is not met at every seed yet
-  // (docs/results.md, "Peak lights, session 36").
+  // rest's orders chosen at 1024 stratified pairs, kLightsSelectionFactor), at pairs the job
+  // neither chose nor checked with, against the pixel sum of the whole map (FastReference, within
+  // 2e-3 of it per direction: fast_reference_test), the file is (36, 24) at S 56 (141 MB) and
+  // meets both RMS targets: 0.41% front, 1.9% grazing. The largest front error, 8.7% at this seed
+  // (4.0% at the job's own 1024 pairs), is printed, not asserted: its 5% target is not met at
+  // every seed yet (docs/results.md, "Peak lights, session 36" and "Stratified selection,
+  // session 37").
   constexpr double kTolerance = 0.01;  // the default job's
   constexpr int kPairs = 512;
   constexpr uint64_t kTestSeed = 0x5045414b4c495431;  // "PEAKLIT1": neither job seed
