@@ -373,12 +373,13 @@ absl::StatusOr<PrefilterResult> Prefilter(const EnvMap& env, const Brdf& brdf,
                                           const PrefilterProgress& progress) {
   SHRM_RETURN_IF_ERROR(ValidatePrefilterOptions(options));
   std::string peak_note = PeakLightsSkipReason(options, brdf);
+  std::vector<StageTiming> split_timing;  // the split's pass, reported whether or not it split
   if (options.peak_lights != PeakLights::kOff && peak_note.empty()) {
-    std::vector<StageTiming> split_timing;
+    const double max_share =
+        options.peak_lights == PeakLights::kAuto ? kAutoPeakRestShare : kPeakSpreadShare;
     StageClock clock(&split_timing, progress);
     SHRM_RETURN_IF_ERROR(clock.Begin("lights"));
-    PeakSplit split = SplitLightPeaks(
-        env, options.peak_lights == PeakLights::kAuto ? kAutoPeakRestShare : kPeakSpreadShare);
+    PeakSplit split = SplitLightPeaks(env, max_share);
     clock.End();
     if (split.rest) {
       // The rest through every stage but the check, which measures the whole.
@@ -406,8 +407,7 @@ absl::StatusOr<PrefilterResult> Prefilter(const EnvMap& env, const Brdf& brdf,
       peak_note = absl::StrFormat(
           "no sun: the brightest pixels would leave %.3g%% of the map's luminance energy in the "
           "rest (split at most %g%%)",
-          100 * split.rest_share,
-          100 * (options.peak_lights == PeakLights::kAuto ? kAutoPeakRestShare : kPeakSpreadShare));
+          100 * split.rest_share, 100 * max_share);
     }
   }
   if (!peak_note.empty()) {
@@ -415,6 +415,7 @@ absl::StatusOr<PrefilterResult> Prefilter(const EnvMap& env, const Brdf& brdf,
     plain.peak_lights = PeakLights::kOff;
     SHRM_ASSIGN_OR_RETURN(PrefilterResult r, Prefilter(env, brdf, plain, progress));
     r.peak_lights_note = std::move(peak_note);
+    r.timings.insert(r.timings.begin(), split_timing.begin(), split_timing.end());
     return r;
   }
   if (options.tolerance > 0 && !ExplicitOrders(options)) {
