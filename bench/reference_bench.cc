@@ -8,7 +8,9 @@
 // Flags: --maps=all (all four maps; default courtyard.exr), --map=NAME, --brdf=SPEC (one of the
 // list below only), --brute=M (directions timed and checked
 // against the brute force, default 16), --fast=N (directions timed on the fast path, default 256),
-// --tol=x (relative tolerance, default kFastReferenceTolerance).
+// --tol=x (relative tolerance, default kFastReferenceTolerance), --hierarchy=cube (the cube faces'
+// quadtrees of the map's sample list, Create(samples); default: the lat-long map's own quadtree,
+// Create(EnvMap), what a job's check builds).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -65,13 +67,16 @@ int Run(int argc, char** argv) {
   std::vector<std::string> maps = {"courtyard.exr"};
   int brute = 16, fast = 256;
   double tol = kFastReferenceTolerance;
-  std::string only;  // --brdf=SPEC: that model only
+  std::string only;   // --brdf=SPEC: that model only
+  bool cube = false;  // --hierarchy=cube
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a.rfind("--map=", 0) == 0) {
       maps = {a.substr(6)};
     } else if (a.rfind("--brdf=", 0) == 0) {
       only = a.substr(7);
+    } else if (a == "--hierarchy=cube" || a == "--hierarchy=latlong") {
+      cube = a == "--hierarchy=cube";
     } else if (a == "--maps=all") {
       maps = {"city.exr", "courtyard.exr", "forest.exr", "interior.exr"};
     } else if (a.rfind("--brute=", 0) == 0) {
@@ -95,7 +100,7 @@ int Run(int argc, char** argv) {
     }
     const EnvMap env = EnvMap::FromLatLong(*std::move(img));
     const double t0 = Now();
-    auto ref = FastReference::Create(env.samples());
+    auto ref = cube ? FastReference::Create(env.samples()) : FastReference::Create(env);
     if (!ref.ok()) {
       std::fprintf(stderr, "%s\n", std::string(ref.status().message()).c_str());
       return 1;

@@ -188,7 +188,7 @@ absl::StatusOr<nlohmann::json> PrefilterVisuals(const EnvMap& env, const Brdf& b
   threads = std::max(threads, 1);
   std::optional<FastReference> made;
   if (given == nullptr) {
-    SHRM_ASSIGN_OR_RETURN(made, FastReference::Create(env));
+    SHRM_ASSIGN_OR_RETURN(made, FastReference::Create(env, kReportPairs));
   }
   const FastReference& reference = given != nullptr ? *given : *made;
   nlohmann::json out;

@@ -101,13 +101,19 @@ double MaxRelativeError(const std::vector<Rgb>& fast, const std::vector<Rgb>& fu
 
 class BundledMapTest : public ::testing::TestWithParam<const char*> {};
 
+// Both hierarchies: the cube faces' quadtrees of a list of samples (Create(samples)) and the
+// lat-long map's own quadtree (Create(EnvMap) of a W x W/2 map, W/2 a power of two), each against
+// the full sum of the same samples.
 TEST_P(BundledMapTest, MatchesTheFullSumForEveryModel) {
   const Image img = testing::LoadBundledMap(GetParam(), 1024);
   ASSERT_EQ(img.height, 512);
   const std::vector<EnvSample> samples = testing::LatLongSamples(img);
-  auto fast = FastReference::Create(samples);
-  ASSERT_TRUE(fast.ok()) << fast.status();
-  EXPECT_EQ(fast->sample_count(), samples.size());
+  auto cube = FastReference::Create(samples);
+  ASSERT_TRUE(cube.ok()) << cube.status();
+  EXPECT_EQ(cube->sample_count(), samples.size());
+  auto lat_long = FastReference::Create(EnvMap::FromLatLong(img));
+  ASSERT_TRUE(lat_long.ok()) << lat_long.status();
+  EXPECT_EQ(lat_long->sample_count(), samples.size());
   uint64_t seed = 17;
   for (const char* spec : kSpecs) {
     const std::unique_ptr<Brdf> brdf = ParseOrDie(spec);
@@ -116,10 +122,13 @@ TEST_P(BundledMapTest, MatchesTheFullSumForEveryModel) {
     DrawDirections(kDirections, seed++, &index, &view);
     const Mat3 id = Mat3::Identity();
     const std::vector<Rgb> full = FullSums(samples, *brdf, id, index, view);
-    const std::vector<Rgb> approx = fast->RadianceMany(*brdf, id, index, view, kThreads);
-    const double err = MaxRelativeError(approx, full);
-    std::printf("%-14s %-24s max relative error %.2e\n", GetParam(), spec, err);
-    EXPECT_LE(err, kMapTolerance) << GetParam() << " " << spec;
+    for (const auto& [name, fast] :
+         {std::pair{"cube", &*cube}, std::pair{"lat-long", &*lat_long}}) {
+      const std::vector<Rgb> approx = fast->RadianceMany(*brdf, id, index, view, kThreads);
+      const double err = MaxRelativeError(approx, full);
+      std::printf("%-14s %-8s %-24s max relative error %.2e\n", GetParam(), name, spec, err);
+      EXPECT_LE(err, kMapTolerance) << GetParam() << " " << name << " " << spec;
+    }
   }
 }
 
@@ -253,9 +262,14 @@ TEST(FastReferenceTest, RadianceManyIsTheSameForAnyThreadCount) {
 }
 
 // The reference of a lat-long EnvMap, its samples computed as they are read (LatLongSampler),
-// is the one of the map's stored samples (EnvMap::samples()), bit for bit.
+// is the one of the map's stored samples (EnvMap::samples()), bit for bit, when the map's size
+// has no quadtree of its own (W != 2 H, or H not a power of two): the same cube-face hierarchy.
 TEST(FastReferenceTest, ALatLongMapGivesTheReferenceOfItsSamples) {
-  const EnvMap map = EnvMap::FromLatLong(testing::LoadBundledMap("city.exr", 128));
+  // 96 x 48 (48 is not a power of two), resampled from the 128 x 64 box filter of city.exr.
+  auto resampled = EnvMap::FromLatLong(testing::LoadBundledMap("city.exr", 128)).ToLatLong(96);
+  ASSERT_TRUE(resampled.ok()) << resampled.status();
+  const EnvMap map = EnvMap::FromLatLong(*std::move(resampled));
+  ASSERT_EQ(map.height(), 48);
   auto from_map = FastReference::Create(map);
   auto from_samples = FastReference::Create(map.samples());
   ASSERT_TRUE(from_map.ok()) << from_map.status();
@@ -268,6 +282,27 @@ TEST(FastReferenceTest, ALatLongMapGivesTheReferenceOfItsSamples) {
   const std::vector<Rgb> b = from_samples->RadianceMany(*brdf, Mat3::Identity(), index, view, 1);
   for (size_t i = 0; i < index.size(); ++i)
     for (int c = 0; c < 3; ++c) EXPECT_EQ(a[i][c], b[i][c]) << i;
+}
+
+// The lat-long quadtree of a constant map, on a small and a larger power-of-two size: every
+// sample counted once (a missing or doubled block would move a Lambert surface's reflection by
+// its share of the hemisphere), against the full sum.
+TEST(FastReferenceTest, TheLatLongQuadtreeSumsEverySampleOnce) {
+  for (const int width : {32, 256}) {
+    const Image img = ConstantLatLong(width, {2.0f, 1.0f, 0.5f});
+    const EnvMap map = EnvMap::FromLatLong(img);
+    auto fast = FastReference::Create(map);
+    ASSERT_TRUE(fast.ok()) << fast.status();
+    EXPECT_EQ(fast->sample_count(), static_cast<size_t>(width) * width / 2);
+    const std::unique_ptr<Brdf> lambert = ParseOrDie("lambert");
+    std::vector<Vec3> index, view;
+    DrawDirections(9, 5, &index, &view);
+    const std::vector<Rgb> got = fast->RadianceMany(*lambert, Mat3::Identity(), index, view, 1);
+    const std::vector<Rgb> full = FullSums(map.samples(), *lambert, Mat3::Identity(), index, view);
+    for (size_t i = 0; i < got.size(); ++i)
+      for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(got[i][c], full[i][c], kMapTolerance * full[i][c]) << width << " " << i;
+  }
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <optional>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
@@ -82,7 +83,7 @@ absl::StatusOr<std::shared_ptr<const EnvironmentData>> LoadEnvironment(const std
   SHRM_ASSIGN_OR_RETURN(ReferenceIntegrator integrator,
                         ReferenceIntegrator::Create(small.samples()));
   env->reference = std::make_shared<const ReferenceIntegrator>(std::move(integrator));
-  SHRM_ASSIGN_OR_RETURN(FastReference fast, FastReference::Create(env->map.samples()));
+  SHRM_ASSIGN_OR_RETURN(FastReference fast, FastReference::Create(env->map));
   env->fast_reference = std::make_shared<const FastReference>(std::move(fast));
   return std::shared_ptr<const EnvironmentData>(std::move(env));
 }
@@ -201,8 +202,15 @@ ShrmComputeFn EmbeddedCompute(std::shared_ptr<const EnvironmentData> env) {
     SHRM_ASSIGN_OR_RETURN(PrefilterResult r, Prefilter(env->map, *brdf, opt, progress));
     if (job.verify > 0 && env->fast_reference != nullptr) {
       if (progress) SHRM_RETURN_IF_ERROR(progress("verify"));
-      SHRM_ASSIGN_OR_RETURN(r.measured, MeasureCubeError(*env->fast_reference, *brdf, opt.rotation,
-                                                         r.cube, job.verify, opt.threads));
+      // A check longer than the kept reference is built for gets the job's own (the cube faces'
+      // tree, FastReference::Create), so that it measures what `shrm prefilter` measures.
+      std::optional<FastReference> own;
+      if (job.verify > kLatLongTreeMaxQueries) {
+        SHRM_ASSIGN_OR_RETURN(own, FastReference::Create(env->map, job.verify));
+      }
+      SHRM_ASSIGN_OR_RETURN(r.measured,
+                            MeasureCubeError(own ? *own : *env->fast_reference, *brdf, opt.rotation,
+                                             r.cube, job.verify, opt.threads));
       r.verified_pairs = job.verify;
     }
     if (progress) SHRM_RETURN_IF_ERROR(progress("convert"));

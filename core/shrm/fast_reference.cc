@@ -55,6 +55,16 @@ uint64_t Spread(uint32_t x) {  // bits of x at the even positions
   return v;
 }
 
+uint32_t Compact(uint64_t v) {  // the bits of v at the even positions, packed (Spread's inverse)
+  v &= 0x5555555555555555ull;
+  v = (v | (v >> 1)) & 0x3333333333333333ull;
+  v = (v | (v >> 2)) & 0x0F0F0F0F0F0F0F0Full;
+  v = (v | (v >> 4)) & 0x00FF00FF00FF00FFull;
+  v = (v | (v >> 8)) & 0x0000FFFF0000FFFFull;
+  v = (v | (v >> 16)) & 0x00000000FFFFFFFFull;
+  return static_cast<uint32_t>(v);
+}
+
 uint32_t Quantize(double s) {
   constexpr double kCells = 1 << kMortonBits;
   return static_cast<uint32_t>(std::clamp(s * kCells, 0.0, kCells - 1));
@@ -505,10 +515,28 @@ absl::StatusOr<FastReference> FastReference::Create(std::span<const EnvSample> s
   return CreateFrom(samples.size(), [samples](size_t i) { return samples[i]; });
 }
 
-absl::StatusOr<FastReference> FastReference::Create(const EnvMap& env) {
+absl::StatusOr<FastReference> FastReference::Create(const EnvMap& env, int expected_queries) {
   if (env.lat_long_image() != nullptr) {
     const LatLongSampler sampler(env);
-    return CreateFrom(sampler.size(), [&sampler](size_t i) { return sampler.At(i); });
+    const auto at = [&sampler](size_t i) { return sampler.At(i); };
+    const int w = env.width(), h = env.height();
+    // A W x W/2 map, W/2 a power of two: its two W/2 x W/2 halves (azimuth) are quadtrees of
+    // themselves, their Morton order made directly (no keys computed from directions, no sort).
+    if (expected_queries <= kLatLongTreeMaxQueries && w == 2 * h &&
+        std::has_single_bit(static_cast<unsigned>(h)) && h <= (1 << kMortonBits)) {
+      const int bits = std::countr_zero(static_cast<unsigned>(h));
+      const size_t n = static_cast<size_t>(w) * h, square = static_cast<size_t>(h) * h;
+      Ordered ordered;
+      ordered.face_shift = 2 * bits;
+      ordered.count = n;
+      ordered.index_of = [w, h, square](size_t k) {
+        const uint64_t code = k % square;
+        return static_cast<int32_t>(static_cast<size_t>(Compact(code >> 1)) * w +
+                                    (k / square) * static_cast<size_t>(h) + Compact(code));
+      };
+      return CreateFrom(std::move(ordered), at);
+    }
+    return CreateFrom(sampler.size(), at);
   }
   return Create(env.samples());
 }
@@ -519,9 +547,61 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
   if (n > static_cast<size_t>(INT32_MAX)) {
     return absl::InvalidArgumentError(absl::StrCat("fast reference: ", n, " samples (too many)"));
   }
-  // Morton keys with their indices beside them, sorted: Morton order, ties by index.
+  // Morton keys of the cube faces with their indices beside them, sorted: Morton order, ties by
+  // index. A sample with a bad direction gets any key: CreateFrom(Ordered) refuses it.
   std::vector<std::pair<uint64_t, int32_t>> keyed(n);
   for (size_t i = 0; i < n; ++i) {
+    const EnvSample s = sample_at(i);
+    uint64_t key = 0;
+    const double norm = s.dir.Norm();
+    if (std::isfinite(norm) && norm > 0) {
+      int face;
+      double u, t;
+      CubeFaceCoordinates(s.dir, &face, &u, &t);
+      key = (static_cast<uint64_t>(face) << (2 * kMortonBits)) | Spread(Quantize(u)) |
+            (Spread(Quantize(t)) << 1);
+    }
+    keyed[i] = {key, static_cast<int32_t>(i)};
+  }
+  SortByKey(keyed);
+  Ordered ordered;
+  ordered.face_shift = 2 * kMortonBits;
+  ordered.count = n;
+  ordered.key.resize(n);
+  ordered.index.resize(n);
+  for (size_t k = 0; k < n; ++k) {
+    ordered.key[k] = keyed[k].first;
+    ordered.index[k] = keyed[k].second;
+  }
+  std::vector<std::pair<uint64_t, int32_t>>().swap(keyed);
+  return CreateFrom(std::move(ordered), sample_at);
+}
+
+absl::StatusOr<FastReference> FastReference::CreateFrom(
+    Ordered ordered, absl::FunctionRef<EnvSample(size_t)> sample_at) {
+  const size_t n = ordered.count;
+  if (n == 0) return absl::InvalidArgumentError("fast reference: no environment samples");
+  if (n > static_cast<size_t>(INT32_MAX)) {
+    return absl::InvalidArgumentError(absl::StrCat("fast reference: ", n, " samples (too many)"));
+  }
+  // Identity keys (no key array): key k is k itself, and every node is an aligned block of 4^j
+  // samples, split into four.
+  const std::vector<uint64_t>& key = ordered.key;
+  const bool identity = key.empty();
+  const auto key_at = [&key, identity](size_t k) { return identity ? k : key[k]; };
+  const auto split = [&key, identity](int32_t begin, int32_t end, int32_t bounds[5]) {
+    if (!identity) return SplitRange(key.data(), begin, end, bounds);
+    if (end - begin <= kFastReferenceLeafSamples) return 0;
+    const int32_t quarter = (end - begin) / 4;
+    for (int g = 0; g <= 4; ++g) bounds[g] = begin + g * quarter;
+    return 4;
+  };
+  FastReference r;
+  r.samples_.resize(n);
+  Rgb total{0, 0, 0}, total_abs{0, 0, 0};
+  double solid_angle = 0;
+  for (size_t k = 0; k < n; ++k) {
+    const int32_t i = identity ? ordered.index_of(k) : ordered.index[k];
     const EnvSample s = sample_at(i);
     const double norm = s.dir.Norm();
     if (!std::isfinite(norm) || std::abs(norm - 1) > kUnitTolerance) {
@@ -538,23 +618,6 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
             absl::StrCat("fast reference: sample ", i, " has non-finite radiance"));
       }
     }
-    int face;
-    double u, t;
-    CubeFaceCoordinates(s.dir, &face, &u, &t);
-    keyed[i] = {(static_cast<uint64_t>(face) << (2 * kMortonBits)) | Spread(Quantize(u)) |
-                    (Spread(Quantize(t)) << 1),
-                static_cast<int32_t>(i)};
-  }
-  SortByKey(keyed);
-
-  FastReference r;
-  r.samples_.resize(n);
-  std::vector<uint64_t> key(n);  // keyed's keys alone, for the build's scans
-  Rgb total{0, 0, 0}, total_abs{0, 0, 0};
-  double solid_angle = 0;
-  for (size_t k = 0; k < n; ++k) {
-    const EnvSample s = sample_at(keyed[k].second);
-    key[k] = keyed[k].first;
     Sample& out = r.samples_[k];
     out.dir = {static_cast<float>(s.dir.x), static_cast<float>(s.dir.y),
                static_cast<float>(s.dir.z)};
@@ -565,7 +628,7 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
     }
     solid_angle += s.solid_angle;
   }
-  std::vector<std::pair<uint64_t, int32_t>>().swap(keyed);
+  std::vector<int32_t>().swap(ordered.index);
   for (int c = 0; c < 3; ++c) {
     const double mean = solid_angle > 0 ? std::abs(total[c]) / solid_angle : 0.0;
     r.floor_[c] = kFastReferenceFloor * mean;
@@ -573,11 +636,12 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
   }
 
   // The faces' sample ranges (keys sorted, so each face's run is contiguous).
+  const int face_shift = ordered.face_shift;
   std::vector<std::pair<int32_t, int32_t>> faces;
   for (int32_t begin = 0; begin < static_cast<int32_t>(n);) {
-    const uint64_t face = key[begin] >> (2 * kMortonBits);
+    const uint64_t face = key_at(begin) >> face_shift;
     int32_t end = begin;
-    while (end < static_cast<int32_t>(n) && (key[end] >> (2 * kMortonBits)) == face) ++end;
+    while (end < static_cast<int32_t>(n) && (key_at(end) >> face_shift) == face) ++end;
     faces.emplace_back(begin, end);
     begin = end;
   }
@@ -586,11 +650,11 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
   // them in a mapping of their own, in small pages; on this VM a fresh page costs more than the
   // work done in it.
   size_t node_count = 0, internal_count = 0;
-  auto count = [&key, &node_count, &internal_count](auto&& self, int32_t begin,
-                                                    int32_t end) -> void {
+  auto count = [&split, &node_count, &internal_count](auto&& self, int32_t begin,
+                                                      int32_t end) -> void {
     ++node_count;
     int32_t bounds[5];
-    const int groups = SplitRange(key.data(), begin, end, bounds);
+    const int groups = split(begin, end, bounds);
     if (groups == 0) return;
     ++internal_count;
     for (int g = 0; g < groups; ++g) self(self, bounds[g], bounds[g + 1]);
@@ -602,9 +666,9 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
   // Fills node i over samples [begin, end) and returns its sums. Nodes are numbered as they are
   // reached top-down (a node, then its children as one block); their values come bottom-up:
   // a leaf's from its samples, an internal node's from its children's sums.
-  auto build = [&r, &key](auto&& self, int32_t i, int32_t begin, int32_t end) -> Sums {
+  auto build = [&r, &split](auto&& self, int32_t i, int32_t begin, int32_t end) -> Sums {
     int32_t bounds[5];
-    const int groups = SplitRange(key.data(), begin, end, bounds);
+    const int groups = split(begin, end, bounds);
     Sums sums;
     std::array<Sums, 4> child;
     const int32_t first = static_cast<int32_t>(r.nodes_.size());

@@ -6,12 +6,16 @@
 //
 // Hierarchy (Create): samples binned to the six cube faces, a quadtree per face in Morton order
 // (every node is a contiguous range of samples, single-child chains collapsed), leaves of at most
-// kFastReferenceLeafSamples samples. Per node: the summed L dOmega per channel, the
-// luminance-weighted mean direction c (normalized) and the angular radius r of a cap around c
-// that holds every sample (a leaf's exact; an internal node's bounded from its children's,
-// max_j angle(c, c_j) + r_j, which is tight for uniform light). The build is linear after a
-// radix sort of the keys: a node's split is found from its first and last keys, its sums are
-// its children's (bottom-up), and the arrays are reserved at the exact node count.
+// kFastReferenceLeafSamples samples. A W x W/2 lat-long map with W/2 a power of two (the usual
+// 1024 x 512) is its own quadtree instead: its two W/2 x W/2 halves in the Morton order of their
+// pixels, made without keys or a sort (build 40 -> 17 ms and 19 MB instead of ~40 touched in a
+// `shrm prefilter`; a query makes ~1.3x the evaluations in the same time, its pixels' blocks
+// narrower near the poles; the same accuracy, tests/fast_reference_test.cc). Per node: the summed L
+// dOmega per channel, the luminance-weighted mean direction c (normalized) and the angular radius r
+// of a cap around c that holds every sample (a leaf's exact; an internal node's bounded from its
+// children's, max_j angle(c, c_j) + r_j, which is tight for uniform light). The build is linear
+// after a radix sort of the keys: a node's split is found from its first and last keys, its sums
+// are its children's (bottom-up), and the arrays are reserved at the exact node count.
 //
 // Query (Radiance): a node used "as a point" contributes its summed weight times rho-hat at c.
 // A node is ADMISSIBLE (may be used as points) only when no feature of rho-hat can hide inside it:
@@ -51,13 +55,15 @@
 // time on a shared machine, session 35): 0.14-0.27 ms per direction for Phong, 0.22 ms Lambert,
 // 0.36-0.67 ms for the horizon-clipped microfacet/GGX, 0.7 ms Kajiya-Kay (4k-16k rho-hat
 // evaluations instead of 524288), 20-140x faster than the full sum; largest error over the four
-// bundled maps 4.8e-4 (tests/fast_reference_test.cc). The build: ~35 ms and ~27 MB.
+// bundled maps 4.8e-4 (tests/fast_reference_test.cc; the lat-long quadtree: 6.9e-4). The build:
+// ~35 ms and ~27 MB from a list of samples; ~17 ms from a 1024 x 512 lat-long map.
 #ifndef SHRM_CORE_SHRM_FAST_REFERENCE_H_
 #define SHRM_CORE_SHRM_FAST_REFERENCE_H_
 
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -88,6 +94,9 @@ inline constexpr double kFastReferenceErrorSafety = 1.5;
 // Absolute floor of the error target, as a fraction of the map's mean radiance (per channel):
 // it only stops endless refinement of directions whose B is ~0 (far below any metric's floor).
 inline constexpr double kFastReferenceFloor = 1e-7;
+// Most queries a lat-long map's own quadtree is built for (Create(EnvMap)): about where its
+// quicker build stops paying for its dearer queries.
+inline constexpr int kLatLongTreeMaxQueries = 384;
 
 class FastReference {
  public:
@@ -96,7 +105,11 @@ class FastReference {
   static absl::StatusOr<FastReference> Create(std::span<const EnvSample> samples);
   // The same for the samples of `env`: a lat-long map's are computed as they are read
   // (LatLongSampler), never stored whole (EnvMap::samples() would keep 48 bytes per pixel).
-  static absl::StatusOr<FastReference> Create(const EnvMap& env);
+  // A W x W/2 lat-long map with W/2 a power of two gets its own quadtree (the header comment)
+  // unless `expected_queries` exceeds kLatLongTreeMaxQueries: its build is ~23 ms quicker, its
+  // queries up to ~0.06 ms slower (microfacet; 1024 x 512, this machine), so a longer check
+  // (`--verify 1024`) keeps the cube faces' tree.
+  static absl::StatusOr<FastReference> Create(const EnvMap& env, int expected_queries = 0);
 
   // BrdfReferenceRadiance(samples, brdf, rotation, index, view) to `relative_tolerance`
   // (per channel, relative to max(|B|, floor)): index = N (or T for kTangent models), view V,
@@ -150,8 +163,20 @@ class FastReference {
   };
 
  private:
-  // Create() over n samples read by index.
+  // Create() over n samples read by index: keyed by cube face and Morton order, sorted.
   static absl::StatusOr<FastReference> CreateFrom(size_t n,
+                                                  absl::FunctionRef<EnvSample(size_t)> sample_at);
+  // The samples in their tree order: key[k] (ascending; its bits from face_shift up name the
+  // root, those below are 2-bit quadtree digits) is sample index[k]'s.
+  // Without keys (key empty): position k's key is k itself and index_of(k) its sample.
+  struct Ordered {
+    size_t count = 0;
+    std::vector<uint64_t> key;
+    std::vector<int32_t> index;
+    std::function<int32_t(size_t)> index_of;
+    int face_shift = 0;
+  };
+  static absl::StatusOr<FastReference> CreateFrom(Ordered ordered,
                                                   absl::FunctionRef<EnvSample(size_t)> sample_at);
   FastReference() = default;
   struct QueryStats;

@@ -292,7 +292,7 @@ absl::StatusOr<DirectionalError> MeasureCubeError(const EnvMap& env, const Brdf&
                                                   const Mat3& rotation, const ShrmCube& cube,
                                                   int pairs, int threads) {
   // The arguments are checked by the overload (the reference costs ~0.3 s; errors are rare).
-  SHRM_ASSIGN_OR_RETURN(FastReference reference, FastReference::Create(env));
+  SHRM_ASSIGN_OR_RETURN(FastReference reference, FastReference::Create(env, pairs));
   return MeasureCubeError(reference, brdf, rotation, cube, pairs, threads);
 }
 
@@ -325,7 +325,7 @@ absl::Status VerifyStage(const EnvMap& env, const Brdf& brdf, const PrefilterOpt
   if (options.verify <= 0 || !options.synthesize) return absl::OkStatus();
   StageClock clock(&r->timings, progress);
   SHRM_RETURN_IF_ERROR(clock.Begin("verify"));
-  SHRM_ASSIGN_OR_RETURN(FastReference made, FastReference::Create(env));
+  SHRM_ASSIGN_OR_RETURN(FastReference made, FastReference::Create(env, options.verify));
   auto reference = std::make_shared<const FastReference>(std::move(made));
   SHRM_ASSIGN_OR_RETURN(r->measured, MeasureCubeError(*reference, brdf, options.rotation, r->cube,
                                                       options.verify, options.threads));
