@@ -35,6 +35,11 @@ ReparamGeometry MakeReparamGeometry(ReparamKind kind, double theta_i, double the
   return g;
 }
 
+void Brdf::TransferMany(const Vec3& n, const Vec3& v, std::span<const Vec3> w, int c,
+                        double* out) const {
+  for (size_t k = 0; k < w.size(); ++k) out[k] = Transfer(n, v, w[k], c);
+}
+
 double Brdf::ReparamTransfer(double theta_i, double theta_o, double phi, int c) const {
   const ReparamGeometry g = MakeReparamGeometry(reparam(), theta_i, theta_o, phi);
   return Transfer(g.n, g.v, g.w, c);

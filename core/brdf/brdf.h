@@ -55,6 +55,13 @@ class Brdf {
   // direction w, channel c. For kTangent models `n` is the tangent T.
   virtual double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const = 0;
 
+  // Transfer at the light directions w[0 .. w.size()) (unit) into out[k], channel c: the
+  // reference sums' leaves (core/shrm/fast_reference.cc), equal to Transfer direction by direction
+  // up to rounding. Default: Transfer per direction; microfacet computes its asin and exp in
+  // vectors (core/brdf/vector_math.h).
+  virtual void TransferMany(const Vec3& n, const Vec3& v, std::span<const Vec3> w, int c,
+                            double* out) const;
+
   // rho-hat in the frame whose pole is R (or T): light at (theta_i, phi), view at (theta_o, 0).
   // Default: builds pole = +z, V, w (and N = normalize(R + V) for kReflection) and calls
   // Transfer. theta_o = pi (V = -R) is degenerate for kReflection; callers avoid it.

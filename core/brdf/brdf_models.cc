@@ -145,29 +145,44 @@ double MicrofacetBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int
   return std::exp(-theta_h * theta_h) / (4.0 * kPi * sigma_ * sigma_);
 }
 
+// Transfer at w[0 .. count), count <= kArcChunk: Transfer's arithmetic lane by lane, the asin
+// and exp of the chunk in vectors (TransferMany and ReparamTransferArc).
+void MicrofacetBrdf::TransferChunk(const Vec3& n, const Vec3& v, const Vec3* w, int count,
+                                   double* out) const {
+  const double nv = n.Dot(v);
+  const double norm = 1.0 / (4.0 * kPi * sigma_ * sigma_);
+  double t[kArcChunk], keep[kArcChunk];
+  for (int k = 0; k < count; ++k) {
+    const Vec3 h_sum = v + w[k];
+    const double len = h_sum.Norm();
+    const Vec3 d = n - h_sum * (len > 0 ? 1.0 / len : 0.0);
+    t[k] = std::min(1.0, d.Norm() * 0.5);  // AngleBetween: 2 asin(|n - h| / 2)
+    keep[k] = n.Dot(w[k]) > 0 && nv > 0 && len > 0 ? norm : 0.0;
+  }
+  internal::VectorAsin(t, t, count);
+  for (int k = 0; k < count; ++k) {
+    const double theta_h = 2.0 * t[k] / sigma_;
+    t[k] = -theta_h * theta_h;
+  }
+  internal::VectorExp(t, t, count);
+  for (int k = 0; k < count; ++k) out[k] = keep[k] * t[k];
+}
+
+void MicrofacetBrdf::TransferMany(const Vec3& n, const Vec3& v, std::span<const Vec3> w, int,
+                                  double* out) const {
+  for (size_t first = 0; first < w.size(); first += kArcChunk) {
+    const int count = static_cast<int>(std::min<size_t>(kArcChunk, w.size() - first));
+    TransferChunk(n, v, w.data() + first, count, out + first);
+  }
+}
+
 void MicrofacetBrdf::ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
                                         double* out) const {
-  // Transfer's arithmetic, lane by lane; the asin and exp of each chunk in vectors.
   const ArcFrame f(theta_i, theta_o);
-  const double nv = f.n.Dot(f.v);
-  const double norm = 1.0 / (4.0 * kPi * sigma_ * sigma_);
   ForArcChunks(phi, [&](int first, int count) {
-    double t[kArcChunk], keep[kArcChunk];
-    for (int k = 0; k < count; ++k) {
-      const Vec3 w = f.W(phi, first + k);
-      const Vec3 h_sum = f.v + w;
-      const double len = h_sum.Norm();
-      const Vec3 d = f.n - h_sum * (len > 0 ? 1.0 / len : 0.0);
-      t[k] = std::min(1.0, d.Norm() * 0.5);  // AngleBetween: 2 asin(|n - h| / 2)
-      keep[k] = f.n.Dot(w) > 0 && nv > 0 && len > 0 ? norm : 0.0;
-    }
-    internal::VectorAsin(t, t, count);
-    for (int k = 0; k < count; ++k) {
-      const double theta_h = 2.0 * t[k] / sigma_;
-      t[k] = -theta_h * theta_h;
-    }
-    internal::VectorExp(t, t, count);
-    for (int k = 0; k < count; ++k) out[first + k] = keep[k] * t[k];
+    Vec3 w[kArcChunk];
+    for (int k = 0; k < count; ++k) w[k] = f.W(phi, first + k);
+    TransferChunk(f.n, f.v, w, count, out + first);
   });
 }
 

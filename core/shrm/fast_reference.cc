@@ -328,12 +328,28 @@ class QueryState {
     return r[0] + r[1] + r[2];
   }
 
+  // A leaf's samples, kLeafBatch at a time through Brdf::TransferMany (a grey model once for the
+  // three colours).
   void AddLeaf(const FastReference::Node& node) {
-    Rgb r;
-    for (int32_t k = node.begin; k < node.end; ++k) {
-      const FastReference::Sample& s = samples_[k];
-      Rho(s.Dir(), r);
-      for (int c = 0; c < 3; ++c) total_[c] += s.weight[c] * r[c];
+    constexpr int kLeafBatch = kFastReferenceLeafSamples;
+    std::array<Vec3, kLeafBatch> dirs;
+    std::array<double, kLeafBatch> rho;
+    for (int32_t first = node.begin; first < node.end; first += kLeafBatch) {
+      const int count = std::min<int32_t>(kLeafBatch, node.end - first);
+      for (int k = 0; k < count; ++k) dirs[k] = samples_[first + k].Dir();
+      evaluations_ += count;
+      const std::span<const Vec3> w(dirs.data(), count);
+      for (int c = 0; c < (channels_ == 1 ? 1 : 3); ++c) {
+        brdf_.TransferMany(n_, v_, w, std::min(c, channels_ - 1), rho.data());
+        for (int k = 0; k < count; ++k) {
+          const FastReference::Sample& s = samples_[first + k];
+          if (channels_ == 1) {
+            for (int cc = 0; cc < 3; ++cc) total_[cc] += s.weight[cc] * rho[k];
+          } else {
+            total_[c] += s.weight[c] * rho[k];
+          }
+        }
+      }
     }
   }
 
@@ -347,6 +363,16 @@ class QueryState {
     if (node.child_count == 0) {
       AddLeaf(node);
       return;
+    }
+    // Either way the children are read next (opened, or evaluated as points with the gradient):
+    // their block and the gradient are fetched while the admissibility test runs (a query is
+    // bound by these scattered reads, not by its arithmetic).
+    const char* kids = reinterpret_cast<const char*>(&nodes_[node.first_child]);
+    for (size_t b = 0; b < node.child_count * sizeof(FastReference::Node); b += 64)
+      __builtin_prefetch(kids + b);
+    if (node.gradient >= 0) {
+      const char* g = reinterpret_cast<const char*>(&gradients_[node.gradient]);
+      for (size_t b = 0; b < sizeof(FastReference::Gradient); b += 64) __builtin_prefetch(g + b);
     }
     if (!Admissible(node)) {
       for (int32_t k = 0; k < node.child_count; ++k) Process(node.first_child + k, nullptr);
