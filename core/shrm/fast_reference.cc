@@ -44,6 +44,18 @@ constexpr double kMinRichardson = 0.05;
 // Eigenvalues of the children's offset matrix below this fraction of the largest are dropped
 // (children on a line fix the gradient along the line only).
 constexpr double kGradientRankTolerance = 1e-6;
+// A node N's horizon cuts (AddStraddling): its error bound is this times its light times the
+// largest |rho-hat| found on it. Test (b) keeps the node at least four radii from the lobe's
+// axis (or within a quarter of its scale), where rho-hat changes across the cap by less than the
+// margin between the probed points and the cap's extremes.
+constexpr double kStraddleSafety = 2.0;
+// A model "jumps" at N's horizon (AddStraddling pays) when rho-hat just above it is at least
+// this fraction of its value kJumpProbeHeight (radians) higher; one that falls to zero there
+// linearly (a cosine factor: GGX, Lambert) gives about kHorizonNudge / kJumpProbeHeight.
+constexpr double kJumpRatio = 0.1;
+constexpr double kJumpProbeHeight = 1e-2;
+// How far above (and below) the horizon AddStraddling probes rho-hat's value at the cut.
+constexpr double kHorizonNudge = 1e-6;
 
 uint64_t Spread(uint32_t x) {  // bits of x at the even positions
   uint64_t v = x;
@@ -141,13 +153,12 @@ struct Sums {
   double lum = 0, lum_sq = 0, count = 0, plain_sq = 0;
   Vec3 lum_dir, plain;
 
-  void Add(const FastReference::Sample& s) {
-    const Vec3 dir = s.Dir();
+  void Add(const Vec3& dir, const std::array<float, 3>& w) {
     double l = 0;
     for (int c = 0; c < 3; ++c) {
-      weight[c] += s.weight[c];
-      first[c] = first[c] + dir * s.weight[c];
-      l += kLuminance[c] * s.weight[c];
+      weight[c] += w[c];
+      first[c] = first[c] + dir * w[c];
+      l += kLuminance[c] * w[c];
     }
     l = std::max(l, 0.0);
     const double sq = dir.Dot(dir);
@@ -286,7 +297,7 @@ enum class Mode { kReflection, kTangentProfile, kExact };
 class QueryState {
  public:
   QueryState(const Brdf& brdf, const Vec3& n, const Vec3& v,
-             const std::vector<FastReference::Sample>& samples,
+             const FastReference::SampleStore& samples,
              const std::vector<FastReference::Node>& nodes,
              const std::vector<FastReference::Gradient>& gradients, const Rgb& inv_total)
       : brdf_(brdf),
@@ -322,6 +333,23 @@ class QueryState {
       for (int c = 0; c < 3; ++c) out[c] = brdf_.Transfer(n_, v_, w, std::min(c, channels_ - 1));
     }
   }
+  // Rho at count <= kMaxBatch directions, through Brdf::TransferMany.
+  static constexpr int kMaxBatch = 8;
+  void RhoMany(const Vec3* w, int count, Rgb* out) {
+    evaluations_ += count;
+    std::array<double, kMaxBatch> rho;
+    const std::span<const Vec3> dirs(w, count);
+    for (int c = 0; c < (channels_ == 1 ? 1 : 3); ++c) {
+      brdf_.TransferMany(n_, v_, dirs, std::min(c, channels_ - 1), rho.data());
+      for (int k = 0; k < count; ++k) {
+        if (channels_ == 1) {
+          out[k] = {rho[k], rho[k], rho[k]};
+        } else {
+          out[k][c] = rho[k];
+        }
+      }
+    }
+  }
   double RhoSum(const Vec3& w) {
     Rgb r;
     Rho(w, r);
@@ -336,17 +364,17 @@ class QueryState {
     std::array<double, kLeafBatch> rho;
     for (int32_t first = node.begin; first < node.end; first += kLeafBatch) {
       const int count = std::min<int32_t>(kLeafBatch, node.end - first);
-      for (int k = 0; k < count; ++k) dirs[k] = samples_[first + k].Dir();
+      samples_.Dirs(first, count, dirs.data());
       evaluations_ += count;
       const std::span<const Vec3> w(dirs.data(), count);
       for (int c = 0; c < (channels_ == 1 ? 1 : 3); ++c) {
         brdf_.TransferMany(n_, v_, w, std::min(c, channels_ - 1), rho.data());
         for (int k = 0; k < count; ++k) {
-          const FastReference::Sample& s = samples_[first + k];
+          const std::array<float, 3>& weight = samples_.Weight(first + k);
           if (channels_ == 1) {
-            for (int cc = 0; cc < 3; ++cc) total_[cc] += s.weight[cc] * rho[k];
+            for (int cc = 0; cc < 3; ++cc) total_[cc] += weight[cc] * rho[k];
           } else {
-            total_[c] += s.weight[c] * rho[k];
+            total_[c] += weight[c] * rho[k];
           }
         }
       }
@@ -374,24 +402,32 @@ class QueryState {
       const char* g = reinterpret_cast<const char*>(&gradients_[node.gradient]);
       for (size_t b = 0; b < sizeof(FastReference::Gradient); b += 64) __builtin_prefetch(g + b);
     }
-    if (!Admissible(node)) {
+    const bool straddles =
+        horizon_ && std::abs(n_.Dot(node.centre)) <= node.sin_radius + kGeometrySlack;
+    if (straddles ? !(bound_straddling_ && LobeAdmissible(node)) : !Admissible(node)) {
       for (int32_t k = 0; k < node.child_count; ++k) Process(node.first_child + k, nullptr);
+      return;
+    }
+    if (straddles) {
+      AddStraddling(i, node);
       return;
     }
     Record rec;
     rec.node = i;
-    Rgb r;
-    if (rho != nullptr) {
-      r = *rho;
-    } else {
-      Rho(node.centre, r);
-    }
+    // The children's centres (and the node's own when its parent did not give it) in one batch.
+    std::array<Vec3, 5> at;
+    std::array<Rgb, 5> got;
+    for (int32_t k = 0; k < node.child_count; ++k) at[k] = nodes_[node.first_child + k].centre;
+    const int batch = node.child_count + (rho == nullptr ? 1 : 0);
+    at[node.child_count] = node.centre;
+    RhoMany(at.data(), batch, got.data());
+    const Rgb r = rho != nullptr ? *rho : got[node.child_count];
     Rgb point;
     for (int c = 0; c < 3; ++c) point[c] = node.weight[c] * r[c];
     rec.value = {0, 0, 0};
     for (int32_t k = 0; k < node.child_count; ++k) {
       const FastReference::Node& child = nodes_[node.first_child + k];
-      Rho(child.centre, rec.child_rho[k]);
+      rec.child_rho[k] = got[k];
       for (int c = 0; c < 3; ++c) rec.value[c] += child.weight[c] * rec.child_rho[k][c];
     }
     if (node.gradient >= 0) {  // first-order terms of the channels' own centroids
@@ -403,13 +439,20 @@ class QueryState {
           rec.value[c] += delta * g.children[c][k];
         }
     }
-    double priority = 0;
     for (int c = 0; c < 3; ++c) {
       // Richardson: with errors proportional to the light's spread, Q's error is
       // ratio x (Q - P), ratio = spread within the children / spread between them.
       const double delta = node.richardson * (rec.value[c] - point[c]);
       rec.error[c] = kFastReferenceErrorSafety * std::abs(delta);
       rec.value[c] += delta;
+    }
+    Push(rec);
+  }
+
+  // Counts a record's value and error and puts it in the heap by its weighted error.
+  void Push(const Record& rec) {
+    double priority = 0;
+    for (int c = 0; c < 3; ++c) {
       priority += rec.error[c] * inv_total_[c];
       total_[c] += rec.value[c];
       error_[c] += rec.error[c];
@@ -417,6 +460,66 @@ class QueryState {
     heap_.push_back({priority, static_cast<int32_t>(records_.size())});
     records_.push_back(rec);
     std::push_heap(heap_.begin(), heap_.end());
+  }
+
+  // A node that N's horizon cuts (of a model that jumps there), far enough from the lobe for
+  // rho-hat to vary slowly across it but for the cut: its children as points (zero below the
+  // horizon of a clipped model), and as its error the whole node's light times kStraddleSafety
+  // times the largest |rho-hat| on it, taken at the children's centres, at the cap's points
+  // nearest the lobe's axis, N and their bisector, and at the horizon's points nearest the
+  // centre and the axis (on both sides of a model that is not clipped). Whatever the light's
+  // layout within the node, |value - children as points| is within that; most of the horizon's
+  // nodes sit where rho-hat is negligible, and only those whose bound matters are refined
+  // (before session 39 every node the horizon cut was opened down to its leaves: about half of
+  // a microfacet query's evaluations).
+  void AddStraddling(int32_t i, const FastReference::Node& node) {
+    Record rec;
+    rec.node = i;
+    rec.value = {0, 0, 0};
+    std::array<Vec3, kMaxBatch> at;
+    int count = 0;
+    for (int32_t k = 0; k < node.child_count; ++k)
+      at[count++] = nodes_[node.first_child + k].centre;
+    // The cap's points nearest the lobe's axis, N (the cosine's peak) and their bisector: the
+    // centre turned towards each by the radius (or the direction itself when the cap holds it).
+    const Vec3& c0 = node.centre;
+    const auto nearest_to = [&](const Vec3& d) {
+      Vec3 toward = d - c0 * c0.Dot(d);
+      const double sin_to = toward.Norm();
+      if (!(std::atan2(sin_to, c0.Dot(d)) > node.radius) || !(sin_to > 0)) return d;
+      return c0 * std::cos(node.radius) + toward * (std::sin(node.radius) / sin_to);
+    };
+    const Vec3 mid = axis_ + n_;
+    const std::array<Vec3, 3> near = {nearest_to(axis_), nearest_to(n_),
+                                      nearest_to(mid.Norm() > 0 ? mid.Normalized() : n_)};
+    std::array<Rgb, 2 * kMaxBatch> got;
+    for (const Vec3& p : near) at[count++] = p;
+    RhoMany(at.data(), count, got.data());
+    int probes = count;
+    count = 0;
+    for (const Vec3& p : {c0, near[0]}) {
+      Vec3 h = p - n_ * n_.Dot(p);
+      const double len = h.Norm();
+      if (!(len > 0)) continue;
+      h = h * (1.0 / len);
+      for (double side : {1.0, -1.0}) {
+        if (side < 0 && cull_) break;
+        at[count++] = (h + n_ * (side * kHorizonNudge)).Normalized();
+      }
+    }
+    RhoMany(at.data(), count, got.data() + probes);
+    probes += count;
+    Rgb largest{0, 0, 0};
+    for (int k = 0; k < probes; ++k)
+      for (int c = 0; c < 3; ++c) largest[c] = std::max(largest[c], std::abs(got[k][c]));
+    for (int32_t k = 0; k < node.child_count; ++k) {
+      const FastReference::Node& child = nodes_[node.first_child + k];
+      rec.child_rho[k] = got[k];
+      for (int c = 0; c < 3; ++c) rec.value[c] += child.weight[c] * rec.child_rho[k][c];
+    }
+    for (int c = 0; c < 3; ++c)
+      rec.error[c] = kStraddleSafety * std::abs(node.weight[c]) * largest[c];
+    Push(rec);
   }
 
   // Refines the node with the largest error estimate until the estimate meets the target.
@@ -453,8 +556,12 @@ class QueryState {
  private:
   bool Admissible(const FastReference::Node& node) const {
     if (!(node.richardson < std::numeric_limits<double>::infinity())) return false;
-    const double r = node.radius;
     if (horizon_ && std::abs(n_.Dot(node.centre)) <= node.sin_radius + kGeometrySlack) return false;
+    return LobeAdmissible(node);
+  }
+  // Test (b) of the header: the node is small against its distance to the lobe's feature.
+  bool LobeAdmissible(const FastReference::Node& node) const {
+    const double r = node.radius;
     if (mode_ == Mode::kReflection) {
       // r <= eta max(d, w): d >= r / eta is cos d <= cos(r / eta) (no trigonometry per node).
       return r <= kFastReferenceEta * scale_ || node.centre.Dot(axis_) <= node.cos_open;
@@ -472,6 +579,19 @@ class QueryState {
     axis_ = n_ * (2 * n_.Dot(v_)) - v_;
     const double len = axis_.Norm();
     axis_ = len > 0 ? axis_ * (1.0 / len) : n_;
+    if (horizon_) {
+      // Does rho-hat jump at the horizon (the simplified microfacet of eq. 5.34)? Probed below the
+      // lobe's axis. A node the horizon cuts is bounded (AddStraddling) only then: where rho-hat
+      // falls to zero at the horizon, the bound is about as large as the node's whole
+      // contribution and the node is refined anyway (measured: GGX and Lambert queries no quicker
+      // for it, microfacet's 1.4-2x quicker).
+      Vec3 h = axis_ - n_ * n_.Dot(axis_);
+      h = h.Norm() > 1e-9 ? h.Normalized() : Perpendicular(n_);
+      const double at = RhoSum((h + n_ * kHorizonNudge).Normalized());
+      const double above =
+          RhoSum((h * std::cos(kJumpProbeHeight) + n_ * std::sin(kJumpProbeHeight)));
+      bound_straddling_ = std::abs(at) >= kJumpRatio * std::abs(above);
+    }
     scale_ = 0;
     const double peak = RhoSum(axis_);
     if (!(peak > 0)) return;
@@ -515,13 +635,14 @@ class QueryState {
 
   const Brdf& brdf_;
   const Vec3 n_, v_;
-  const std::vector<FastReference::Sample>& samples_;
+  const FastReference::SampleStore& samples_;
   const std::vector<FastReference::Node>& nodes_;
   const std::vector<FastReference::Gradient>& gradients_;
   const Rgb inv_total_;
   const int channels_;
   Mode mode_ = Mode::kReflection;
   bool horizon_ = false, cull_ = false;
+  bool bound_straddling_ = false;  // nodes the horizon cuts are bounded, not opened
   Vec3 axis_;
   double scale_ = 0;  // the lobe's angular scale (0: unknown)
   double theta_star_ = 0, theta_margin_ = 0;
@@ -548,19 +669,14 @@ absl::StatusOr<FastReference> FastReference::Create(const EnvMap& env, int expec
     const int w = env.width(), h = env.height();
     // A W x W/2 map, W/2 a power of two: its two W/2 x W/2 halves (azimuth) are quadtrees of
     // themselves, their Morton order made directly (no keys computed from directions, no sort).
-    if (expected_queries <= kLatLongTreeMaxQueries && w == 2 * h &&
+    if (expected_queries <= kLatLongTreeMaxQueries && w == 2 * h && h >= 4 &&
         std::has_single_bit(static_cast<unsigned>(h)) && h <= (1 << kMortonBits)) {
       const int bits = std::countr_zero(static_cast<unsigned>(h));
-      const size_t n = static_cast<size_t>(w) * h, square = static_cast<size_t>(h) * h;
+      const size_t n = static_cast<size_t>(w) * h;
       Ordered ordered;
       ordered.face_shift = 2 * bits;
       ordered.count = n;
-      ordered.index_of = [w, h, square](size_t k) {
-        const uint64_t code = k % square;
-        return static_cast<int32_t>(static_cast<size_t>(Compact(code >> 1)) * w +
-                                    (k / square) * static_cast<size_t>(h) + Compact(code));
-      };
-      return CreateFrom(std::move(ordered), at);
+      return CreateFrom(std::move(ordered), at, &sampler);
     }
     return CreateFrom(sampler.size(), at);
   }
@@ -603,8 +719,45 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
   return CreateFrom(std::move(ordered), sample_at);
 }
 
+Vec3 FastReference::SampleStore::Dir(int32_t k) const {
+  if (height == 0) return list[k].Dir();
+  // Position k of the tree: half k >> 2 bits (azimuth), then the Morton code of (row, column)
+  // within the half's height x height square.
+  const uint64_t code = static_cast<uint64_t>(k) & ((uint64_t{1} << (2 * row_bits)) - 1);
+  const int row = static_cast<int>(Compact(code >> 1));
+  const int col =
+      static_cast<int>((static_cast<uint64_t>(k) >> (2 * row_bits)) * height + Compact(code));
+  const double s = row_sin[row];
+  return {s * col_sin[col], row_cos[row], -s * col_cos[col]};
+}
+
+void FastReference::SampleStore::Dirs(int32_t begin, int count, Vec3* out) const {
+  if (height == 0 || count != 16 || begin % 16 != 0) {
+    for (int j = 0; j < count; ++j) out[j] = Dir(begin + j);
+    return;
+  }
+  // An aligned block of 16: a 4 x 4 block of pixels, its rows' and columns' factors read once.
+  const uint64_t code = static_cast<uint64_t>(begin) & ((uint64_t{1} << (2 * row_bits)) - 1);
+  const int row = static_cast<int>(Compact(code >> 1));
+  const int col =
+      static_cast<int>((static_cast<uint64_t>(begin) >> (2 * row_bits)) * height + Compact(code));
+  double rs[4], rc[4], cs[4], cc[4];
+  for (int t = 0; t < 4; ++t) {
+    rs[t] = row_sin[row + t];
+    rc[t] = row_cos[row + t];
+    cs[t] = col_sin[col + t];
+    cc[t] = col_cos[col + t];
+  }
+  for (int j = 0; j < 16; ++j) {
+    // Morton digit j: row offset from its odd bits, column offset from its even bits.
+    const int dr = ((j >> 1) & 1) | ((j >> 2) & 2), dc = (j & 1) | ((j >> 1) & 2);
+    out[j] = {rs[dr] * cs[dc], rc[dr], -rs[dr] * cc[dc]};
+  }
+}
+
 absl::StatusOr<FastReference> FastReference::CreateFrom(
-    Ordered ordered, absl::FunctionRef<EnvSample(size_t)> sample_at) {
+    Ordered ordered, absl::FunctionRef<EnvSample(size_t)> sample_at,
+    const LatLongSampler* lat_long) {
   const size_t n = ordered.count;
   if (n == 0) return absl::InvalidArgumentError("fast reference: no environment samples");
   if (n > static_cast<size_t>(INT32_MAX)) {
@@ -623,11 +776,69 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
     return 4;
   };
   FastReference r;
-  r.samples_.resize(n);
+  SampleStore& store = r.samples_;
+  if (lat_long != nullptr) {
+    store.height = lat_long->height();
+    store.row_bits = std::countr_zero(static_cast<unsigned>(store.height));
+    store.weight.resize(n);
+    store.row_sin.resize(store.height);
+    store.row_cos.resize(store.height);
+    for (int row = 0; row < store.height; ++row) {
+      store.row_sin[row] = lat_long->RowSin(row);
+      store.row_cos[row] = lat_long->RowCos(row);
+    }
+    store.col_sin.resize(lat_long->width());
+    store.col_cos.resize(lat_long->width());
+    for (int col = 0; col < lat_long->width(); ++col) {
+      store.col_sin[col] = lat_long->ColSin(col);
+      store.col_cos[col] = lat_long->ColCos(col);
+    }
+  } else {
+    store.list.resize(n);
+  }
   Rgb total{0, 0, 0}, total_abs{0, 0, 0};
   double solid_angle = 0;
-  for (size_t k = 0; k < n; ++k) {
-    const int32_t i = identity ? ordered.index_of(k) : ordered.index[k];
+  const auto add_weight = [&total, &total_abs](std::array<float, 3>& weight, const float* rgb,
+                                               double omega) {
+    for (int c = 0; c < 3; ++c) {
+      weight[c] = static_cast<float>(static_cast<double>(rgb[c]) * omega);
+      total[c] += weight[c];
+      total_abs[c] += std::abs(weight[c]);
+    }
+  };
+  if (lat_long != nullptr) {
+    // The map's pixels read a 4 x 4 block (an aligned 16 of the tree order) at a time; the
+    // directions are the tables' (unit by construction).
+    const int w = lat_long->width(), h = store.height;
+    for (int row = 0; row < h; ++row) {
+      const double omega = lat_long->RowSolidAngle(row);
+      if (!std::isfinite(omega) || omega < 0) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "fast reference: sample ", static_cast<size_t>(row) * w, " has solid angle ", omega));
+      }
+    }
+    const uint64_t square_mask = (uint64_t{1} << (2 * store.row_bits)) - 1;
+    for (size_t k0 = 0; k0 < n; k0 += 16) {
+      const uint64_t code = k0 & square_mask;
+      const int row0 = static_cast<int>(Compact(code >> 1));
+      const int col0 = static_cast<int>((k0 >> (2 * store.row_bits)) * h + Compact(code));
+      for (int j = 0; j < 16; ++j) {
+        const int row = row0 + (((j >> 1) & 1) | ((j >> 2) & 2));
+        const int col = col0 + ((j & 1) | ((j >> 1) & 2));
+        const size_t i = static_cast<size_t>(row) * w + col;
+        const float* rgb = lat_long->pixels() + 3 * i;
+        if (!std::isfinite(rgb[0]) || !std::isfinite(rgb[1]) || !std::isfinite(rgb[2])) {
+          return absl::InvalidArgumentError(
+              absl::StrCat("fast reference: sample ", i, " has non-finite radiance"));
+        }
+        const double omega = lat_long->RowSolidAngle(row);
+        add_weight(store.weight[k0 + j], rgb, omega);
+        solid_angle += omega;
+      }
+    }
+  }
+  for (size_t k = 0; lat_long == nullptr && k < n; ++k) {
+    const int32_t i = ordered.index[k];
     const EnvSample s = sample_at(i);
     const double norm = s.dir.Norm();
     if (!std::isfinite(norm) || std::abs(norm - 1) > kUnitTolerance) {
@@ -644,14 +855,10 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
             absl::StrCat("fast reference: sample ", i, " has non-finite radiance"));
       }
     }
-    Sample& out = r.samples_[k];
+    Sample& out = store.list[k];
     out.dir = {static_cast<float>(s.dir.x), static_cast<float>(s.dir.y),
                static_cast<float>(s.dir.z)};
-    for (int c = 0; c < 3; ++c) {
-      out.weight[c] = static_cast<float>(static_cast<double>(s.rgb[c]) * s.solid_angle);
-      total[c] += out.weight[c];
-      total_abs[c] += std::abs(out.weight[c]);
-    }
+    add_weight(out.weight, s.rgb.data(), s.solid_angle);
     solid_angle += s.solid_angle;
   }
   std::vector<int32_t>().swap(ordered.index);
@@ -698,8 +905,14 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
     Sums sums;
     std::array<Sums, 4> child;
     const int32_t first = static_cast<int32_t>(r.nodes_.size());
+    std::array<Vec3, kFastReferenceLeafSamples> dirs;
     if (groups == 0) {
-      for (int32_t k = begin; k < end; ++k) sums.Add(r.samples_[k]);
+      // A leaf holds at most kFastReferenceLeafSamples samples, except coincident ones.
+      for (int32_t k = begin; k < end; k += kFastReferenceLeafSamples) {
+        const int batch = std::min<int32_t>(kFastReferenceLeafSamples, end - k);
+        r.samples_.Dirs(k, batch, dirs.data());
+        for (int j = 0; j < batch; ++j) sums.Add(dirs[j], r.samples_.Weight(k + j));
+      }
     } else {
       // Within the exact reservation: references to nodes stay valid.
       r.nodes_.resize(r.nodes_.size() + groups);
@@ -716,9 +929,16 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
     double radius = 0;
     if (groups == 0) {  // a leaf: the cap of its samples
       double chord2 = 0;
-      for (int32_t k = begin; k < end; ++k) {
-        const Vec3 d = r.samples_[k].Dir() - node.centre;
-        chord2 = std::max(chord2, d.Dot(d));
+      if (end - begin <= kFastReferenceLeafSamples) {  // the directions are at hand
+        for (int j = 0; j < end - begin; ++j) {
+          const Vec3 d = dirs[j] - node.centre;
+          chord2 = std::max(chord2, d.Dot(d));
+        }
+      } else {
+        for (int32_t k = begin; k < end; ++k) {
+          const Vec3 d = r.samples_.Dir(k) - node.centre;
+          chord2 = std::max(chord2, d.Dot(d));
+        }
       }
       // Angle is increasing in the chord: the largest chord's angle is the largest angle.
       radius = ChordAngle(std::sqrt(chord2)) + kGeometrySlack;

@@ -10,7 +10,9 @@
 // 1024 x 512) is its own quadtree instead: its two W/2 x W/2 halves in the Morton order of their
 // pixels, made without keys or a sort (build 40 -> 17 ms and 19 MB instead of ~40 touched in a
 // `shrm prefilter`; a query makes ~1.3x the evaluations in the same time, its pixels' blocks
-// narrower near the poles; the same accuracy, tests/fast_reference_test.cc). Per node: the summed L
+// narrower near the poles; the same accuracy, tests/fast_reference_test.cc). It stores only the
+// samples' weights, a leaf's 4 x 4 pixels read as a block, and makes their directions from the
+// map's row and column tables (session 39: build 22 -> 12 ms, 13 MB). Per node: the summed L
 // dOmega per channel, the luminance-weighted mean direction c (normalized) and the angular radius r
 // of a cap around c that holds every sample (a leaf's exact; an internal node's bounded from its
 // children's, max_j angle(c, c_j) + r_j, which is tight for uniform light). The build is linear
@@ -22,7 +24,15 @@
 //  (a) horizon: it does not straddle the plane of N (|N.c| > sin r + margin) for models that
 //      jump or kink there (clipped_at_normal_horizon(), and every kReflection model that is not
 //      radially symmetric); nodes wholly below the horizon of a clipped model are skipped (exact
-//      zeros);
+//      zeros). For a model that jumps there (probed per query below the lobe's axis: the
+//      simplified microfacet), a node that straddles it but passes (b) is used as its children's
+//      points with a bound instead of an estimate: its light times twice the largest |rho-hat|
+//      probed on it (its children's centres, the cap's points nearest the lobe's axis, N and
+//      their bisector, and the horizon's points nearest the centre and the axis), whatever the
+//      light's layout within it. Most of the horizon lies where rho-hat is negligible; only the
+//      nodes whose bound matters are refined (session 39: 19k -> 9k evaluations a microfacet
+//      query). Where rho-hat falls to zero at the horizon (GGX, Lambert) the bound is about the
+//      node's whole contribution and such nodes are opened as before;
 //  (b) lobe: r <= eta max(d, w) (Barnes-Hut opening criterion), d the angle from c to the lobe
 //      axis R = 2 (N.V) N - V and w the lobe's scale, probed per query: the smallest angle from R
 //      (along four great-circle directions) at which rho-hat differs from rho-hat(R) by a factor 2;
@@ -52,18 +62,17 @@
 // (no std::function).
 //
 // Measured (bench/reference_bench.cc, docs/shrm.md "Fast reference"; 1024 x 512, one core, CPU
-// time on a shared machine, session 35): 0.14-0.27 ms per direction for Phong, 0.22 ms Lambert,
-// 0.36-0.67 ms for the horizon-clipped microfacet/GGX, 0.7 ms Kajiya-Kay (4k-16k rho-hat
-// evaluations instead of 524288), 20-140x faster than the full sum; largest error over the four
-// bundled maps 4.8e-4 (tests/fast_reference_test.cc; the lat-long quadtree: 6.9e-4). The build:
-// ~35 ms and ~27 MB from a list of samples; ~17 ms from a 1024 x 512 lat-long map.
+// time on a shared machine, session 39, the lat-long tree): 0.12-0.23 ms per direction for
+// Phong, 0.16 ms Lambert, 0.17-0.29 ms microfacet, 0.34-0.46 ms GGX, 0.68 ms Kajiya-Kay (4.5k-20k
+// rho-hat evaluations instead of 524288), 30-170x faster than the full sum; largest error over
+// the four bundled maps 6.9e-4 (tests/fast_reference_test.cc). The build: ~35 ms and ~27 MB from
+// a list of samples; ~12 ms and ~13 MB from a 1024 x 512 lat-long map.
 #ifndef SHRM_CORE_SHRM_FAST_REFERENCE_H_
 #define SHRM_CORE_SHRM_FAST_REFERENCE_H_
 
 #include <array>
 #include <cstddef>
 #include <cstdint>
-#include <functional>
 #include <span>
 #include <vector>
 
@@ -161,6 +170,24 @@ class FastReference {
   struct Gradient {
     std::array<std::array<double, 4>, 3> parent{}, children{};
   };
+  // The samples in tree order (internal to the implementation): a list of Sample, or for a
+  // lat-long map's own tree only the weights (12 bytes a pixel instead of 24: half the fresh
+  // memory of a job's check), each direction made from its pixel's row and column as
+  // LatLongSampler makes it (in double precision).
+  struct SampleStore {
+    std::vector<Sample> list;                  // the cube faces' tree
+    std::vector<std::array<float, 3>> weight;  // the lat-long tree: L_c dOmega
+    std::vector<double> row_sin, row_cos, col_sin, col_cos;
+    int height = 0;    // > 0: the lat-long tree of a (2 height) x height map
+    int row_bits = 0;  // log2(height)
+    size_t size() const { return height > 0 ? weight.size() : list.size(); }
+    Vec3 Dir(int32_t k) const;
+    // Dir(begin + j) for j < count into out.
+    void Dirs(int32_t begin, int count, Vec3* out) const;
+    const std::array<float, 3>& Weight(int32_t k) const {
+      return height > 0 ? weight[k] : list[k].weight;
+    }
+  };
 
  private:
   // Create() over n samples read by index: keyed by cube face and Morton order, sorted.
@@ -168,22 +195,24 @@ class FastReference {
                                                   absl::FunctionRef<EnvSample(size_t)> sample_at);
   // The samples in their tree order: key[k] (ascending; its bits from face_shift up name the
   // root, those below are 2-bit quadtree digits) is sample index[k]'s.
-  // Without keys (key empty): position k's key is k itself and index_of(k) its sample.
+  // Without keys (key empty, only with a LatLongSampler): position k's key is k itself, and its
+  // pixel the Morton code's row and column in half k >> face_shift of the map.
   struct Ordered {
     size_t count = 0;
     std::vector<uint64_t> key;
     std::vector<int32_t> index;
-    std::function<int32_t(size_t)> index_of;
     int face_shift = 0;
   };
+  // `lat_long`: the identity-keyed tree of that sampler's map (directions from its tables).
   static absl::StatusOr<FastReference> CreateFrom(Ordered ordered,
-                                                  absl::FunctionRef<EnvSample(size_t)> sample_at);
+                                                  absl::FunctionRef<EnvSample(size_t)> sample_at,
+                                                  const LatLongSampler* lat_long = nullptr);
   FastReference() = default;
   struct QueryStats;
   std::array<double, 3> Query(const Brdf& brdf, const Vec3& n, const Vec3& v, double tolerance,
                               QueryStats* stats) const;
 
-  std::vector<Sample> samples_;  // in Morton order
+  SampleStore samples_;  // in Morton order
   std::vector<Node> nodes_;
   std::vector<Gradient> gradients_;
   std::vector<int32_t> roots_;         // one per non-empty cube face
