@@ -153,21 +153,46 @@ struct Sums {
   double lum = 0, lum_sq = 0, count = 0, plain_sq = 0;
   Vec3 lum_dir, plain;
 
-  void Add(const Vec3& dir, const std::array<float, 3>& w) {
-    double l = 0;
-    for (int c = 0; c < 3; ++c) {
-      weight[c] += w[c];
-      first[c] = first[c] + dir * w[c];
-      l += kLuminance[c] * w[c];
+  // Adds n <= kFastReferenceLeafSamples samples given as separate coordinates and weights (a
+  // leaf: the loops run in vector lanes).
+  void AddBlock(int n, const double* x, const double* y, const double* z,
+                const std::array<float, 3>* w) {
+    double l[kFastReferenceLeafSamples], sq[kFastReferenceLeafSamples];
+    for (int j = 0; j < n; ++j) {
+      sq[j] = x[j] * x[j] + y[j] * y[j] + z[j] * z[j];
+      l[j] = std::max(kLuminance[0] * w[j][0] + kLuminance[1] * w[j][1] + kLuminance[2] * w[j][2],
+                      0.0);
     }
-    l = std::max(l, 0.0);
-    const double sq = dir.Dot(dir);
-    lum += l;
-    lum_sq += l * sq;
-    lum_dir = lum_dir + dir * l;
-    count += 1;
-    plain_sq += sq;
-    plain = plain + dir;
+    for (int c = 0; c < 3; ++c) {
+      double s = 0, fx = 0, fy = 0, fz = 0;
+      for (int j = 0; j < n; ++j) {
+        const double wc = w[j][c];
+        s += wc;
+        fx += wc * x[j];
+        fy += wc * y[j];
+        fz += wc * z[j];
+      }
+      weight[c] += s;
+      first[c] = first[c] + Vec3{fx, fy, fz};
+    }
+    double sl = 0, slsq = 0, lx = 0, ly = 0, lz = 0, ssq = 0, px = 0, py = 0, pz = 0;
+    for (int j = 0; j < n; ++j) {
+      sl += l[j];
+      slsq += l[j] * sq[j];
+      lx += l[j] * x[j];
+      ly += l[j] * y[j];
+      lz += l[j] * z[j];
+      ssq += sq[j];
+      px += x[j];
+      py += y[j];
+      pz += z[j];
+    }
+    lum += sl;
+    lum_sq += slsq;
+    lum_dir = lum_dir + Vec3{lx, ly, lz};
+    count += n;
+    plain_sq += ssq;
+    plain = plain + Vec3{px, py, pz};
   }
   void Merge(const Sums& o) {
     for (int c = 0; c < 3; ++c) {
@@ -235,18 +260,21 @@ void SetGradient(std::vector<FastReference::Node>& nodes,
     m11 += p[j][1] * p[j][1];
   }
   // Pseudo-inverse of the symmetric 2 x 2 M (children on a line give a rank-1 M).
-  const double tr = m00 + m11, disc = std::hypot(m00 - m11, 2 * m01);
+  // sqrt(a^2 + b^2) rather than std::hypot (~2 ms a build): the entries are sums of squared
+  // offsets of unit vectors, far from overflow and underflow.
+  const auto norm2 = [](double u, double t) { return std::sqrt(u * u + t * t); };
+  const double tr = m00 + m11, disc = norm2(m00 - m11, 2 * m01);
   const double lambda[2] = {0.5 * (tr + disc), 0.5 * (tr - disc)};
   if (!(lambda[0] > 0)) return;
   double inv00 = 0, inv01 = 0, inv11 = 0;
   for (double l : lambda) {
     if (l <= kGradientRankTolerance * lambda[0]) continue;
     double ex = m01, ey = l - m00;
-    if (std::hypot(ex, ey) < std::hypot(l - m11, m01)) {
+    if (norm2(ex, ey) < norm2(l - m11, m01)) {
       ex = l - m11;
       ey = m01;
     }
-    const double len = std::hypot(ex, ey);
+    const double len = norm2(ex, ey);
     if (len == 0) {  // M = l I
       ex = 1;
       ey = 0;
@@ -780,7 +808,8 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
   if (lat_long != nullptr) {
     store.height = lat_long->height();
     store.row_bits = std::countr_zero(static_cast<unsigned>(store.height));
-    store.weight.resize(n);
+    store.weight = std::make_unique_for_overwrite<std::array<float, 3>[]>(n);
+    store.weight_count = n;
     store.row_sin.resize(store.height);
     store.row_cos.resize(store.height);
     for (int row = 0; row < store.height; ++row) {
@@ -817,23 +846,26 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
             "fast reference: sample ", static_cast<size_t>(row) * w, " has solid angle ", omega));
       }
     }
-    const uint64_t square_mask = (uint64_t{1} << (2 * store.row_bits)) - 1;
-    for (size_t k0 = 0; k0 < n; k0 += 16) {
-      const uint64_t code = k0 & square_mask;
-      const int row0 = static_cast<int>(Compact(code >> 1));
-      const int col0 = static_cast<int>((k0 >> (2 * store.row_bits)) * h + Compact(code));
-      for (int j = 0; j < 16; ++j) {
-        const int row = row0 + (((j >> 1) & 1) | ((j >> 2) & 2));
-        const int col = col0 + ((j & 1) | ((j >> 1) & 2));
-        const size_t i = static_cast<size_t>(row) * w + col;
-        const float* rgb = lat_long->pixels() + 3 * i;
-        if (!std::isfinite(rgb[0]) || !std::isfinite(rgb[1]) || !std::isfinite(rgb[2])) {
-          return absl::InvalidArgumentError(
-              absl::StrCat("fast reference: sample ", i, " has non-finite radiance"));
+    // Four rows at a time, read in order (the hardware prefetches them), each 4 x 4 block
+    // written to its 16 consecutive places of the tree order (192 bytes, three cache lines).
+    for (int row0 = 0; row0 < h; row0 += 4) {
+      const uint64_t row_code = Spread(static_cast<uint32_t>(row0)) << 1;
+      for (int col0 = 0; col0 < w; col0 += 4) {
+        const size_t k0 = static_cast<size_t>(col0 / h) * h * h +
+                          (row_code | Spread(static_cast<uint32_t>(col0 % h)));
+        for (int j = 0; j < 16; ++j) {
+          const int row = row0 + (((j >> 1) & 1) | ((j >> 2) & 2));
+          const int col = col0 + ((j & 1) | ((j >> 1) & 2));
+          const size_t i = static_cast<size_t>(row) * w + col;
+          const float* rgb = lat_long->pixels() + 3 * i;
+          if (!std::isfinite(rgb[0]) || !std::isfinite(rgb[1]) || !std::isfinite(rgb[2])) {
+            return absl::InvalidArgumentError(
+                absl::StrCat("fast reference: sample ", i, " has non-finite radiance"));
+          }
+          const double omega = lat_long->RowSolidAngle(row);
+          add_weight(store.weight[k0 + j], rgb, omega);
+          solid_angle += omega;
         }
-        const double omega = lat_long->RowSolidAngle(row);
-        add_weight(store.weight[k0 + j], rgb, omega);
-        solid_angle += omega;
       }
     }
   }
@@ -911,7 +943,15 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
       for (int32_t k = begin; k < end; k += kFastReferenceLeafSamples) {
         const int batch = std::min<int32_t>(kFastReferenceLeafSamples, end - k);
         r.samples_.Dirs(k, batch, dirs.data());
-        for (int j = 0; j < batch; ++j) sums.Add(dirs[j], r.samples_.Weight(k + j));
+        std::array<double, kFastReferenceLeafSamples> x, y, z;
+        std::array<std::array<float, 3>, kFastReferenceLeafSamples> w;
+        for (int j = 0; j < batch; ++j) {
+          x[j] = dirs[j].x;
+          y[j] = dirs[j].y;
+          z[j] = dirs[j].z;
+          w[j] = r.samples_.Weight(k + j);
+        }
+        sums.AddBlock(batch, x.data(), y.data(), z.data(), w.data());
       }
     } else {
       // Within the exact reservation: references to nodes stay valid.

@@ -73,6 +73,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -175,12 +176,14 @@ class FastReference {
   // memory of a job's check), each direction made from its pixel's row and column as
   // LatLongSampler makes it (in double precision).
   struct SampleStore {
-    std::vector<Sample> list;                  // the cube faces' tree
-    std::vector<std::array<float, 3>> weight;  // the lat-long tree: L_c dOmega
+    std::vector<Sample> list;  // the cube faces' tree
+    // The lat-long tree: L_c dOmega (made for overwriting: no pass that zeroes it first).
+    std::unique_ptr<std::array<float, 3>[]> weight;
+    size_t weight_count = 0;
     std::vector<double> row_sin, row_cos, col_sin, col_cos;
     int height = 0;    // > 0: the lat-long tree of a (2 height) x height map
     int row_bits = 0;  // log2(height)
-    size_t size() const { return height > 0 ? weight.size() : list.size(); }
+    size_t size() const { return height > 0 ? weight_count : list.size(); }
     Vec3 Dir(int32_t k) const;
     // Dir(begin + j) for j < count into out.
     void Dirs(int32_t begin, int count, Vec3* out) const;
