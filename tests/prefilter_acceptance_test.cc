@@ -285,18 +285,21 @@ const BrdfCase kBrdfs[] = {
 };
 
 // rho-hat of the GGX above on a 128 x 64 x 64 cell-centred grid, written with the table writer
-// (once per process) and loaded back through the spec parser.
+// (once per process), loaded back through the spec parser and removed when the process exits.
 std::string GgxTablePath() {
-  static const std::string* path = [] {
-    auto* p = new std::string(testing::UniqueTempPath("prefilter_acceptance_ggx.shrmbrdf"));
-    const auto ggx = ParseOrDie(kGgxSpec);
-    auto table = SampleBrdfTable(*ggx, 128, 64, 64);
-    EXPECT_TRUE(table.ok()) << table.status();
-    const absl::Status st = WriteBrdfTable(*p, *table);
-    EXPECT_TRUE(st.ok()) << st;
-    return p;
-  }();
-  return *path;
+  struct TableFile {
+    std::string path = testing::UniqueTempPath("prefilter_acceptance_ggx.shrmbrdf");
+    TableFile() {
+      const auto ggx = ParseOrDie(kGgxSpec);
+      auto table = SampleBrdfTable(*ggx, 128, 64, 64);
+      EXPECT_TRUE(table.ok()) << table.status();
+      const absl::Status st = WriteBrdfTable(path, *table);
+      EXPECT_TRUE(st.ok()) << st;
+    }
+    ~TableFile() { std::remove(path.c_str()); }
+  };
+  static const TableFile file;
+  return file.path;
 }
 
 struct RealMapParam {
