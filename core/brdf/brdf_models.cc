@@ -362,29 +362,55 @@ double GgxBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int) const
   return Evaluate(n, v, w) * nw;
 }
 
-void GgxBrdf::ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
-                                 double* out) const {
-  // Evaluate's arithmetic with the horizon tests as selects, so the loop runs in vectors.
-  const ArcFrame f(theta_i, theta_o);
-  const double nv = f.n.Dot(f.v);
-  const double a2 = alpha_ * alpha_;
-  const double lambda_v = nv > 0 ? SmithLambda(a2, nv) : 0.0;
-  const size_t total = phi.phi.size();
-  for (size_t k = 0; k < total; ++k) {
-    const Vec3 w = f.W(phi, k);
-    const double nw = f.n.Dot(w);
-    const bool lit = nw > 0 && nv > 0;
+// GGX's Transfer at w_at(k), k in [0, count), into out[k]: Evaluate's arithmetic with the horizon
+// tests as selects, written on local copies (`out` could alias the references' members), so the
+// loop runs in vectors. `w_at` is inlined, so an arc's directions are made in the loop as before
+// (the SHRM files are byte-identical to the scalar loop's).
+template <class WAt>
+void GgxLanes(const Vec3& n, const Vec3& v, double alpha, double f0, int count, WAt&& w_at,
+              double* out) {
+  const double nv = n.Dot(v);
+  if (!(nv > 0)) {
+    std::fill(out, out + count, 0.0);
+    return;
+  }
+  const double nx = n.x, ny = n.y, nz = n.z, vx = v.x, vy = v.y, vz = v.z;
+  const double a2 = alpha * alpha;
+  const double lambda_v = SmithLambda(a2, nv);
+  for (int k = 0; k < count; ++k) {
+    const Vec3& w = w_at(k);  // a reference: a struct copy would keep the loop scalar
+    const double nw = nx * w.x + ny * w.y + nz * w.z;
+    const bool lit = nw > 0;
     const double nw_safe = lit ? nw : 1.0;
-    const Vec3 h = (f.v + w).Normalized();
-    const double nh = f.n.Dot(h), vh = std::max(0.0, f.v.Dot(h));
+    // h = (v + w).Normalized(), Vec3's arithmetic written out.
+    const double sx = vx + w.x, sy = vy + w.y, sz = vz + w.z;
+    const double inv = 1.0 / std::sqrt(sx * sx + sy * sy + sz * sz);
+    const double hx = sx * inv, hy = sy * inv, hz = sz * inv;
+    const double nh = nx * hx + ny * hy + nz * hz;
+    const double vh = std::max(0.0, vx * hx + vy * hy + vz * hz);
     const double den = nh * nh * (a2 - 1.0) + 1.0;
     const double d = a2 / (kPi * den * den);
     const double g = 1.0 / (1.0 + lambda_v + SmithLambda(a2, nw_safe));
     const double x = 1.0 - vh, x2 = x * x;
-    const double fresnel = f0_ + (1.0 - f0_) * (x2 * x2 * x);
+    const double fresnel = f0 + (1.0 - f0) * (x2 * x2 * x);
     const double value = fresnel * d * g / (4.0 * nw_safe * nv) * nw_safe;
     out[k] = lit ? value : 0.0;
   }
+}
+
+void GgxBrdf::TransferMany(const Vec3& n, const Vec3& v, std::span<const Vec3> w, int,
+                           double* out) const {
+  GgxLanes(
+      n, v, alpha_, f0_, static_cast<int>(w.size()),
+      [p = w.data()](int k) -> const Vec3& { return p[k]; }, out);
+}
+
+void GgxBrdf::ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
+                                 double* out) const {
+  const ArcFrame f(theta_i, theta_o);
+  GgxLanes(
+      f.n, f.v, alpha_, f0_, static_cast<int>(phi.phi.size()),
+      [&f, &phi](int k) { return f.W(phi, k); }, out);
 }
 
 // ----- Kajiya-Kay -----

@@ -145,6 +145,8 @@ class GgxBrdf final : public Brdf {
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
+  void TransferMany(const Vec3& n, const Vec3& v, std::span<const Vec3> w, int c,
+                    double* out) const override;
   // Transfer along the arc with the azimuths side by side (vector math, core/brdf/vector_math.h).
   void ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
                           double* out) const override;
