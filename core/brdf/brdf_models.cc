@@ -80,6 +80,23 @@ double PhongBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int) con
   return (s_ + 1.0) / (2.0 * kPi) * std::pow(rw, s_);
 }
 
+void PhongBrdf::TransferMany(const Vec3& n, const Vec3& v, std::span<const Vec3> w, int,
+                             double* out) const {
+  const Vec3 r = n * (2.0 * n.Dot(v)) - v;
+  const double norm = (s_ + 1.0) / (2.0 * kPi);
+  for (size_t first = 0; first < w.size(); first += kArcChunk) {
+    const int count = static_cast<int>(std::min<size_t>(kArcChunk, w.size() - first));
+    double rw[kArcChunk], keep[kArcChunk];
+    for (int k = 0; k < count; ++k) {
+      const double c = r.Dot(w[first + k]);
+      keep[k] = c > 0 ? norm : 0.0;
+      rw[k] = c > 0 ? c : 0.0;
+    }
+    internal::VectorPow(rw, s_, rw, count);
+    for (int k = 0; k < count; ++k) out[first + k] = keep[k] * rw[k];
+  }
+}
+
 double PhongBrdf::ReparamTransfer(double theta_i, double, double, int) const {
   const double c = std::cos(theta_i);
   if (c <= 0) return 0.0;

@@ -49,6 +49,9 @@ class PhongBrdf final : public Brdf {
   bool radially_symmetric() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
+  // The power of a batch in vectors (core/brdf/vector_math.h).
+  void TransferMany(const Vec3& n, const Vec3& v, std::span<const Vec3> w, int c,
+                    double* out) const override;
   double ReparamTransfer(double theta_i, double theta_o, double phi, int c) const override;
 
  private:
