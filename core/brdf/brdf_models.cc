@@ -64,6 +64,23 @@ double LambertBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int) c
   return albedo_ / kPi * nw;
 }
 
+void LambertBrdf::TransferMany(const Vec3& n, const Vec3& v, std::span<const Vec3> w, int,
+                               double* out) const {
+  if (!(n.Dot(v) > 0)) {
+    std::fill(out, out + w.size(), 0.0);
+    return;
+  }
+  // The frame in locals (`out` could alias n's members) and the directions by reference: the loop
+  // runs in vectors.
+  const double nx = n.x, ny = n.y, nz = n.z, scale = albedo_ / kPi;
+  const Vec3* p = w.data();
+  for (size_t k = 0; k < w.size(); ++k) {
+    const Vec3& d = p[k];
+    const double nw = nx * d.x + ny * d.y + nz * d.z;
+    out[k] = nw > 0 ? scale * nw : 0.0;
+  }
+}
+
 // ----- Phong (eq. 5.26) -----
 
 std::string PhongBrdf::spec() const { return absl::StrCat("phong:s=", FormatSpecNumber(s_)); }

@@ -32,6 +32,8 @@ class LambertBrdf final : public Brdf {
   bool clipped_at_normal_horizon() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override { return {16, 8}; }
   double Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int c) const override;
+  void TransferMany(const Vec3& n, const Vec3& v, std::span<const Vec3> w, int c,
+                    double* out) const override;
   void ReparamTransferArc(double theta_i, double theta_o, const ArcAzimuths& phi,
                           double* out) const override {
     TransferArc(theta_i, theta_o, phi, out);
