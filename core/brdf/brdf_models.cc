@@ -473,6 +473,28 @@ double KajiyaKayBrdf::Transfer(const Vec3& t, const Vec3& v, const Vec3& w, int)
   return norm_ * std::pow(c, s_);
 }
 
+void KajiyaKayBrdf::TransferMany(const Vec3& t, const Vec3& v, std::span<const Vec3> w, int,
+                                 double* out) const {
+  const double co = t.Dot(v);
+  const double so = std::sqrt(std::max(0.0, 1.0 - co * co));
+  const double tx = t.x, ty = t.y, tz = t.z, norm = norm_;
+  for (size_t first = 0; first < w.size(); first += kArcChunk) {
+    const int count = static_cast<int>(std::min<size_t>(kArcChunk, w.size() - first));
+    const Vec3* p = w.data() + first;
+    double c[kArcChunk], keep[kArcChunk];
+    for (int k = 0; k < count; ++k) {
+      const Vec3& d = p[k];
+      const double ci = tx * d.x + ty * d.y + tz * d.z;
+      const double si = std::sqrt(std::max(0.0, 1.0 - ci * ci));
+      const double cos_diff = ci * co + si * so;  // cos(theta_i' - theta_o')
+      keep[k] = cos_diff > 0 ? norm : 0.0;
+      c[k] = cos_diff > 0 ? cos_diff : 0.0;
+    }
+    internal::VectorPow(c, s_, c, count);
+    for (int k = 0; k < count; ++k) out[first + k] = keep[k] * c[k];
+  }
+}
+
 double KajiyaKayBrdf::ReparamTransfer(double theta_i, double theta_o, double, int) const {
   const double c = std::cos(theta_i - theta_o);
   if (c <= 0) return 0.0;

@@ -177,6 +177,9 @@ class KajiyaKayBrdf final : public Brdf {
   bool azimuth_independent() const override { return true; }
   BrdfBandwidthHint bandwidth_hint() const override;
   double Transfer(const Vec3& t, const Vec3& v, const Vec3& w, int c) const override;
+  // The power of a batch in vectors (core/brdf/vector_math.h).
+  void TransferMany(const Vec3& t, const Vec3& v, std::span<const Vec3> w, int c,
+                    double* out) const override;
   double ReparamTransfer(double theta_i, double theta_o, double phi, int c) const override;
   double normalization() const { return norm_; }
 
