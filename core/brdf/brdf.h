@@ -58,7 +58,8 @@ class Brdf {
   // Transfer at the light directions w[0 .. w.size()) (unit) into out[k], channel c: the
   // reference sums' leaves (core/shrm/fast_reference.cc), equal to Transfer direction by direction
   // up to rounding. Default: Transfer per direction; microfacet computes its asin and exp in
-  // vectors (core/brdf/vector_math.h), GGX its whole arithmetic in vector lanes.
+  // vectors (core/brdf/vector_math.h), GGX and Lambert their whole arithmetic in vector lanes,
+  // Phong and Kajiya-Kay their power.
   virtual void TransferMany(const Vec3& n, const Vec3& v, std::span<const Vec3> w, int c,
                             double* out) const;
 
