@@ -81,6 +81,27 @@ void LambertBrdf::TransferMany(const Vec3& n, const Vec3& v, std::span<const Vec
   }
 }
 
+namespace {
+
+// out[k] = scale x base(k)^exponent where base(k) > 0, else 0, for k < count: the lobes that are
+// a power of a cosine (Phong, Kajiya-Kay), the power in vectors a chunk at a time.
+template <class Base>
+void PowerLobeMany(size_t count, double exponent, double scale, Base&& base, double* out) {
+  for (size_t first = 0; first < count; first += kArcChunk) {
+    const int n = static_cast<int>(std::min<size_t>(kArcChunk, count - first));
+    double c[kArcChunk], keep[kArcChunk];
+    for (int k = 0; k < n; ++k) {
+      const double b = base(first + k);
+      keep[k] = b > 0 ? scale : 0.0;
+      c[k] = b > 0 ? b : 0.0;
+    }
+    internal::VectorPow(c, exponent, c, n);
+    for (int k = 0; k < n; ++k) out[first + k] = keep[k] * c[k];
+  }
+}
+
+}  // namespace
+
 // ----- Phong (eq. 5.26) -----
 
 std::string PhongBrdf::spec() const { return absl::StrCat("phong:s=", FormatSpecNumber(s_)); }
@@ -100,18 +121,9 @@ double PhongBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int) con
 void PhongBrdf::TransferMany(const Vec3& n, const Vec3& v, std::span<const Vec3> w, int,
                              double* out) const {
   const Vec3 r = n * (2.0 * n.Dot(v)) - v;
-  const double norm = (s_ + 1.0) / (2.0 * kPi);
-  for (size_t first = 0; first < w.size(); first += kArcChunk) {
-    const int count = static_cast<int>(std::min<size_t>(kArcChunk, w.size() - first));
-    double rw[kArcChunk], keep[kArcChunk];
-    for (int k = 0; k < count; ++k) {
-      const double c = r.Dot(w[first + k]);
-      keep[k] = c > 0 ? norm : 0.0;
-      rw[k] = c > 0 ? c : 0.0;
-    }
-    internal::VectorPow(rw, s_, rw, count);
-    for (int k = 0; k < count; ++k) out[first + k] = keep[k] * rw[k];
-  }
+  PowerLobeMany(
+      w.size(), s_, (s_ + 1.0) / (2.0 * kPi), [&r, p = w.data()](size_t k) { return r.Dot(p[k]); },
+      out);
 }
 
 double PhongBrdf::ReparamTransfer(double theta_i, double, double, int) const {
@@ -396,6 +408,8 @@ double GgxBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int) const
   return Evaluate(n, v, w) * nw;
 }
 
+namespace {
+
 // GGX's Transfer at w_at(k), k in [0, count), into out[k]: Evaluate's arithmetic with the horizon
 // tests as selects, written on local copies (`out` could alias the references' members), so the
 // loop runs in vectors. `w_at` is inlined, so an arc's directions are made in the loop as before
@@ -431,6 +445,8 @@ void GgxLanes(const Vec3& n, const Vec3& v, double alpha, double f0, int count, 
     out[k] = lit ? value : 0.0;
   }
 }
+
+}  // namespace
 
 void GgxBrdf::TransferMany(const Vec3& n, const Vec3& v, std::span<const Vec3> w, int,
                            double* out) const {
@@ -477,22 +493,14 @@ void KajiyaKayBrdf::TransferMany(const Vec3& t, const Vec3& v, std::span<const V
                                  double* out) const {
   const double co = t.Dot(v);
   const double so = std::sqrt(std::max(0.0, 1.0 - co * co));
-  const double tx = t.x, ty = t.y, tz = t.z, norm = norm_;
-  for (size_t first = 0; first < w.size(); first += kArcChunk) {
-    const int count = static_cast<int>(std::min<size_t>(kArcChunk, w.size() - first));
-    const Vec3* p = w.data() + first;
-    double c[kArcChunk], keep[kArcChunk];
-    for (int k = 0; k < count; ++k) {
-      const Vec3& d = p[k];
-      const double ci = tx * d.x + ty * d.y + tz * d.z;
-      const double si = std::sqrt(std::max(0.0, 1.0 - ci * ci));
-      const double cos_diff = ci * co + si * so;  // cos(theta_i' - theta_o')
-      keep[k] = cos_diff > 0 ? norm : 0.0;
-      c[k] = cos_diff > 0 ? cos_diff : 0.0;
-    }
-    internal::VectorPow(c, s_, c, count);
-    for (int k = 0; k < count; ++k) out[first + k] = keep[k] * c[k];
-  }
+  PowerLobeMany(
+      w.size(), s_, norm_,
+      [&t, co, so, p = w.data()](size_t k) {
+        const double ci = t.Dot(p[k]);
+        const double si = std::sqrt(std::max(0.0, 1.0 - ci * ci));
+        return ci * co + si * so;  // cos(theta_i' - theta_o')
+      },
+      out);
 }
 
 double KajiyaKayBrdf::ReparamTransfer(double theta_i, double theta_o, double, int) const {

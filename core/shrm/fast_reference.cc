@@ -77,6 +77,11 @@ uint32_t Compact(uint64_t v) {  // the bits of v at the even positions, packed (
   return static_cast<uint32_t>(v);
 }
 
+// Within an aligned block of 16 tree positions (a 4 x 4 block of pixels), position j's row and
+// column offsets: the Morton digit's odd and even bits.
+constexpr int BlockRow(int j) { return ((j >> 1) & 1) | ((j >> 2) & 2); }
+constexpr int BlockCol(int j) { return (j & 1) | ((j >> 1) & 2); }
+
 uint32_t Quantize(double s) {
   constexpr double kCells = 1 << kMortonBits;
   return static_cast<uint32_t>(std::clamp(s * kCells, 0.0, kCells - 1));
@@ -747,14 +752,18 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
   return CreateFrom(std::move(ordered), sample_at);
 }
 
-Vec3 FastReference::SampleStore::Dir(int32_t k) const {
-  if (height == 0) return list[k].Dir();
+void FastReference::SampleStore::PixelOf(int32_t k, int* row, int* col) const {
   // Position k of the tree: half k >> 2 bits (azimuth), then the Morton code of (row, column)
   // within the half's height x height square.
   const uint64_t code = static_cast<uint64_t>(k) & ((uint64_t{1} << (2 * row_bits)) - 1);
-  const int row = static_cast<int>(Compact(code >> 1));
-  const int col =
-      static_cast<int>((static_cast<uint64_t>(k) >> (2 * row_bits)) * height + Compact(code));
+  *row = static_cast<int>(Compact(code >> 1));
+  *col = static_cast<int>((static_cast<uint64_t>(k) >> (2 * row_bits)) * height + Compact(code));
+}
+
+Vec3 FastReference::SampleStore::Dir(int32_t k) const {
+  if (height == 0) return list[k].Dir();
+  int row, col;
+  PixelOf(k, &row, &col);
   const double s = row_sin[row];
   return {s * col_sin[col], row_cos[row], -s * col_cos[col]};
 }
@@ -765,10 +774,8 @@ void FastReference::SampleStore::Dirs(int32_t begin, int count, Vec3* out) const
     return;
   }
   // An aligned block of 16: a 4 x 4 block of pixels, its rows' and columns' factors read once.
-  const uint64_t code = static_cast<uint64_t>(begin) & ((uint64_t{1} << (2 * row_bits)) - 1);
-  const int row = static_cast<int>(Compact(code >> 1));
-  const int col =
-      static_cast<int>((static_cast<uint64_t>(begin) >> (2 * row_bits)) * height + Compact(code));
+  int row, col;
+  PixelOf(begin, &row, &col);
   double rs[4], rc[4], cs[4], cc[4];
   for (int t = 0; t < 4; ++t) {
     rs[t] = row_sin[row + t];
@@ -777,8 +784,7 @@ void FastReference::SampleStore::Dirs(int32_t begin, int count, Vec3* out) const
     cc[t] = col_cos[col + t];
   }
   for (int j = 0; j < 16; ++j) {
-    // Morton digit j: row offset from its odd bits, column offset from its even bits.
-    const int dr = ((j >> 1) & 1) | ((j >> 2) & 2), dc = (j & 1) | ((j >> 1) & 2);
+    const int dr = BlockRow(j), dc = BlockCol(j);
     out[j] = {rs[dr] * cs[dc], rc[dr], -rs[dr] * cc[dc]};
   }
 }
@@ -854,8 +860,7 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
         const size_t k0 = static_cast<size_t>(col0 / h) * h * h +
                           (row_code | Spread(static_cast<uint32_t>(col0 % h)));
         for (int j = 0; j < 16; ++j) {
-          const int row = row0 + (((j >> 1) & 1) | ((j >> 2) & 2));
-          const int col = col0 + ((j & 1) | ((j >> 1) & 2));
+          const int row = row0 + BlockRow(j), col = col0 + BlockCol(j);
           const size_t i = static_cast<size_t>(row) * w + col;
           const float* rgb = lat_long->pixels() + 3 * i;
           if (!std::isfinite(rgb[0]) || !std::isfinite(rgb[1]) || !std::isfinite(rgb[2])) {

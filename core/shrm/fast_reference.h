@@ -184,6 +184,8 @@ class FastReference {
     int height = 0;    // > 0: the lat-long tree of a (2 height) x height map
     int row_bits = 0;  // log2(height)
     size_t size() const { return height > 0 ? weight_count : list.size(); }
+    // The lat-long tree's position k: its pixel's row and column in the map.
+    void PixelOf(int32_t k, int* row, int* col) const;
     Vec3 Dir(int32_t k) const;
     // Dir(begin + j) for j < count into out.
     void Dirs(int32_t begin, int count, Vec3* out) const;
