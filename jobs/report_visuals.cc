@@ -203,7 +203,8 @@ absl::StatusOr<nlohmann::json> PrefilterVisuals(const EnvMap& env, const Brdf& b
     index.push_back(p.index);
     view.push_back(p.view);
   }
-  const std::vector<Rgb> ref = reference.RadianceMany(brdf, rotation, index, view, threads);
+  const std::vector<Rgb> ref =
+      reference.RadianceMany(brdf, rotation, index, view, threads, kCheckReferenceTolerance);
   std::vector<Rgb> got(pairs.size());
   for (size_t k = 0; k < pairs.size(); ++k)
     got[k] = ShrmEvalWithLights(cube, brdf, index[k], view[k]);
@@ -250,8 +251,8 @@ absl::StatusOr<nlohmann::json> PrefilterVisuals(const EnvMap& env, const Brdf& b
         cell_at.push_back({s, cx, cy});
       }
   }
-  const std::vector<Rgb> cell_ref =
-      reference.RadianceMany(brdf, rotation, cell_index, cell_view, threads);
+  const std::vector<Rgb> cell_ref = reference.RadianceMany(brdf, rotation, cell_index, cell_view,
+                                                           threads, kCheckReferenceTolerance);
   Image ref_img = BlankImage(kSphereViews * size, size, 3);
   Image err_img = BlankImage(kSphereViews * size, size, 3);
   const int cell_px = size / cells;

@@ -264,7 +264,7 @@ EnvMap EnvMap::FromLatLong(Image image) {
   map.width_ = rgb->width;
   map.height_ = rgb->height;
   map.replaced_non_finite_ = rgb->replaced_non_finite;
-  map.images_.push_back(*std::move(rgb));
+  map.images_->push_back(*std::move(rgb));
   map.lazy_ = std::make_shared<Lazy>();
   return map;
 }
@@ -299,7 +299,7 @@ absl::StatusOr<EnvMap> EnvMap::FromImages(std::vector<Image> images, EnvLayout l
     }
     map.layout_ = EnvLayout::kCubeFaces;
     map.width_ = map.height_ = map.face_size_ = s;
-    map.images_ = std::move(images);
+    *map.images_ = std::move(images);
     return map;
   }
   if (images.size() != 1) {
@@ -311,15 +311,15 @@ absl::StatusOr<EnvMap> EnvMap::FromImages(std::vector<Image> images, EnvLayout l
   map.width_ = img.width;
   map.height_ = img.height;
   if (map.layout_ == EnvLayout::kLatLong || map.layout_ == EnvLayout::kAngular) {
-    map.images_.push_back(std::move(img));
+    map.images_->push_back(std::move(img));
     return map;
   }
   const int s = img.width / LayoutCells(map.layout_).first;
   map.face_size_ = s;
-  map.images_.resize(6);
+  map.images_->resize(6);
   for (int f = 0; f < 6; ++f) {
     const Cell cell = FaceCell(map.layout_, f);
-    Image& face = map.images_[f];
+    Image& face = (*map.images_)[f];
     face.width = face.height = s;
     face.channels = 3;
     face.pixels.resize(static_cast<size_t>(s) * s * 3);
@@ -432,7 +432,7 @@ void EnvMap::ForEachSample(absl::FunctionRef<void(const EnvSample&)> fn) const {
     return;
   }
   if (layout_ == EnvLayout::kAngular) {
-    const Image& img = images_[0];
+    const Image& img = (*images_)[0];
     const int d = img.width;
     const double pixel_area = 4.0 / (static_cast<double>(d) * d);
     for (int j = 0; j < d; ++j) {
@@ -461,7 +461,7 @@ void EnvMap::ForEachSample(absl::FunctionRef<void(const EnvSample&)> fn) const {
         EnvSample s;
         s.dir = CubeTexelDirection(f, x, y, n);
         s.solid_angle = CubeTexelSolidAngle(x, y, n);
-        const float* px = PixelPtr(images_[f], x, y);
+        const float* px = PixelPtr((*images_)[f], x, y);
         s.rgb = {px[0], px[1], px[2]};
         fn(s);
       }
@@ -471,7 +471,7 @@ void EnvMap::ForEachSample(absl::FunctionRef<void(const EnvSample&)> fn) const {
 
 size_t EnvMap::sample_count() const {
   if (layout_ == EnvLayout::kLatLong) {
-    return static_cast<size_t>(images_[0].width) * images_[0].height;
+    return static_cast<size_t>((*images_)[0].width) * (*images_)[0].height;
   }
   if (layout_ != EnvLayout::kAngular) return static_cast<size_t>(6) * face_size_ * face_size_;
   size_t n = 0;  // the disc's pixels
@@ -497,7 +497,7 @@ std::array<float, 3> EnvMap::LatLongRadianceAt(double theta, double p) const {
 
 void EnvMap::LatLongRadianceAt(const double* theta, const double* phi, double phi_offset, int n,
                                float* out) const {
-  const Image& img = images_[0];
+  const Image& img = (*images_)[0];
   const int w = img.width, h = img.height;
   if (img.channels != 3 || w < 2) {
     for (int k = 0; k < n; ++k) {
@@ -638,11 +638,11 @@ std::array<float, 3> EnvMap::CubeRadiance(const Vec3& d) const {
   double s, t;
   CubeFaceCoordinates(d, &face, &s, &t);
   const int n = face_size_;
-  return Bilinear(images_[face], s * n - 0.5, t * n - 0.5, /*wrap_x=*/false);
+  return Bilinear((*images_)[face], s * n - 0.5, t * n - 0.5, /*wrap_x=*/false);
 }
 
 std::array<float, 3> EnvMap::AngularRadiance(const Vec3& d) const {
-  const Image& img = images_[0];
+  const Image& img = (*images_)[0];
   const int n = img.width;
   const auto [u, v] = AngularMapCoordinates(d);
   const double x = (u + 1) / 2 * n - 0.5, y = (1 - v) / 2 * n - 0.5;
@@ -742,7 +742,7 @@ absl::StatusOr<Image> EnvMap::ToLatLong(int width, int num_threads) const {
         absl::StrCat("lat-long width must be even and in [2, ", kMaxWidth, "], got ", width));
   }
   const int height = width / 2;
-  if (layout_ == EnvLayout::kLatLong && width_ == width && height_ == height) return images_[0];
+  if (layout_ == EnvLayout::kLatLong && width_ == width && height_ == height) return (*images_)[0];
   Image out;
   out.width = width;
   out.height = height;

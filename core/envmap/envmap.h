@@ -155,7 +155,14 @@ class EnvMap {
 
   // The lat-long image (layout() == kLatLong), else nullptr.
   const Image* lat_long_image() const {
-    return layout_ == EnvLayout::kLatLong ? &images_[0] : nullptr;
+    return layout_ == EnvLayout::kLatLong ? &(*images_)[0] : nullptr;
+  }
+  // The lat-long image's pixels (layout() == kLatLong, else null), owned with the map: a holder
+  // keeps them alive after the map is gone (copies of a map share its images, which no method
+  // changes).
+  std::shared_ptr<const float> lat_long_pixels() const {
+    if (layout_ != EnvLayout::kLatLong) return nullptr;
+    return std::shared_ptr<const float>(images_, (*images_)[0].pixels.data());
   }
   // Radiance() of a lat-long map at polar angle theta from +Y and azimuth phi = atan2(x, -z)
   // (the angles Radiance() computes from a direction; docs/conventions.md), for callers that
@@ -178,7 +185,8 @@ class EnvMap {
   int width_ = 0, height_ = 0, face_size_ = 0;
   int64_t replaced_non_finite_ = 0;
   // Lat-long / angular: one image; cube-based layouts: the six faces in GL order and orientation.
-  std::vector<Image> images_;
+  // Shared by copies of the map (set when it is made, never changed after).
+  std::shared_ptr<std::vector<Image>> images_ = std::make_shared<std::vector<Image>>();
   std::shared_ptr<Lazy> lazy_;
 };
 

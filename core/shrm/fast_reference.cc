@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <span>
 #include <utility>
@@ -12,6 +13,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/cubemap.h"
 #include "core/base/parallel.h"
+#include "core/brdf/vector_math.h"
 
 namespace shrm {
 namespace {
@@ -311,6 +313,64 @@ void SetGradient(std::vector<FastReference::Node>& nodes,
   gradients.push_back(g);
 }
 
+// The nodes' caps (Create, after the sums and centres): a leaf's radius from its largest squared
+// chord (left in `radius` by the build), an internal node's from its children's, then sin_radius
+// and cos_open. Every sample of a child lies within the child's radius of its centre, so within
+// the angle from the parent's centre to the child's plus that radius (tight for uniform light).
+// The arcsines, sines and cosines of a chunk of nodes are computed together (vector math, within
+// 4 ulp: far inside kGeometrySlack), the chunks in reverse node order (a node's children are
+// numbered after it, so their radii are known before its own).
+void SetRadii(std::vector<FastReference::Node>& nodes) {
+  constexpr int kChunk = 64;
+  std::array<double, 4 * kChunk> half, angle;
+  std::array<int, kChunk> offset;
+  std::array<double, kChunk> radius, open, sin_r, cos_r, sin_o, cos_o;
+  for (int64_t hi = static_cast<int64_t>(nodes.size()); hi > 0; hi -= kChunk) {
+    const int64_t lo = std::max<int64_t>(0, hi - kChunk);
+    int m = 0;
+    for (int64_t i = lo; i < hi; ++i) {
+      const FastReference::Node& node = nodes[i];
+      offset[i - lo] = m;
+      if (node.child_count == 0) {
+        half[m++] = std::min(1.0, 0.5 * std::sqrt(node.radius));
+      } else {
+        for (int g = 0; g < node.child_count; ++g) {
+          half[m++] =
+              std::min(1.0, 0.5 * (node.centre - nodes[node.first_child + g].centre).Norm());
+        }
+      }
+    }
+    internal::VectorAsin(half.data(), angle.data(), m);
+    for (int64_t i = hi - 1; i >= lo; --i) {
+      FastReference::Node& node = nodes[i];
+      const double* a = angle.data() + offset[i - lo];
+      double r = 0;
+      if (node.child_count == 0) {
+        // Angle is increasing in the chord: the largest chord's angle is the largest angle.
+        r = 2 * a[0] + kGeometrySlack;
+      } else {
+        for (int g = 0; g < node.child_count; ++g) {
+          r = std::max(r, 2 * a[g] + nodes[node.first_child + g].radius);
+        }
+      }
+      node.radius = std::min(r, kPi);
+      radius[i - lo] = node.radius;
+      open[i - lo] = node.radius / kFastReferenceEta;
+    }
+    const int n = static_cast<int>(hi - lo);
+    internal::VectorSinCos(radius.data(), sin_r.data(), cos_r.data(), n);
+    internal::VectorSinCos(open.data(), sin_o.data(), cos_o.data(), n);
+    for (int64_t i = lo; i < hi; ++i) {
+      FastReference::Node& node = nodes[i];
+      const int k = static_cast<int>(i - lo);
+      // Beyond pi/2 the horizon test would need the cap's far side: mark such nodes as always
+      // straddling (sin_radius = 1 fails |N.c| > sin_radius).
+      node.sin_radius = radius[k] < kPi / 2 ? sin_r[k] : 1.0;
+      node.cos_open = open[k] < kPi ? cos_o[k] - kGeometrySlack : -2.0;
+    }
+  }
+}
+
 // A node in the heap: its value (children as points), error estimate and the children's rho-hat
 // (reused as their own point values when the node is opened).
 struct Record {
@@ -394,16 +454,18 @@ class QueryState {
   void AddLeaf(const FastReference::Node& node) {
     constexpr int kLeafBatch = kFastReferenceLeafSamples;
     std::array<Vec3, kLeafBatch> dirs;
+    std::array<std::array<float, 3>, kLeafBatch> weights;
     std::array<double, kLeafBatch> rho;
     for (int32_t first = node.begin; first < node.end; first += kLeafBatch) {
       const int count = std::min<int32_t>(kLeafBatch, node.end - first);
       samples_.Dirs(first, count, dirs.data());
+      samples_.Weights(first, count, weights.data());
       evaluations_ += count;
       const std::span<const Vec3> w(dirs.data(), count);
       for (int c = 0; c < (channels_ == 1 ? 1 : 3); ++c) {
         brdf_.TransferMany(n_, v_, w, std::min(c, channels_ - 1), rho.data());
         for (int k = 0; k < count; ++k) {
-          const std::array<float, 3>& weight = samples_.Weight(first + k);
+          const std::array<float, 3>& weight = weights[k];
           if (channels_ == 1) {
             for (int cc = 0; cc < 3; ++cc) total_[cc] += weight[cc] * rho[k];
           } else {
@@ -709,7 +771,7 @@ absl::StatusOr<FastReference> FastReference::Create(const EnvMap& env, int expec
       Ordered ordered;
       ordered.face_shift = 2 * bits;
       ordered.count = n;
-      return CreateFrom(std::move(ordered), at, &sampler);
+      return CreateFrom(std::move(ordered), at, &sampler, env.lat_long_pixels());
     }
     return CreateFrom(sampler.size(), at);
   }
@@ -789,9 +851,38 @@ void FastReference::SampleStore::Dirs(int32_t begin, int count, Vec3* out) const
   }
 }
 
+std::array<float, 3> FastReference::SampleStore::Weight(int32_t k) const {
+  if (height == 0) return list[k].weight;
+  int row, col;
+  PixelOf(k, &row, &col);
+  return PixelWeight(row, col);
+}
+
+void FastReference::SampleStore::Weights(int32_t begin, int count,
+                                         std::array<float, 3>* out) const {
+  if (height == 0 || count != 16 || begin % 16 != 0) {
+    for (int j = 0; j < count; ++j) out[j] = Weight(begin + j);
+    return;
+  }
+  // Row t of the 4 x 4 block: its columns 0, 1 are positions 2 (t & 1) + 8 (t >> 1) + {0, 1} of
+  // the block, its columns 2, 3 four places further (the Morton digit's even bits are the column).
+  int row, col;
+  PixelOf(begin, &row, &col);
+  const size_t width = 2 * static_cast<size_t>(height);
+  for (int t = 0; t < 4; ++t) {
+    const float* p = pixels.get() + 3 * ((row + t) * width + col);
+    const double omega = row_omega[row + t];
+    float w[12];
+    for (int q = 0; q < 12; ++q) w[q] = static_cast<float>(p[q] * omega);
+    const int j = 2 * (t & 1) + 8 * (t >> 1);
+    std::memcpy(out[j].data(), w, 6 * sizeof(float));
+    std::memcpy(out[j + 4].data(), w + 6, 6 * sizeof(float));
+  }
+}
+
 absl::StatusOr<FastReference> FastReference::CreateFrom(
-    Ordered ordered, absl::FunctionRef<EnvSample(size_t)> sample_at,
-    const LatLongSampler* lat_long) {
+    Ordered ordered, absl::FunctionRef<EnvSample(size_t)> sample_at, const LatLongSampler* lat_long,
+    std::shared_ptr<const float> lat_long_pixels) {
   const size_t n = ordered.count;
   if (n == 0) return absl::InvalidArgumentError("fast reference: no environment samples");
   if (n > static_cast<size_t>(INT32_MAX)) {
@@ -814,13 +905,20 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
   if (lat_long != nullptr) {
     store.height = lat_long->height();
     store.row_bits = std::countr_zero(static_cast<unsigned>(store.height));
-    store.weight = std::make_unique_for_overwrite<std::array<float, 3>[]>(n);
-    store.weight_count = n;
+    store.pixels = std::move(lat_long_pixels);
     store.row_sin.resize(store.height);
     store.row_cos.resize(store.height);
+    store.row_omega.resize(store.height);
     for (int row = 0; row < store.height; ++row) {
       store.row_sin[row] = lat_long->RowSin(row);
       store.row_cos[row] = lat_long->RowCos(row);
+      const double omega = lat_long->RowSolidAngle(row);
+      if (!std::isfinite(omega) || omega < 0) {
+        return absl::InvalidArgumentError(absl::StrCat("fast reference: sample ",
+                                                       static_cast<size_t>(row) * lat_long->width(),
+                                                       " has solid angle ", omega));
+      }
+      store.row_omega[row] = omega;
     }
     store.col_sin.resize(lat_long->width());
     store.col_cos.resize(lat_long->width());
@@ -842,36 +940,38 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
     }
   };
   if (lat_long != nullptr) {
-    // The map's pixels read a 4 x 4 block (an aligned 16 of the tree order) at a time; the
-    // directions are the tables' (unit by construction).
+    // The weights are the map's pixels times their rows' solid angles, made where they are read
+    // (the leaves below); the map is checked and totalled here, in its own order.
     const int w = lat_long->width(), h = store.height;
+    const float* pixels = store.pixels.get();
     for (int row = 0; row < h; ++row) {
-      const double omega = lat_long->RowSolidAngle(row);
-      if (!std::isfinite(omega) || omega < 0) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            "fast reference: sample ", static_cast<size_t>(row) * w, " has solid angle ", omega));
-      }
-    }
-    // Four rows at a time, read in order (the hardware prefetches them), each 4 x 4 block
-    // written to its 16 consecutive places of the tree order (192 bytes, three cache lines).
-    for (int row0 = 0; row0 < h; row0 += 4) {
-      const uint64_t row_code = Spread(static_cast<uint32_t>(row0)) << 1;
-      for (int col0 = 0; col0 < w; col0 += 4) {
-        const size_t k0 = static_cast<size_t>(col0 / h) * h * h +
-                          (row_code | Spread(static_cast<uint32_t>(col0 % h)));
-        for (int j = 0; j < 16; ++j) {
-          const int row = row0 + BlockRow(j), col = col0 + BlockCol(j);
-          const size_t i = static_cast<size_t>(row) * w + col;
-          const float* rgb = lat_long->pixels() + 3 * i;
-          if (!std::isfinite(rgb[0]) || !std::isfinite(rgb[1]) || !std::isfinite(rgb[2])) {
-            return absl::InvalidArgumentError(
-                absl::StrCat("fast reference: sample ", i, " has non-finite radiance"));
-          }
-          const double omega = lat_long->RowSolidAngle(row);
-          add_weight(store.weight[k0 + j], rgb, omega);
-          solid_angle += omega;
+      const double omega = store.row_omega[row];
+      const float* rgb = pixels + 3 * static_cast<size_t>(row) * w;
+      Rgb row_total{0, 0, 0}, row_abs{0, 0, 0};
+      bool finite = true;
+      for (int col = 0; col < w; ++col) {
+        for (int c = 0; c < 3; ++c) {
+          const float v = rgb[3 * col + c];
+          finite &= std::isfinite(v);
+          row_total[c] += v;
+          row_abs[c] += std::abs(v);
         }
       }
+      if (!finite) {
+        for (int col = 0; col < w; ++col) {
+          const float* p = rgb + 3 * col;
+          if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
+            return absl::InvalidArgumentError(absl::StrCat("fast reference: sample ",
+                                                           static_cast<size_t>(row) * w + col,
+                                                           " has non-finite radiance"));
+          }
+        }
+      }
+      for (int c = 0; c < 3; ++c) {
+        total[c] += row_total[c] * omega;
+        total_abs[c] += row_abs[c] * omega;
+      }
+      solid_angle += omega * w;
     }
   }
   for (size_t k = 0; lat_long == nullptr && k < n; ++k) {
@@ -954,8 +1054,8 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
           x[j] = dirs[j].x;
           y[j] = dirs[j].y;
           z[j] = dirs[j].z;
-          w[j] = r.samples_.Weight(k + j);
         }
+        r.samples_.Weights(k, batch, w.data());
         sums.AddBlock(batch, x.data(), y.data(), z.data(), w.data());
       }
     } else {
@@ -971,7 +1071,6 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
     node.end = end;
     node.weight = sums.weight;
     node.centre = sums.Centre();
-    double radius = 0;
     if (groups == 0) {  // a leaf: the cap of its samples
       double chord2 = 0;
       if (end - begin <= kFastReferenceLeafSamples) {  // the directions are at hand
@@ -985,25 +1084,12 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
           chord2 = std::max(chord2, d.Dot(d));
         }
       }
-      // Angle is increasing in the chord: the largest chord's angle is the largest angle.
-      radius = ChordAngle(std::sqrt(chord2)) + kGeometrySlack;
+      node.radius = chord2;  // its angle is made by SetRadii
     } else {
-      // Every sample of a child lies within the child's radius of its centre, so within the
-      // angle from this centre to the child's plus that radius (tight for uniform light).
-      for (int g = 0; g < groups; ++g) {
-        const Node& ch = r.nodes_[first + g];
-        radius = std::max(radius, Angle(node.centre, ch.centre) + ch.radius);
-      }
       node.first_child = first;
       node.child_count = groups;
       SetGradient(r.nodes_, r.gradients_, i, sums, std::span(child).first(groups));
     }
-    node.radius = std::min(radius, kPi);
-    // Beyond pi/2 the horizon test would need the cap's far side: mark such nodes as always
-    // straddling (sin_radius = 1 fails |N.c| > sin_radius).
-    node.sin_radius = node.radius < kPi / 2 ? std::sin(node.radius) : 1.0;
-    const double open = node.radius / kFastReferenceEta;
-    node.cos_open = open < kPi ? std::cos(open) - kGeometrySlack : -2.0;
     return sums;
   };
   for (const auto& [begin, end] : faces) {
@@ -1012,6 +1098,7 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
     r.roots_.push_back(root);
     build(build, root, begin, end);
   }
+  SetRadii(r.nodes_);
   return r;
 }
 

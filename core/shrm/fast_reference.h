@@ -66,7 +66,8 @@
 // Phong, 0.16 ms Lambert, 0.17-0.29 ms microfacet, 0.34-0.46 ms GGX, 0.68 ms Kajiya-Kay (4.5k-20k
 // rho-hat evaluations instead of 524288), 30-170x faster than the full sum; largest error over
 // the four bundled maps 6.9e-4 (tests/fast_reference_test.cc). The build: ~35 ms and ~27 MB from
-// a list of samples; ~12 ms and ~13 MB from a 1024 x 512 lat-long map.
+// a list of samples; ~9 ms and ~7 MB (the nodes: the samples are the map's own pixels) from a
+// 1024 x 512 lat-long map (session 40; ~12 ms and ~13 MB before).
 #ifndef SHRM_CORE_SHRM_FAST_REFERENCE_H_
 #define SHRM_CORE_SHRM_FAST_REFERENCE_H_
 
@@ -88,6 +89,16 @@ namespace shrm {
 // Default per-direction relative error target of FastReference::Radiance (the accuracy a job's
 // self-check needs: 10x below the SHRM's own approximation errors of ~1e-2).
 inline constexpr double kFastReferenceTolerance = 1e-3;
+// Error target of the reference in a job's own check (MeasureCubeError) and the report's error
+// map. The target bounds the error ESTIMATE, and the errors stay well below it: at the default
+// check's 64 pairs, on the four bundled maps x six BRDFs (Phong s = 32, Lambert, microfacet
+// sigma 0.1 and 0.2, GGX alpha 0.1 f0 0.04 and alpha 0.3 f0 1), the largest error measured
+// against the full pixel sum is 7.3e-4 and the RMS 1.4e-4 (at 1e-3: 7.2e-4 and 1.1e-4;
+// tests/fast_reference_test.cc holds it within 2e-3 for 13 models, measured 8.9e-4). The check's
+// figures (targets 1% RMS, 5% largest) move by about 1% of a target, far less than a 64-pair
+// sample's own spread, and its queries make a third fewer evaluations (microfacet sigma 0.2 on
+// courtyard: 9,600 -> 6,400). At 3e-3 the test's worst reached 2.1e-3 (courtyard, Phong s = 8).
+inline constexpr double kCheckReferenceTolerance = 2e-3;
 // Samples per leaf node: leaves are summed exactly. 16 rather than 4: the tree has a quarter of
 // the nodes (91k instead of 312k on a 1024 x 512 map: 14 MB instead of 48, most of the cost of
 // a job's check on this VM, where a fresh page costs more than the work done in it), and a query
@@ -172,25 +183,35 @@ class FastReference {
     std::array<std::array<double, 4>, 3> parent{}, children{};
   };
   // The samples in tree order (internal to the implementation): a list of Sample, or for a
-  // lat-long map's own tree only the weights (12 bytes a pixel instead of 24: half the fresh
-  // memory of a job's check), each direction made from its pixel's row and column as
-  // LatLongSampler makes it (in double precision).
+  // lat-long map's own tree nothing of its own: the map's pixels (shared with the map, so no
+  // copy: the fresh memory of a job's check is most of its cost), each weight made from its
+  // pixel and its row's solid angle and each direction from its row and column as LatLongSampler
+  // makes them (in double precision, the weight then rounded to float as the list's).
   struct SampleStore {
     std::vector<Sample> list;  // the cube faces' tree
-    // The lat-long tree: L_c dOmega (made for overwriting: no pass that zeroes it first).
-    std::unique_ptr<std::array<float, 3>[]> weight;
-    size_t weight_count = 0;
-    std::vector<double> row_sin, row_cos, col_sin, col_cos;
+    // The lat-long tree: the map's RGB pixels, row-major, and its tables.
+    std::shared_ptr<const float> pixels;
+    std::vector<double> row_sin, row_cos, col_sin, col_cos, row_omega;
     int height = 0;    // > 0: the lat-long tree of a (2 height) x height map
     int row_bits = 0;  // log2(height)
-    size_t size() const { return height > 0 ? weight_count : list.size(); }
+    size_t size() const {
+      return height > 0 ? 2 * static_cast<size_t>(height) * height : list.size();
+    }
     // The lat-long tree's position k: its pixel's row and column in the map.
     void PixelOf(int32_t k, int* row, int* col) const;
     Vec3 Dir(int32_t k) const;
     // Dir(begin + j) for j < count into out.
     void Dirs(int32_t begin, int count, Vec3* out) const;
-    const std::array<float, 3>& Weight(int32_t k) const {
-      return height > 0 ? weight[k] : list[k].weight;
+    // L_c dOmega of position k.
+    std::array<float, 3> Weight(int32_t k) const;
+    // Weight(begin + j) for j < count into out.
+    void Weights(int32_t begin, int count, std::array<float, 3>* out) const;
+    // The lat-long tree's weight of a pixel.
+    std::array<float, 3> PixelWeight(int row, int col) const {
+      const float* p = pixels.get() + 3 * (static_cast<size_t>(row) * 2 * height + col);
+      const double omega = row_omega[row];
+      return {static_cast<float>(p[0] * omega), static_cast<float>(p[1] * omega),
+              static_cast<float>(p[2] * omega)};
     }
   };
 
@@ -208,10 +229,12 @@ class FastReference {
     std::vector<int32_t> index;
     int face_shift = 0;
   };
-  // `lat_long`: the identity-keyed tree of that sampler's map (directions from its tables).
-  static absl::StatusOr<FastReference> CreateFrom(Ordered ordered,
-                                                  absl::FunctionRef<EnvSample(size_t)> sample_at,
-                                                  const LatLongSampler* lat_long = nullptr);
+  // `lat_long`: the identity-keyed tree of that sampler's map (directions from its tables),
+  // whose pixels `lat_long_pixels` are (kept by the tree).
+  static absl::StatusOr<FastReference> CreateFrom(
+      Ordered ordered, absl::FunctionRef<EnvSample(size_t)> sample_at,
+      const LatLongSampler* lat_long = nullptr,
+      std::shared_ptr<const float> lat_long_pixels = nullptr);
   FastReference() = default;
   struct QueryStats;
   std::array<double, 3> Query(const Brdf& brdf, const Vec3& n, const Vec3& v, double tolerance,

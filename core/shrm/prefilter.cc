@@ -310,7 +310,8 @@ absl::StatusOr<DirectionalError> MeasureCubeError(const FastReference& reference
     index.push_back(p.index);
     view.push_back(p.view);
   }
-  const std::vector<Rgb> ref = reference.RadianceMany(brdf, rotation, index, view, threads);
+  const std::vector<Rgb> ref =
+      reference.RadianceMany(brdf, rotation, index, view, threads, kCheckReferenceTolerance);
   std::vector<Rgb> got(set.size());
   for (size_t k = 0; k < set.size(); ++k)
     got[k] = ShrmEvalWithLights(cube, brdf, set[k].index, set[k].view);
