@@ -476,6 +476,15 @@ class QueryState {
     }
   }
 
+  // Before a node's children are processed: the samples of those that are leaves are fetched
+  // (a leaf's sum waits on them: a lat-long leaf's pixels lie in four rows of the map).
+  void PrefetchLeaves(const FastReference::Node& node) const {
+    for (int32_t k = 0; k < node.child_count; ++k) {
+      const FastReference::Node& child = nodes_[node.first_child + k];
+      if (child.child_count == 0) samples_.Prefetch(child.begin, child.end - child.begin);
+    }
+  }
+
   // Adds node i: skipped (exact zero), summed (leaf), opened (not admissible) or put in the heap
   // with its children-as-points value and the error estimate |parent point - children|.
   // `rho`, when given, is rho-hat at the node's centre (computed by its parent's check).
@@ -500,6 +509,7 @@ class QueryState {
     const bool straddles =
         horizon_ && std::abs(n_.Dot(node.centre)) <= node.sin_radius + kGeometrySlack;
     if (straddles ? !(bound_straddling_ && LobeAdmissible(node)) : !Admissible(node)) {
+      PrefetchLeaves(node);
       for (int32_t k = 0; k < node.child_count; ++k) Process(node.first_child + k, nullptr);
       return;
     }
@@ -642,6 +652,7 @@ class QueryState {
         error_[c] -= rec.error[c];
       }
       const FastReference::Node& node = nodes_[rec.node];
+      PrefetchLeaves(node);
       for (int32_t k = 0; k < node.child_count; ++k)
         Process(node.first_child + k, &rec.child_rho[k]);
     }
@@ -848,6 +859,23 @@ void FastReference::SampleStore::Dirs(int32_t begin, int count, Vec3* out) const
   for (int j = 0; j < 16; ++j) {
     const int dr = BlockRow(j), dc = BlockCol(j);
     out[j] = {rs[dr] * cs[dc], rc[dr], -rs[dr] * cc[dc]};
+  }
+}
+
+void FastReference::SampleStore::Prefetch(int32_t begin, int count) const {
+  if (height == 0) {
+    const char* p = reinterpret_cast<const char*>(list.data() + begin);
+    for (size_t b = 0; b < count * sizeof(Sample); b += 64) __builtin_prefetch(p + b);
+    return;
+  }
+  if (count != 16 || begin % 16 != 0) return;
+  int row, col;
+  PixelOf(begin, &row, &col);
+  const size_t width = 2 * static_cast<size_t>(height);
+  for (int t = 0; t < 4; ++t) {
+    const float* p = pixels.get() + 3 * ((row + t) * width + col);
+    __builtin_prefetch(p);
+    __builtin_prefetch(p + 11);  // the run's 48 bytes may cross a line
   }
 }
 

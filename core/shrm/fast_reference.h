@@ -202,6 +202,8 @@ class FastReference {
     Vec3 Dir(int32_t k) const;
     // Dir(begin + j) for j < count into out.
     void Dirs(int32_t begin, int count, Vec3* out) const;
+    // Starts fetching positions [begin, begin + count) (a leaf's samples) into the cache.
+    void Prefetch(int32_t begin, int count) const;
     // L_c dOmega of position k.
     std::array<float, 3> Weight(int32_t k) const;
     // Weight(begin + j) for j < count into out.
