@@ -160,24 +160,28 @@ struct Sums {
   double lum = 0, lum_sq = 0, count = 0, plain_sq = 0;
   Vec3 lum_dir, plain;
 
-  // Adds n <= kFastReferenceLeafSamples samples given as separate coordinates and weights (a
-  // leaf: the loops run in vector lanes).
+  // Adds n <= kFastReferenceLeafSamples samples given as separate coordinates and channel
+  // weights (a leaf: the loops run in vector lanes).
   void AddBlock(int n, const double* x, const double* y, const double* z,
-                const std::array<float, 3>* w) {
+                const double* const w[3]) {
+    if (n == kFastReferenceLeafSamples) {
+      AddWholeBlock(x, y, z, w);
+      return;
+    }
     double l[kFastReferenceLeafSamples], sq[kFastReferenceLeafSamples];
     for (int j = 0; j < n; ++j) {
       sq[j] = x[j] * x[j] + y[j] * y[j] + z[j] * z[j];
-      l[j] = std::max(kLuminance[0] * w[j][0] + kLuminance[1] * w[j][1] + kLuminance[2] * w[j][2],
+      l[j] = std::max(kLuminance[0] * w[0][j] + kLuminance[1] * w[1][j] + kLuminance[2] * w[2][j],
                       0.0);
     }
     for (int c = 0; c < 3; ++c) {
+      const double* wc = w[c];
       double s = 0, fx = 0, fy = 0, fz = 0;
       for (int j = 0; j < n; ++j) {
-        const double wc = w[j][c];
-        s += wc;
-        fx += wc * x[j];
-        fy += wc * y[j];
-        fz += wc * z[j];
+        s += wc[j];
+        fx += wc[j] * x[j];
+        fy += wc[j] * y[j];
+        fz += wc[j] * z[j];
       }
       weight[c] += s;
       first[c] = first[c] + Vec3{fx, fy, fz};
@@ -200,6 +204,62 @@ struct Sums {
     count += n;
     plain_sq += ssq;
     plain = plain + Vec3{px, py, pz};
+  }
+  // AddBlock of a whole leaf: each sum in kLanes partial sums (independent, so the loops run in
+  // vector lanes without reassociating a sum), added up in a fixed order at the end.
+  void AddWholeBlock(const double* x, const double* y, const double* z, const double* const w[3]) {
+    constexpr int kLanes = 8;
+    static_assert(kFastReferenceLeafSamples % kLanes == 0);
+    enum {
+      kW = 0,
+      kF = 3,
+      kLum = 12,
+      kLumSq = 13,
+      kLumDir = 14,
+      kSq = 17,
+      kPlain = 18,
+      kSums = 21
+    };
+    double acc[kSums][kLanes] = {};
+    for (int h = 0; h < kFastReferenceLeafSamples; h += kLanes) {
+      for (int k = 0; k < kLanes; ++k) {
+        const int j = h + k;
+        const double sq = x[j] * x[j] + y[j] * y[j] + z[j] * z[j];
+        const double l = std::max(
+            kLuminance[0] * w[0][j] + kLuminance[1] * w[1][j] + kLuminance[2] * w[2][j], 0.0);
+        for (int c = 0; c < 3; ++c) {
+          acc[kW + c][k] += w[c][j];
+          acc[kF + 3 * c][k] += w[c][j] * x[j];
+          acc[kF + 3 * c + 1][k] += w[c][j] * y[j];
+          acc[kF + 3 * c + 2][k] += w[c][j] * z[j];
+        }
+        acc[kLum][k] += l;
+        acc[kLumSq][k] += l * sq;
+        acc[kLumDir][k] += l * x[j];
+        acc[kLumDir + 1][k] += l * y[j];
+        acc[kLumDir + 2][k] += l * z[j];
+        acc[kSq][k] += sq;
+        acc[kPlain][k] += x[j];
+        acc[kPlain + 1][k] += y[j];
+        acc[kPlain + 2][k] += z[j];
+      }
+    }
+    double total[kSums];
+    for (int i = 0; i < kSums; ++i) {
+      double t = 0;
+      for (int k = 0; k < kLanes; ++k) t += acc[i][k];
+      total[i] = t;
+    }
+    for (int c = 0; c < 3; ++c) {
+      weight[c] += total[kW + c];
+      first[c] = first[c] + Vec3{total[kF + 3 * c], total[kF + 3 * c + 1], total[kF + 3 * c + 2]};
+    }
+    lum += total[kLum];
+    lum_sq += total[kLumSq];
+    lum_dir = lum_dir + Vec3{total[kLumDir], total[kLumDir + 1], total[kLumDir + 2]};
+    count += kFastReferenceLeafSamples;
+    plain_sq += total[kSq];
+    plain = plain + Vec3{total[kPlain], total[kPlain + 1], total[kPlain + 2]};
   }
   void Merge(const Sums& o) {
     for (int c = 0; c < 3; ++c) {
@@ -862,6 +922,52 @@ void FastReference::SampleStore::Dirs(int32_t begin, int count, Vec3* out) const
   }
 }
 
+void FastReference::SampleStore::Coordinates(int32_t begin, int count, double* x, double* y,
+                                             double* z) const {
+  if (height == 0 || count != 16 || begin % 16 != 0) {
+    for (int j = 0; j < count; ++j) {
+      const Vec3 d = Dir(begin + j);
+      x[j] = d.x;
+      y[j] = d.y;
+      z[j] = d.z;
+    }
+    return;
+  }
+  int row, col;
+  PixelOf(begin, &row, &col);
+  for (int j = 0; j < 16; ++j) {
+    const int r = row + BlockRow(j), c = col + BlockCol(j);
+    x[j] = row_sin[r] * col_sin[c];
+    y[j] = row_cos[r];
+    z[j] = -row_sin[r] * col_cos[c];
+  }
+}
+
+void FastReference::SampleStore::ChannelWeights(int32_t begin, int count, double* r, double* g,
+                                                double* b) const {
+  if (height == 0 || count != 16 || begin % 16 != 0) {
+    for (int j = 0; j < count; ++j) {
+      const std::array<float, 3> w = Weight(begin + j);
+      r[j] = w[0];
+      g[j] = w[1];
+      b[j] = w[2];
+    }
+    return;
+  }
+  int row, col;
+  PixelOf(begin, &row, &col);
+  const size_t width = 2 * static_cast<size_t>(height);
+  for (int j = 0; j < 16; ++j) {
+    const int t = BlockRow(j);
+    const float* p = pixels.get() + 3 * ((row + t) * width + col + BlockCol(j));
+    const double omega = row_omega[row + t];
+    // Rounded to float as Weight's (the leaf's sums are those of the weights queries read).
+    r[j] = static_cast<float>(p[0] * omega);
+    g[j] = static_cast<float>(p[1] * omega);
+    b[j] = static_cast<float>(p[2] * omega);
+  }
+}
+
 void FastReference::SampleStore::Prefetch(int32_t begin, int count) const {
   if (height == 0) {
     const char* p = reinterpret_cast<const char*>(list.data() + begin);
@@ -1061,63 +1167,70 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
   r.nodes_.reserve(node_count);
   r.gradients_.reserve(internal_count);
 
-  // Fills node i over samples [begin, end) and returns its sums. Nodes are numbered as they are
-  // reached top-down (a node, then its children as one block); their values come bottom-up:
-  // a leaf's from its samples, an internal node's from its children's sums.
-  auto build = [&r, &split](auto&& self, int32_t i, int32_t begin, int32_t end) -> Sums {
-    int32_t bounds[5];
-    const int groups = split(begin, end, bounds);
+  // A leaf (at most kFastReferenceLeafSamples samples, except coincident ones): its sums, and
+  // the largest squared chord from its centre (left in `radius` for SetRadii).
+  auto leaf = [&r](int32_t i, int32_t begin, int32_t end) -> Sums {
     Sums sums;
-    std::array<Sums, 4> child;
-    const int32_t first = static_cast<int32_t>(r.nodes_.size());
-    std::array<Vec3, kFastReferenceLeafSamples> dirs;
-    if (groups == 0) {
-      // A leaf holds at most kFastReferenceLeafSamples samples, except coincident ones.
-      for (int32_t k = begin; k < end; k += kFastReferenceLeafSamples) {
-        const int batch = std::min<int32_t>(kFastReferenceLeafSamples, end - k);
-        r.samples_.Dirs(k, batch, dirs.data());
-        std::array<double, kFastReferenceLeafSamples> x, y, z;
-        std::array<std::array<float, 3>, kFastReferenceLeafSamples> w;
-        for (int j = 0; j < batch; ++j) {
-          x[j] = dirs[j].x;
-          y[j] = dirs[j].y;
-          z[j] = dirs[j].z;
-        }
-        r.samples_.Weights(k, batch, w.data());
-        sums.AddBlock(batch, x.data(), y.data(), z.data(), w.data());
-      }
-    } else {
-      // Within the exact reservation: references to nodes stay valid.
-      r.nodes_.resize(r.nodes_.size() + groups);
-      for (int g = 0; g < groups; ++g) {
-        child[g] = self(self, first + g, bounds[g], bounds[g + 1]);
-        sums.Merge(child[g]);
-      }
+    std::array<double, kFastReferenceLeafSamples> x, y, z;
+    std::array<std::array<double, kFastReferenceLeafSamples>, 3> w;
+    const double* const channels[3] = {w[0].data(), w[1].data(), w[2].data()};
+    for (int32_t k = begin; k < end; k += kFastReferenceLeafSamples) {
+      const int batch = std::min<int32_t>(kFastReferenceLeafSamples, end - k);
+      r.samples_.Coordinates(k, batch, x.data(), y.data(), z.data());
+      r.samples_.ChannelWeights(k, batch, w[0].data(), w[1].data(), w[2].data());
+      sums.AddBlock(batch, x.data(), y.data(), z.data(), channels);
     }
     Node& node = r.nodes_[i];
     node.begin = begin;
     node.end = end;
     node.weight = sums.weight;
     node.centre = sums.Centre();
-    if (groups == 0) {  // a leaf: the cap of its samples
-      double chord2 = 0;
-      if (end - begin <= kFastReferenceLeafSamples) {  // the directions are at hand
-        for (int j = 0; j < end - begin; ++j) {
-          const Vec3 d = dirs[j] - node.centre;
-          chord2 = std::max(chord2, d.Dot(d));
-        }
-      } else {
-        for (int32_t k = begin; k < end; ++k) {
-          const Vec3 d = r.samples_.Dir(k) - node.centre;
-          chord2 = std::max(chord2, d.Dot(d));
-        }
+    const Vec3 c = node.centre;
+    double chord2 = 0;
+    if (end - begin <= kFastReferenceLeafSamples) {  // the coordinates are at hand
+      for (int j = 0; j < end - begin; ++j) {
+        const double dx = x[j] - c.x, dy = y[j] - c.y, dz = z[j] - c.z;
+        chord2 = std::max(chord2, dx * dx + dy * dy + dz * dz);
       }
-      node.radius = chord2;  // its angle is made by SetRadii
     } else {
-      node.first_child = first;
-      node.child_count = groups;
-      SetGradient(r.nodes_, r.gradients_, i, sums, std::span(child).first(groups));
+      for (int32_t k = begin; k < end; ++k) {
+        const Vec3 d = r.samples_.Dir(k) - c;
+        chord2 = std::max(chord2, d.Dot(d));
+      }
     }
+    node.radius = chord2;
+    return sums;
+  };
+  // Fills node i over samples [begin, end) and returns its sums. Nodes are numbered as they are
+  // reached top-down (a node, then its children as one block); their values come bottom-up:
+  // a leaf's from its samples, an internal node's from its children's sums.
+  auto build = [&r, &split, &leaf](auto&& self, int32_t i, int32_t begin, int32_t end) -> Sums {
+    int32_t bounds[5];
+    const int groups = split(begin, end, bounds);
+    if (groups == 0) return leaf(i, begin, end);
+    const int32_t first = static_cast<int32_t>(r.nodes_.size());
+    // Within the exact reservation: references to nodes stay valid.
+    r.nodes_.resize(r.nodes_.size() + groups);
+    Sums sums;
+    std::array<Sums, 4> child;
+    // Children that are leaves: their samples are fetched before the first is summed (a
+    // lat-long leaf's pixels lie in four rows of the map, which the hardware does not predict).
+    for (int g = 0; g < groups; ++g) {
+      if (bounds[g + 1] - bounds[g] <= kFastReferenceLeafSamples)
+        r.samples_.Prefetch(bounds[g], bounds[g + 1] - bounds[g]);
+    }
+    for (int g = 0; g < groups; ++g) {
+      child[g] = self(self, first + g, bounds[g], bounds[g + 1]);
+      sums.Merge(child[g]);
+    }
+    Node& node = r.nodes_[i];
+    node.begin = begin;
+    node.end = end;
+    node.weight = sums.weight;
+    node.centre = sums.Centre();
+    node.first_child = first;
+    node.child_count = groups;
+    SetGradient(r.nodes_, r.gradients_, i, sums, std::span(child).first(groups));
     return sums;
   };
   for (const auto& [begin, end] : faces) {

@@ -202,12 +202,16 @@ class FastReference {
     Vec3 Dir(int32_t k) const;
     // Dir(begin + j) for j < count into out.
     void Dirs(int32_t begin, int count, Vec3* out) const;
+    // The same as separate coordinates.
+    void Coordinates(int32_t begin, int count, double* x, double* y, double* z) const;
     // Starts fetching positions [begin, begin + count) (a leaf's samples) into the cache.
     void Prefetch(int32_t begin, int count) const;
     // L_c dOmega of position k.
     std::array<float, 3> Weight(int32_t k) const;
     // Weight(begin + j) for j < count into out.
     void Weights(int32_t begin, int count, std::array<float, 3>* out) const;
+    // The same by channel, in double precision.
+    void ChannelWeights(int32_t begin, int count, double* r, double* g, double* b) const;
     // The lat-long tree's weight of a pixel.
     std::array<float, 3> PixelWeight(int row, int col) const {
       const float* p = pixels.get() + 3 * (static_cast<size_t>(row) * 2 * height + col);
