@@ -244,6 +244,16 @@ TEST(FastReferenceTest, CreateRejectsBadSamples) {
             absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(broken([](EnvSample& s) { s.rgb[1] = std::numeric_limits<float>::infinity(); }),
             absl::StatusCode::kInvalidArgument);
+  // A lat-long map's own tree (its pixels read where they are summed): the pixel is named.
+  for (const float bad :
+       {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()}) {
+    Image img = ConstantLatLong(16, {1, 1, 1});
+    img.pixels[3 * 37 + 2] = bad;
+    const absl::StatusOr<FastReference> made = FastReference::Create(EnvMap::FromLatLong(img));
+    EXPECT_EQ(made.status().code(), absl::StatusCode::kInvalidArgument);
+    EXPECT_NE(made.status().message().find("sample 37 has non-finite radiance"), std::string::npos)
+        << made.status();
+  }
 }
 
 TEST(FastReferenceTest, RadianceManyIsTheSameForAnyThreadCount) {

@@ -156,6 +156,7 @@ int SplitRange(const uint64_t* key, int32_t begin, int32_t end, int32_t bounds[5
 // plain sums 1, w, |w|^2 for black nodes.
 struct Sums {
   Rgb weight{0, 0, 0};
+  Rgb abs_weight{0, 0, 0};  // sum of |L_c dOmega| (the totals' priority weights)
   std::array<Vec3, 3> first{};
   double lum = 0, lum_sq = 0, count = 0, plain_sq = 0;
   Vec3 lum_dir, plain;
@@ -176,14 +177,16 @@ struct Sums {
     }
     for (int c = 0; c < 3; ++c) {
       const double* wc = w[c];
-      double s = 0, fx = 0, fy = 0, fz = 0;
+      double s = 0, sa = 0, fx = 0, fy = 0, fz = 0;
       for (int j = 0; j < n; ++j) {
         s += wc[j];
+        sa += std::abs(wc[j]);
         fx += wc[j] * x[j];
         fy += wc[j] * y[j];
         fz += wc[j] * z[j];
       }
       weight[c] += s;
+      abs_weight[c] += sa;
       first[c] = first[c] + Vec3{fx, fy, fz};
     }
     double sl = 0, slsq = 0, lx = 0, ly = 0, lz = 0, ssq = 0, px = 0, py = 0, pz = 0;
@@ -218,7 +221,8 @@ struct Sums {
       kLumDir = 14,
       kSq = 17,
       kPlain = 18,
-      kSums = 21
+      kAbs = 21,
+      kSums = 24
     };
     double acc[kSums][kLanes] = {};
     for (int h = 0; h < kFastReferenceLeafSamples; h += kLanes) {
@@ -229,6 +233,7 @@ struct Sums {
             kLuminance[0] * w[0][j] + kLuminance[1] * w[1][j] + kLuminance[2] * w[2][j], 0.0);
         for (int c = 0; c < 3; ++c) {
           acc[kW + c][k] += w[c][j];
+          acc[kAbs + c][k] += std::abs(w[c][j]);
           acc[kF + 3 * c][k] += w[c][j] * x[j];
           acc[kF + 3 * c + 1][k] += w[c][j] * y[j];
           acc[kF + 3 * c + 2][k] += w[c][j] * z[j];
@@ -252,6 +257,7 @@ struct Sums {
     }
     for (int c = 0; c < 3; ++c) {
       weight[c] += total[kW + c];
+      abs_weight[c] += total[kAbs + c];
       first[c] = first[c] + Vec3{total[kF + 3 * c], total[kF + 3 * c + 1], total[kF + 3 * c + 2]};
     }
     lum += total[kLum];
@@ -264,6 +270,7 @@ struct Sums {
   void Merge(const Sums& o) {
     for (int c = 0; c < 3; ++c) {
       weight[c] += o.weight[c];
+      abs_weight[c] += o.abs_weight[c];
       first[c] = first[c] + o.first[c];
     }
     lum += o.lum;
@@ -355,6 +362,16 @@ void SetGradient(std::vector<FastReference::Node>& nodes,
     inv01 += ex * ey / l;
     inv11 += ey * ey / l;
   }
+  // The channels' first moments about the node's centre and, summed, about the children's.
+  std::array<Vec3, 3> parent_offset, children_offset;
+  for (int ch = 0; ch < 3; ++ch) {
+    parent_offset[ch] = sums.Offset(ch, c);
+    children_offset[ch] = Vec3{};
+    for (int k = 0; k < node.child_count; ++k) {
+      children_offset[ch] =
+          children_offset[ch] + child[k].Offset(ch, nodes[node.first_child + k].centre);
+    }
+  }
   FastReference::Gradient g;
   for (int j = 0; j < 4; ++j) {
     Vec3 gj;
@@ -362,11 +379,8 @@ void SetGradient(std::vector<FastReference::Node>& nodes,
       gj = a * (inv00 * p[j][0] + inv01 * p[j][1]) + b * (inv01 * p[j][0] + inv11 * p[j][1]);
     }
     for (int ch = 0; ch < 3; ++ch) {
-      g.parent[ch][j] = gj.Dot(sums.Offset(ch, c));
-      double sum = 0;
-      for (int k = 0; k < node.child_count; ++k)
-        sum += gj.Dot(child[k].Offset(ch, nodes[node.first_child + k].centre));
-      g.children[ch][j] = sum;
+      g.parent[ch][j] = gj.Dot(parent_offset[ch]);
+      g.children[ch][j] = gj.Dot(children_offset[ch]);
     }
   }
   node.gradient = static_cast<int32_t>(gradients.size());
@@ -1063,50 +1077,12 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
   } else {
     store.list.resize(n);
   }
-  Rgb total{0, 0, 0}, total_abs{0, 0, 0};
   double solid_angle = 0;
-  const auto add_weight = [&total, &total_abs](std::array<float, 3>& weight, const float* rgb,
-                                               double omega) {
-    for (int c = 0; c < 3; ++c) {
-      weight[c] = static_cast<float>(static_cast<double>(rgb[c]) * omega);
-      total[c] += weight[c];
-      total_abs[c] += std::abs(weight[c]);
-    }
-  };
   if (lat_long != nullptr) {
     // The weights are the map's pixels times their rows' solid angles, made where they are read
-    // (the leaves below); the map is checked and totalled here, in its own order.
-    const int w = lat_long->width(), h = store.height;
-    const float* pixels = store.pixels.get();
-    for (int row = 0; row < h; ++row) {
-      const double omega = store.row_omega[row];
-      const float* rgb = pixels + 3 * static_cast<size_t>(row) * w;
-      Rgb row_total{0, 0, 0}, row_abs{0, 0, 0};
-      bool finite = true;
-      for (int col = 0; col < w; ++col) {
-        for (int c = 0; c < 3; ++c) {
-          const float v = rgb[3 * col + c];
-          finite &= std::isfinite(v);
-          row_total[c] += v;
-          row_abs[c] += std::abs(v);
-        }
-      }
-      if (!finite) {
-        for (int col = 0; col < w; ++col) {
-          const float* p = rgb + 3 * col;
-          if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
-            return absl::InvalidArgumentError(absl::StrCat("fast reference: sample ",
-                                                           static_cast<size_t>(row) * w + col,
-                                                           " has non-finite radiance"));
-          }
-        }
-      }
-      for (int c = 0; c < 3; ++c) {
-        total[c] += row_total[c] * omega;
-        total_abs[c] += row_abs[c] * omega;
-      }
-      solid_angle += omega * w;
-    }
+    // (the leaves below); the totals are the roots' sums, and a non-finite pixel shows in them.
+    for (int row = 0; row < store.height; ++row)
+      solid_angle += store.row_omega[row] * lat_long->width();
   }
   for (size_t k = 0; lat_long == nullptr && k < n; ++k) {
     const int32_t i = ordered.index[k];
@@ -1129,15 +1105,11 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
     Sample& out = store.list[k];
     out.dir = {static_cast<float>(s.dir.x), static_cast<float>(s.dir.y),
                static_cast<float>(s.dir.z)};
-    add_weight(out.weight, s.rgb.data(), s.solid_angle);
+    for (int c = 0; c < 3; ++c)
+      out.weight[c] = static_cast<float>(static_cast<double>(s.rgb[c]) * s.solid_angle);
     solid_angle += s.solid_angle;
   }
   std::vector<int32_t>().swap(ordered.index);
-  for (int c = 0; c < 3; ++c) {
-    const double mean = solid_angle > 0 ? std::abs(total[c]) / solid_angle : 0.0;
-    r.floor_[c] = kFastReferenceFloor * mean;
-    r.inv_total_[c] = total_abs[c] > 0 ? 1.0 / total_abs[c] : 0.0;
-  }
 
   // The faces' sample ranges (keys sorted, so each face's run is contiguous).
   const int face_shift = ordered.face_shift;
@@ -1233,13 +1205,38 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
     SetGradient(r.nodes_, r.gradients_, i, sums, std::span(child).first(groups));
     return sums;
   };
+  std::vector<Sums> root_sums;
   for (const auto& [begin, end] : faces) {
     const int32_t root = static_cast<int32_t>(r.nodes_.size());
     r.nodes_.emplace_back();
     r.roots_.push_back(root);
-    build(build, root, begin, end);
+    root_sums.push_back(build(build, root, begin, end));
   }
   SetRadii(r.nodes_);
+  Rgb total{0, 0, 0}, total_abs{0, 0, 0};
+  for (const Sums& root : root_sums) {
+    for (int c = 0; c < 3; ++c) {
+      total[c] += root.weight[c];
+      total_abs[c] += root.abs_weight[c];
+    }
+  }
+  if (lat_long != nullptr && !(std::isfinite(total_abs[0]) && std::isfinite(total_abs[1]) &&
+                               std::isfinite(total_abs[2]))) {
+    const float* pixels = store.pixels.get();
+    for (size_t i = 0; i < n; ++i) {
+      const float* p = pixels + 3 * i;
+      if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("fast reference: sample ", i, " has non-finite radiance"));
+      }
+    }
+    return absl::InvalidArgumentError("fast reference: the map's total radiance overflows");
+  }
+  for (int c = 0; c < 3; ++c) {
+    const double mean = solid_angle > 0 ? std::abs(total[c]) / solid_angle : 0.0;
+    r.floor_[c] = kFastReferenceFloor * mean;
+    r.inv_total_[c] = total_abs[c] > 0 ? 1.0 / total_abs[c] : 0.0;
+  }
   return r;
 }
 
