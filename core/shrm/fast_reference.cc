@@ -59,6 +59,8 @@ constexpr double kJumpProbeHeight = 1e-2;
 // How far above (and below) the horizon AddStraddling probes rho-hat's value at the cut.
 constexpr double kHorizonNudge = 1e-6;
 
+static_assert(sizeof(FastReference::Node) == 96 && sizeof(FastReference::Gradient) == 96);
+
 uint64_t Spread(uint32_t x) {  // bits of x at the even positions
   uint64_t v = x;
   v = (v | (v << 16)) & 0x0000FFFF0000FFFFull;
@@ -317,8 +319,9 @@ void SetGradient(std::vector<FastReference::Node>& nodes,
       between += (lit ? std::max(lum, 0.0) : 1.0) * d.Dot(d);
     }
     // Also bounded below: a node whose children hold little spread is still a point rule.
-    node.richardson = between > within / kMaxRichardson ? std::max(within / between, kMinRichardson)
-                                                        : std::numeric_limits<double>::infinity();
+    node.richardson = static_cast<float>(between > within / kMaxRichardson
+                                             ? std::max(within / between, kMinRichardson)
+                                             : std::numeric_limits<double>::infinity());
   }
   // Gradient correction: rho-hat's gradient g at the centre is fitted to the children's values
   // (least squares in the tangent plane, Delta rho_j = g . (c_j - c)), so
@@ -379,8 +382,8 @@ void SetGradient(std::vector<FastReference::Node>& nodes,
       gj = a * (inv00 * p[j][0] + inv01 * p[j][1]) + b * (inv01 * p[j][0] + inv11 * p[j][1]);
     }
     for (int ch = 0; ch < 3; ++ch) {
-      g.parent[ch][j] = gj.Dot(parent_offset[ch]);
-      g.children[ch][j] = gj.Dot(children_offset[ch]);
+      g.parent[ch][j] = static_cast<float>(gj.Dot(parent_offset[ch]));
+      g.children[ch][j] = static_cast<float>(gj.Dot(children_offset[ch]));
     }
   }
   node.gradient = static_cast<int32_t>(gradients.size());
@@ -735,7 +738,7 @@ class QueryState {
 
  private:
   bool Admissible(const FastReference::Node& node) const {
-    if (!(node.richardson < std::numeric_limits<double>::infinity())) return false;
+    if (!(node.richardson < std::numeric_limits<float>::infinity())) return false;
     if (horizon_ && std::abs(n_.Dot(node.centre)) <= node.sin_radius + kGeometrySlack) return false;
     return LobeAdmissible(node);
   }

@@ -66,7 +66,7 @@
 // Phong, 0.16 ms Lambert, 0.17-0.29 ms microfacet, 0.34-0.46 ms GGX, 0.68 ms Kajiya-Kay (4.5k-20k
 // rho-hat evaluations instead of 524288), 30-170x faster than the full sum; largest error over
 // the four bundled maps 6.9e-4 (tests/fast_reference_test.cc). The build: ~35 ms and ~27 MB from
-// a list of samples; ~9 ms and ~7 MB (the nodes: the samples are the map's own pixels) from a
+// a list of samples; ~7 ms and ~5 MB (the nodes: the samples are the map's own pixels) from a
 // 1024 x 512 lat-long map (session 40; ~12 ms and ~13 MB before).
 #ifndef SHRM_CORE_SHRM_FAST_REFERENCE_H_
 #define SHRM_CORE_SHRM_FAST_REFERENCE_H_
@@ -170,17 +170,20 @@ class FastReference {
     double sin_radius = 0;         // sin(radius), or 1 when radius >= pi/2
     double cos_open = -2;          // cos(radius / eta), -2 when radius / eta >= pi
     std::array<double, 3> weight;  // sum of L_c dOmega
+    float richardson = 0;          // Q's error / (Q - P), infinite: never used as points
     int32_t begin = 0, end = 0;    // samples [begin, end)
     int32_t first_child = -1;      // children [first_child, first_child + child_count)
     int32_t child_count = 0;       // 0: a leaf (summed exactly)
     int32_t gradient = -1;         // index into gradients_ (internal nodes)
-    double richardson = 0;         // Q's error / (Q - P), infinite: never used as points
   };
+  // 96 bytes (the ratio in single precision: a factor of an error estimate).
   // First-order correction of an internal node (see Create): with Delta_j = rho-hat at child j's
   // centre minus rho-hat at the node's centre, the node as a point gets + sum_j Delta_j
   // parent[c][j] and the children as points + sum_j Delta_j children[c][j], in channel c.
+  // In single precision (96 bytes, not 192: a correction's own rounding at 6e-8 of itself is far
+  // below the reference's tolerance, and the tree's fresh memory is most of a check's cost).
   struct Gradient {
-    std::array<std::array<double, 4>, 3> parent{}, children{};
+    std::array<std::array<float, 4>, 3> parent{}, children{};
   };
   // The samples in tree order (internal to the implementation): a list of Sample, or for a
   // lat-long map's own tree nothing of its own: the map's pixels (shared with the map, so no
