@@ -965,9 +965,8 @@ void FastReference::SampleStore::Prefetch(int32_t begin, int count) const {
   if (count != 16 || begin % 16 != 0) return;
   int row, col;
   PixelOf(begin, &row, &col);
-  const size_t width = 2 * static_cast<size_t>(height);
   for (int t = 0; t < 4; ++t) {
-    const float* p = pixels.get() + 3 * ((row + t) * width + col);
+    const float* p = Pixel(row + t, col);
     __builtin_prefetch(p);
     __builtin_prefetch(p + 11);  // the run's 48 bytes may cross a line
   }
@@ -990,9 +989,8 @@ void FastReference::SampleStore::Weights(int32_t begin, int count,
   // the block, its columns 2, 3 four places further (the Morton digit's even bits are the column).
   int row, col;
   PixelOf(begin, &row, &col);
-  const size_t width = 2 * static_cast<size_t>(height);
   for (int t = 0; t < 4; ++t) {
-    const float* p = pixels.get() + 3 * ((row + t) * width + col);
+    const float* p = Pixel(row + t, col);
     const double omega = row_omega[row + t];
     float w[12];
     for (int q = 0; q < 12; ++q) w[q] = static_cast<float>(p[q] * omega);

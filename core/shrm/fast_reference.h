@@ -215,9 +215,12 @@ class FastReference {
     void Weights(int32_t begin, int count, std::array<float, 3>* out) const;
     // The same by channel, in double precision.
     void ChannelWeights(int32_t begin, int count, double* r, double* g, double* b) const;
-    // The lat-long tree's weight of a pixel.
+    // The lat-long tree's pixel (its RGB in the map) and its weight.
+    const float* Pixel(int row, int col) const {
+      return pixels.get() + 3 * (static_cast<size_t>(row) * 2 * height + col);
+    }
     std::array<float, 3> PixelWeight(int row, int col) const {
-      const float* p = pixels.get() + 3 * (static_cast<size_t>(row) * 2 * height + col);
+      const float* p = Pixel(row, col);
       const double omega = row_omega[row];
       return {static_cast<float>(p[0] * omega), static_cast<float>(p[1] * omega),
               static_cast<float>(p[2] * omega)};
