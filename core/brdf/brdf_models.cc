@@ -196,14 +196,21 @@ double MicrofacetBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int
 void MicrofacetBrdf::TransferChunk(const Vec3& n, const Vec3& v, const Vec3* w, int count,
                                    double* out) const {
   const double nv = n.Dot(v);
-  const double norm = 1.0 / (4.0 * kPi * sigma_ * sigma_);
+  const double norm = nv > 0 ? 1.0 / (4.0 * kPi * sigma_ * sigma_) : 0.0;
+  // Vec3's arithmetic written out on local copies (the directions by reference: a struct copy,
+  // or `out` aliasing n and v, would keep the loop scalar), so it runs in vector lanes.
+  const double nx = n.x, ny = n.y, nz = n.z, vx = v.x, vy = v.y, vz = v.z;
   double t[kArcChunk], keep[kArcChunk];
   for (int k = 0; k < count; ++k) {
-    const Vec3 h_sum = v + w[k];
-    const double len = h_sum.Norm();
-    const Vec3 d = n - h_sum * (len > 0 ? 1.0 / len : 0.0);
-    t[k] = std::min(1.0, d.Norm() * 0.5);  // AngleBetween: 2 asin(|n - h| / 2)
-    keep[k] = n.Dot(w[k]) > 0 && nv > 0 && len > 0 ? norm : 0.0;
+    const Vec3& wk = w[k];
+    const double sx = vx + wk.x, sy = vy + wk.y, sz = vz + wk.z;
+    const double len = std::sqrt(sx * sx + sy * sy + sz * sz);
+    const double inv = len > 0 ? 1.0 / len : 0.0;
+    const double dx = nx - sx * inv, dy = ny - sy * inv, dz = nz - sz * inv;
+    t[k] = std::min(
+        1.0, std::sqrt(dx * dx + dy * dy + dz * dz) * 0.5);  // AngleBetween: 2 asin(|n - h| / 2)
+    const double nw = nx * wk.x + ny * wk.y + nz * wk.z;
+    keep[k] = nw > 0 && len > 0 ? norm : 0.0;
   }
   internal::VectorAsin(t, t, count);
   for (int k = 0; k < count; ++k) {
