@@ -25,7 +25,6 @@ constexpr char kCubeConvention[] =
 
 absl::StatusOr<std::string> EncodeCube(const IblJob& job, const IblRun& run, const IblCube& cube) {
   const ktx2::Format format = IblKtx2Format(job.format);
-  const int channels = ktx2::ChannelCount(format);
   ktx2::Ktx2Image image;
   image.format = format;
   image.faces = 6;
@@ -35,12 +34,7 @@ absl::StatusOr<std::string> EncodeCube(const IblJob& job, const IblRun& run, con
     const ibl::SpecularLevel& l = cube.chain.levels[k];
     ktx2::Level level;
     level.width = level.height = l.face_size;
-    const size_t texels = static_cast<size_t>(6) * l.face_size * l.face_size;
-    level.pixels.resize(texels * channels);
-    for (size_t t = 0; t < texels; ++t) {
-      for (int c = 0; c < 3; ++c) level.pixels[t * channels + c] = l.cube.data[t * 3 + c];
-      if (channels == 4) level.pixels[t * channels + 3] = 1.0f;
-    }
+    level.rgb = l.cube.data;  // read in place: the cube's RGB (alpha 1 for a four-channel format)
     image.levels.push_back(std::move(level));
     roughness.push_back(absl::StrFormat("%.17g", l.roughness));  // round-trips the double
     degree.push_back(absl::StrCat(l.degree));

@@ -659,6 +659,44 @@ TEST(Ktx2Test, NonFiniteRejected) {
   }
 }
 
+// A level given as RGB triples (Level::rgb, read in place) is the level given as pixels with
+// alpha 1 (for a four-channel format) or the same triples (three channels): the same bytes, whose
+// values the round trip above checks against the formats' decoders.
+TEST(Ktx2Test, RgbViewEncodesAsItsPixels) {
+  for (Format f :
+       {Format::kR16G16B16A16Sfloat, Format::kR32G32B32A32Sfloat, Format::kR16G16B16Sfloat,
+        Format::kR32G32B32Sfloat, Format::kB10G11R11UfloatPack32, Format::kE5B9G9R9UfloatPack32}) {
+    SCOPED_TRACE(std::string(FormatName(f)));
+    const int channels = ChannelCount(f);
+    // 6 faces of 40 x 40 at level 0: 9600 texels, several of the encoder's runs and a partial one.
+    Ktx2Image with_pixels = MakeImage(f, 40, 40, 6, 0, 3);
+    Ktx2Image with_rgb = with_pixels;
+    std::vector<std::vector<float>> triples;
+    for (Level& l : with_pixels.levels) {
+      std::vector<float>& rgb = triples.emplace_back();
+      for (size_t t = 0; t < l.pixels.size() / channels; ++t) {
+        for (int c = 0; c < 3; ++c) rgb.push_back(l.pixels[t * channels + c]);
+        if (channels == 4) l.pixels[t * channels + 3] = 1.0f;
+      }
+    }
+    for (size_t k = 0; k < with_rgb.levels.size(); ++k) {
+      with_rgb.levels[k].pixels.clear();
+      with_rgb.levels[k].rgb = triples[k];
+    }
+    const absl::StatusOr<std::string> a = EncodeKtx2(with_pixels), b = EncodeKtx2(with_rgb);
+    ASSERT_TRUE(a.ok()) << a.status();
+    ASSERT_TRUE(b.ok()) << b.status();
+    EXPECT_EQ(*a, *b);
+    // Its values are checked as pixels are, and named by texel.
+    triples[1][3 * 7 + 2] = NAN;
+    const absl::StatusOr<std::string> bad = EncodeKtx2(with_rgb);
+    ASSERT_FALSE(bad.ok());
+    EXPECT_NE(bad.status().message().find("NaN at level 1, layer 0, face 0, x 7, y 0, channel 2"),
+              std::string::npos)
+        << bad.status();
+  }
+}
+
 // Expects EncodeKtx2 to fail with InvalidArgument mentioning `needle`.
 void ExpectInvalid(const Ktx2Image& im, const std::string& needle, const EncodeOptions& o = {}) {
   const absl::StatusOr<std::string> r = EncodeKtx2(im, o);
@@ -691,6 +729,20 @@ TEST(Ktx2Test, BadLayoutRejected) {
   im = good;
   im.format = Format::kE5B9G9R9UfloatPack32;  // 3 channels, data has 4
   ExpectInvalid(im, "3 channels");
+
+  // RGB triples in place of pixels: not both, not for a two-channel format, the right count.
+  const std::vector<float> triples(6 * 8 * 8 * 3, 0.5f);
+  im = good;
+  im.levels.resize(1);
+  im.levels[0].rgb = triples;
+  ExpectInvalid(im, "both pixels and rgb");
+  im.levels[0].pixels.clear();
+  ASSERT_TRUE(EncodeKtx2(im).ok());
+  im.levels[0].rgb = std::span<const float>(triples).first(triples.size() - 3);
+  ExpectInvalid(im, "rgb values for");
+  im.levels[0].rgb = triples;
+  im.format = Format::kR16G16Sfloat;
+  ExpectInvalid(im, "has rgb values, but");
 
   im = MakeImage(Format::kR16G16B16A16Sfloat, 8, 4, 1, 0, 1);
   im.faces = 6;

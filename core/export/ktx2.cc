@@ -195,6 +195,14 @@ absl::Status CheckText(const std::string& what, std::string_view s) {
   return absl::OkStatus();
 }
 
+// A level's values as given (Level::pixels, or Level::rgb) and the values per texel in them.
+std::span<const float> LevelValues(const Level& lv) {
+  return lv.rgb.empty() ? std::span<const float>(lv.pixels) : lv.rgb;
+}
+int ValueStride(const Level& lv, const FormatInfo& info) {
+  return lv.rgb.empty() ? info.channels : 3;
+}
+
 absl::Status ValidateLayout(const Ktx2Image& im) {
   const FormatInfo info = Info(im.format);
   if (info.channels == 0) {
@@ -228,12 +236,20 @@ absl::Status ValidateLayout(const Ktx2Image& im) {
                                   " of a ", im.width, "x", im.height, " image must be ", w, "x",
                                   h));
     }
-    const uint64_t expected = uint64_t(std::max(1, im.layers)) * im.faces * w * h * info.channels;
-    if (lv.pixels.size() != expected) {
-      return Invalid(absl::StrCat("level ", p, " has ", lv.pixels.size(), " values, expected ",
-                                  expected, " (", std::max(1, im.layers), " layer(s) x ", im.faces,
-                                  " face(s) x ", w, "x", h, " x ", info.channels, " channels of ",
-                                  info.name, ")"));
+    if (!lv.rgb.empty() && !lv.pixels.empty()) {
+      return Invalid(absl::StrCat("level ", p, " has both pixels and rgb values"));
+    }
+    if (!lv.rgb.empty() && info.channels < 3) {
+      return Invalid(absl::StrCat("level ", p, " has rgb values, but ", info.name, " has ",
+                                  info.channels, " channel(s)"));
+    }
+    const int stride = ValueStride(lv, info);
+    const uint64_t expected = uint64_t(std::max(1, im.layers)) * im.faces * w * h * stride;
+    if (LevelValues(lv).size() != expected) {
+      return Invalid(absl::StrCat(
+          "level ", p, " has ", LevelValues(lv).size(), " values, expected ", expected, " (",
+          std::max(1, im.layers), " layer(s) x ", im.faces, " face(s) x ", w, "x", h, " x ", stride,
+          lv.rgb.empty() ? " channels of " : " rgb values for ", info.name, ")"));
     }
   }
   return absl::OkStatus();
@@ -259,7 +275,7 @@ absl::Status ValidateKeys(const Ktx2Image& im, const EncodeOptions& options) {
 // Names the texel of value index `i` in level `p` for error messages.
 std::string Where(const Ktx2Image& im, size_t p, size_t i) {
   const Level& lv = im.levels[p];
-  const size_t channels = Info(im.format).channels;
+  const size_t channels = ValueStride(lv, Info(im.format));
   const size_t t = i / channels, w = lv.width, h = lv.height;
   return absl::StrCat("level ", p, ", layer ", t / (w * h * im.faces), ", face ",
                       (t / (w * h)) % im.faces, ", x ", t % w, ", y ", (t / w) % h, ", channel ",
@@ -270,7 +286,7 @@ std::string Where(const Ktx2Image& im, size_t p, size_t i) {
 // `negatives` says).
 absl::Status CheckLevelValues(const Ktx2Image& im, size_t p, Negatives negatives) {
   const FormatInfo info = Info(im.format);
-  const std::vector<float>& v = im.levels[p].pixels;
+  const std::span<const float> v = LevelValues(im.levels[p]);
   // First a branch-free pass the compiler vectorizes (an exponent of all ones: NaN or infinity;
   // a set sign bit below zero where negatives are refused); the value-by-value loop that names
   // the first offender runs only when it found one (the early exits kept it scalar: ~0.5 ms of
@@ -300,7 +316,8 @@ absl::Status CheckLevelValues(const Ktx2Image& im, size_t p, Negatives negatives
 // The size of level p's bytes (the levelImages of "Mip Level Array").
 size_t LevelBytes(const Ktx2Image& im, size_t p) {
   const FormatInfo info = Info(im.format);
-  return im.levels[p].pixels.size() / info.channels * info.block_bytes;
+  const Level& lv = im.levels[p];
+  return LevelValues(lv).size() / ValueStride(lv, info) * info.block_bytes;
 }
 // Level p's bytes appended to `out`, whose capacity the caller has reserved: the file is made in
 // one buffer, without a buffer and a copy per level. Its values must have passed
@@ -308,7 +325,32 @@ size_t LevelBytes(const Ktx2Image& im, size_t p) {
 void AppendLevel(const Ktx2Image& im, size_t p, std::string* out_ptr) {
   std::string& out = *out_ptr;
   const FormatInfo info = Info(im.format);
-  const std::vector<float>& v = im.levels[p].pixels;
+  const Level& lv = im.levels[p];
+  if (!lv.rgb.empty() && info.channels == 4) {
+    // RGB triples of a four-channel format: each run of texels widened (alpha 1) and appended.
+    constexpr size_t kRun = 256;
+    std::vector<float> run(4 * kRun);
+    Ktx2Image part;
+    part.format = im.format;
+    part.levels.resize(1);
+    const size_t texels = lv.rgb.size() / 3;
+    for (size_t first = 0; first < texels; first += kRun) {
+      const size_t n = std::min(kRun, texels - first);
+      run.resize(4 * n);
+      const float* in = lv.rgb.data() + 3 * first;
+      for (size_t t = 0; t < n; ++t) {
+        run[4 * t] = in[3 * t];
+        run[4 * t + 1] = in[3 * t + 1];
+        run[4 * t + 2] = in[3 * t + 2];
+        run[4 * t + 3] = 1.0f;
+      }
+      part.levels[0].pixels.swap(run);
+      AppendLevel(part, 0, out_ptr);
+      part.levels[0].pixels.swap(run);
+    }
+    return;
+  }
+  const std::span<const float> v = LevelValues(lv);
   const size_t texels = v.size() / info.channels;
   switch (im.format) {
     case Format::kR16G16Sfloat:

@@ -98,6 +98,11 @@ struct Level {
   // max(1, layers) layers, `faces` faces, channels = ChannelCount(format); row y = 0 is the
   // first row stored (the top row: KTXorientation "rd").
   std::vector<float> pixels;
+  // Instead of `pixels` (left empty): the level's values as RGB triples in the same texel order,
+  // read in place (the caller keeps them alive until EncodeKtx2 returns), for a format of three
+  // channels or four, whose alpha is then 1. A job's cubes are encoded from their own storage
+  // without an RGBA copy of every level.
+  std::span<const float> rgb = {};
 };
 
 struct Ktx2Image {
