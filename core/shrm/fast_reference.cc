@@ -763,12 +763,18 @@ class QueryState {
       at[count++] = nodes_[node.first_child + k].centre;
     // The cap's points nearest the lobe's axis, N (the cosine's peak) and their bisector: the
     // centre turned towards each by the radius (or the direction itself when the cap holds it).
+    // The cap's sine is the node's; its radius is below pi / 2 here (LobeAdmissible: r <= eta pi),
+    // so its cosine is positive, and d lies beyond the cap when its angle's tangent exceeds the
+    // radius's (or it is pi / 2 or more away): no trigonometry per probe.
     const Vec3& c0 = node.centre;
+    const double sin_r = node.sin_radius, cos_r = std::sqrt(std::max(0.0, 1 - sin_r * sin_r));
     const auto nearest_to = [&](const Vec3& d) {
-      Vec3 toward = d - c0 * c0.Dot(d);
+      const double cos_to = c0.Dot(d);
+      Vec3 toward = d - c0 * cos_to;
       const double sin_to = toward.Norm();
-      if (!(std::atan2(sin_to, c0.Dot(d)) > node.radius) || !(sin_to > 0)) return d;
-      return c0 * std::cos(node.radius) + toward * (std::sin(node.radius) / sin_to);
+      const bool beyond = cos_to <= 0 || sin_to * cos_r > cos_to * sin_r;
+      if (!beyond || !(sin_to > 0)) return d;
+      return c0 * cos_r + toward * (sin_r / sin_to);
     };
     const Vec3 mid = axis_ + n_;
     const std::array<Vec3, 3> near = {nearest_to(axis_), nearest_to(n_),
