@@ -1309,16 +1309,27 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
     // Within the exact reservation: references to nodes stay valid.
     r.nodes_.resize(r.nodes_.size() + groups);
     Sums sums;
-    std::array<Sums, 4> child;
-    // Children that are leaves: their samples are fetched before the first is summed (a
-    // lat-long leaf's pixels lie in four rows of the map, which the hardware does not predict).
-    for (int g = 0; g < groups && block_begin < 0; ++g) {
-      if (bounds[g + 1] - bounds[g] <= kFastReferenceLeafSamples)
-        r.samples_.Prefetch(bounds[g], bounds[g + 1] - bounds[g]);
-    }
-    for (int g = 0; g < groups; ++g) {
-      child[g] = self(self, first + g, bounds[g], bounds[g + 1]);
-      sums.Merge(child[g]);
+    std::array<Sums, 4> own;
+    std::span<const Sums> child;
+    if (block_begin >= 0 && begin >= block_begin && end <= block_begin + kBlockSide * kBlockSide &&
+        end - begin == 4 * kFastReferenceLeafSamples) {
+      // Four leaves of the leaf block: their sums are read where the block holds them.
+      const int j = (begin - block_begin) / kFastReferenceLeafSamples;
+      for (int g = 0; g < 4; ++g) leaf(first + g, bounds[g], bounds[g + 1]);
+      child = std::span(block.sums).subspan(j, 4);
+      for (const Sums& c : child) sums.Merge(c);
+    } else {
+      // Children that are leaves: their samples are fetched before the first is summed (a
+      // lat-long leaf's pixels lie in four rows of the map, which the hardware does not predict).
+      for (int g = 0; g < groups && block_begin < 0; ++g) {
+        if (bounds[g + 1] - bounds[g] <= kFastReferenceLeafSamples)
+          r.samples_.Prefetch(bounds[g], bounds[g + 1] - bounds[g]);
+      }
+      for (int g = 0; g < groups; ++g) {
+        own[g] = self(self, first + g, bounds[g], bounds[g + 1]);
+        sums.Merge(own[g]);
+      }
+      child = std::span(own).first(groups);
     }
     Node& node = r.nodes_[i];
     node.begin = begin;
@@ -1327,7 +1338,7 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
     node.centre = sums.Centre();
     node.first_child = first;
     node.child_count = groups;
-    SetGradient(r.nodes_, r.gradients_, i, sums, std::span(child).first(groups));
+    SetGradient(r.nodes_, r.gradients_, i, sums, child);
     return sums;
   };
   std::vector<Sums> root_sums;
