@@ -602,8 +602,9 @@ class QueryState {
       for (int c = 0; c < 3; ++c) out[c] = brdf_.Transfer(n_, v_, w, std::min(c, channels_ - 1));
     }
   }
-  // Rho at count <= kMaxBatch directions, through Brdf::TransferMany.
-  static constexpr int kMaxBatch = 8;
+  // Rho at count <= kMaxBatch directions, through Brdf::TransferMany: up to four siblings'
+  // children and centres (Process).
+  static constexpr int kMaxBatch = 20;
   void RhoMany(const Vec3* w, int count, Rgb* out) {
     evaluations_ += count;
     std::array<double, kMaxBatch> rho;
@@ -661,17 +662,13 @@ class QueryState {
     }
   }
 
-  // Adds node i: skipped (exact zero), summed (leaf), opened (not admissible) or put in the heap
-  // with its children-as-points value and the error estimate |parent point - children|.
-  // `rho`, when given, is rho-hat at the node's centre (computed by its parent's check).
-  void Process(int32_t i, const Rgb* rho) {
-    const FastReference::Node& node = nodes_[i];
-    if (node.weight[0] == 0 && node.weight[1] == 0 && node.weight[2] == 0) return;
-    if (cull_ && n_.Dot(node.centre) < -node.sin_radius - kGeometrySlack) return;
-    if (node.child_count == 0) {
-      AddLeaf(node);
-      return;
-    }
+  // What Process does with a node: skipped (exact zero), summed (leaf), opened (not admissible),
+  // bounded (AddStraddling) or evaluated as points and put in the heap (AddPoint).
+  enum class Action { kSkip, kLeaf, kOpen, kStraddle, kPoint };
+  Action Classify(const FastReference::Node& node) const {
+    if (node.weight[0] == 0 && node.weight[1] == 0 && node.weight[2] == 0) return Action::kSkip;
+    if (cull_ && n_.Dot(node.centre) < -node.sin_radius - kGeometrySlack) return Action::kSkip;
+    if (node.child_count == 0) return Action::kLeaf;
     // Either way the children are read next (opened, or evaluated as points with the gradient):
     // their block and the gradient are fetched while the admissibility test runs (a query is
     // bound by these scattered reads, not by its arithmetic).
@@ -684,31 +681,67 @@ class QueryState {
     }
     const bool straddles =
         horizon_ && std::abs(n_.Dot(node.centre)) <= node.sin_radius + kGeometrySlack;
-    if (straddles ? !(bound_straddling_ && LobeAdmissible(node)) : !Admissible(node)) {
-      PrefetchLeaves(node);
-      for (int32_t k = 0; k < node.child_count; ++k) Process(node.first_child + k, nullptr);
-      return;
+    if (straddles ? !(bound_straddling_ && LobeAdmissible(node)) : !Admissible(node))
+      return Action::kOpen;
+    return straddles ? Action::kStraddle : Action::kPoint;
+  }
+
+  // Processes nodes [first, first + count) (siblings, count <= 4), each as Classify says.
+  // `rho`, when given, holds rho-hat at their centres (computed by their parent's check). The
+  // points' evaluations (each node's children's centres, and its own centre when not given) are
+  // made in one batch for the siblings: one TransferMany call of up to 20 directions instead of
+  // up to four of 4-5, whose vector lanes were mostly idle.
+  void Process(int32_t first, int count, const Rgb* rho) {
+    std::array<Action, 4> action;
+    std::array<int, 4> offset;
+    std::array<Vec3, kMaxBatch> at;
+    std::array<Rgb, kMaxBatch> got;
+    int batch = 0;
+    for (int k = 0; k < count; ++k) {
+      const FastReference::Node& node = nodes_[first + k];
+      action[k] = Classify(node);
+      if (action[k] != Action::kPoint) continue;
+      offset[k] = batch;
+      for (int32_t j = 0; j < node.child_count; ++j)
+        at[batch++] = nodes_[node.first_child + j].centre;
+      if (rho == nullptr) at[batch++] = node.centre;
     }
-    if (straddles) {
-      AddStraddling(i, node);
-      return;
+    if (batch > 0) RhoMany(at.data(), batch, got.data());
+    for (int k = 0; k < count; ++k) {
+      const FastReference::Node& node = nodes_[first + k];
+      switch (action[k]) {
+        case Action::kSkip:
+          break;
+        case Action::kLeaf:
+          AddLeaf(node);
+          break;
+        case Action::kOpen:
+          PrefetchLeaves(node);
+          Process(node.first_child, node.child_count, nullptr);
+          break;
+        case Action::kStraddle:
+          AddStraddling(first + k, node);
+          break;
+        case Action::kPoint: {
+          const Rgb* children = got.data() + offset[k];
+          AddPoint(first + k, node, rho != nullptr ? rho[k] : children[node.child_count], children);
+          break;
+        }
+      }
     }
+  }
+
+  // Node i as points: its value (children as points) and the error estimate |parent point -
+  // children| into the heap, from rho-hat at its centre (r) and at its children's (child_rho).
+  void AddPoint(int32_t i, const FastReference::Node& node, const Rgb& r, const Rgb* child_rho) {
     Record rec;
     rec.node = i;
-    // The children's centres (and the node's own when its parent did not give it) in one batch.
-    std::array<Vec3, 5> at;
-    std::array<Rgb, 5> got;
-    for (int32_t k = 0; k < node.child_count; ++k) at[k] = nodes_[node.first_child + k].centre;
-    const int batch = node.child_count + (rho == nullptr ? 1 : 0);
-    at[node.child_count] = node.centre;
-    RhoMany(at.data(), batch, got.data());
-    const Rgb r = rho != nullptr ? *rho : got[node.child_count];
     Rgb point;
     for (int c = 0; c < 3; ++c) point[c] = node.weight[c] * r[c];
     rec.value = {0, 0, 0};
     for (int32_t k = 0; k < node.child_count; ++k) {
       const FastReference::Node& child = nodes_[node.first_child + k];
-      rec.child_rho[k] = got[k];
+      rec.child_rho[k] = child_rho[k];
       for (int c = 0; c < 3; ++c) rec.value[c] += child.weight[c] * rec.child_rho[k][c];
     }
     if (node.gradient >= 0) {  // first-order terms of the channels' own centroids
@@ -820,7 +853,7 @@ class QueryState {
     }
     heap_.reserve(4096);
     records_.reserve(4096);
-    for (int32_t r : roots) Process(r, nullptr);
+    for (int32_t r : roots) Process(r, 1, nullptr);
     while (!heap_.empty()) {
       bool done = true;
       for (int c = 0; c < 3; ++c)
@@ -835,8 +868,7 @@ class QueryState {
       }
       const FastReference::Node& node = nodes_[rec.node];
       PrefetchLeaves(node);
-      for (int32_t k = 0; k < node.child_count; ++k)
-        Process(node.first_child + k, &rec.child_rho[k]);
+      Process(node.first_child, node.child_count, rec.child_rho.data());
     }
     return total_;
   }
