@@ -603,8 +603,10 @@ class QueryState {
     }
   }
   // Rho at count <= kMaxBatch directions, through Brdf::TransferMany: up to four siblings'
-  // children and centres (Process).
-  static constexpr int kMaxBatch = 20;
+  // children and centres, or straddling nodes' probes (Process).
+  // StraddlingProbes: four children's centres, three cap points, four horizon points.
+  static constexpr int kStraddleProbes = 4 + 3 + 4;
+  static constexpr int kMaxBatch = 4 * kStraddleProbes;
   void RhoMany(const Vec3* w, int count, Rgb* out) {
     evaluations_ += count;
     std::array<double, kMaxBatch> rho;
@@ -688,23 +690,28 @@ class QueryState {
 
   // Processes nodes [first, first + count) (siblings, count <= 4), each as Classify says.
   // `rho`, when given, holds rho-hat at their centres (computed by their parent's check). The
-  // points' evaluations (each node's children's centres, and its own centre when not given) are
-  // made in one batch for the siblings: one TransferMany call of up to 20 directions instead of
-  // up to four of 4-5, whose vector lanes were mostly idle.
+  // siblings' evaluations (a point's children's centres, and its own centre when not given; a
+  // straddling node's probes) are made in one batch: one TransferMany call of up to 44
+  // directions instead of one or two per sibling of 4-7, whose call overheads and idle vector
+  // lanes cost more than the arithmetic. Each sibling's record is still pushed in order.
   void Process(int32_t first, int count, const Rgb* rho) {
     std::array<Action, 4> action;
-    std::array<int, 4> offset;
+    std::array<int, 4> offset, probes;
     std::array<Vec3, kMaxBatch> at;
     std::array<Rgb, kMaxBatch> got;
     int batch = 0;
     for (int k = 0; k < count; ++k) {
       const FastReference::Node& node = nodes_[first + k];
       action[k] = Classify(node);
-      if (action[k] != Action::kPoint) continue;
       offset[k] = batch;
-      for (int32_t j = 0; j < node.child_count; ++j)
-        at[batch++] = nodes_[node.first_child + j].centre;
-      if (rho == nullptr) at[batch++] = node.centre;
+      if (action[k] == Action::kStraddle) {
+        probes[k] = StraddlingProbes(node, at.data() + batch);
+        batch += probes[k];
+      } else if (action[k] == Action::kPoint) {
+        for (int32_t j = 0; j < node.child_count; ++j)
+          at[batch++] = nodes_[node.first_child + j].centre;
+        if (rho == nullptr) at[batch++] = node.centre;
+      }
     }
     if (batch > 0) RhoMany(at.data(), batch, got.data());
     for (int k = 0; k < count; ++k) {
@@ -720,7 +727,7 @@ class QueryState {
           Process(node.first_child, node.child_count, nullptr);
           break;
         case Action::kStraddle:
-          AddStraddling(first + k, node);
+          AddStraddling(first + k, node, got.data() + offset[k], probes[k]);
           break;
         case Action::kPoint: {
           const Rgb* children = got.data() + offset[k];
@@ -786,11 +793,9 @@ class QueryState {
   // nodes sit where rho-hat is negligible, and only those whose bound matters are refined
   // (before session 39 every node the horizon cut was opened down to its leaves: about half of
   // a microfacet query's evaluations).
-  void AddStraddling(int32_t i, const FastReference::Node& node) {
-    Record rec;
-    rec.node = i;
-    rec.value = {0, 0, 0};
-    std::array<Vec3, kMaxBatch> at;
+  // The directions AddStraddling needs rho-hat at, into `at` (at most kStraddleProbes): the
+  // node's children's centres first, then the probes. Returns their count.
+  int StraddlingProbes(const FastReference::Node& node, Vec3* at) const {
     int count = 0;
     for (int32_t k = 0; k < node.child_count; ++k)
       at[count++] = nodes_[node.first_child + k].centre;
@@ -810,14 +815,13 @@ class QueryState {
       return c0 * cos_r + toward * (sin_r / sin_to);
     };
     const Vec3 mid = axis_ + n_;
-    const std::array<Vec3, 3> near = {nearest_to(axis_), nearest_to(n_),
-                                      nearest_to(mid.Norm() > 0 ? mid.Normalized() : n_)};
-    std::array<Rgb, 2 * kMaxBatch> got;
-    for (const Vec3& p : near) at[count++] = p;
-    RhoMany(at.data(), count, got.data());
-    int probes = count;
-    count = 0;
-    for (const Vec3& p : {c0, near[0]}) {
+    const Vec3 nearest_axis = nearest_to(axis_);
+    at[count++] = nearest_axis;
+    at[count++] = nearest_to(n_);
+    at[count++] = nearest_to(mid.Norm() > 0 ? mid.Normalized() : n_);
+    // The horizon's points nearest the centre and the axis, just above it (and below, for a model
+    // that is not clipped).
+    for (const Vec3& p : {c0, nearest_axis}) {
       Vec3 h = p - n_ * n_.Dot(p);
       const double len = h.Norm();
       if (!(len > 0)) continue;
@@ -827,8 +831,15 @@ class QueryState {
         at[count++] = (h + n_ * (side * kHorizonNudge)).Normalized();
       }
     }
-    RhoMany(at.data(), count, got.data() + probes);
-    probes += count;
+    return count;
+  }
+  // Node i, which N's horizon cuts, from rho-hat at its StraddlingProbes (`got`, `probes` of
+  // them): its children as points, and as its error bound its light times kStraddleSafety times
+  // the largest |rho-hat| probed.
+  void AddStraddling(int32_t i, const FastReference::Node& node, const Rgb* got, int probes) {
+    Record rec;
+    rec.node = i;
+    rec.value = {0, 0, 0};
     Rgb largest{0, 0, 0};
     for (int k = 0; k < probes; ++k)
       for (int c = 0; c < 3; ++c) largest[c] = std::max(largest[c], std::abs(got[k][c]));
