@@ -46,6 +46,9 @@ constexpr double kMinRichardson = 0.05;
 // Eigenvalues of the children's offset matrix below this fraction of the largest are dropped
 // (children on a line fix the gradient along the line only).
 constexpr double kGradientRankTolerance = 1e-6;
+// Above this ratio of its eigenvalues the matrix is inverted directly (the determinant's
+// cancellation then costs it at most ~1e-13 relative); below it, eigenvector by eigenvector.
+constexpr double kWellConditioned = 1e-3;
 // A node N's horizon cuts (AddStraddling): its error bound is this times its light times the
 // largest |rho-hat| found on it. Test (b) keeps the node at least four radii from the lobe's
 // axis (or within a quarter of its scale), where rho-hat changes across the cap by less than the
@@ -443,26 +446,32 @@ void SetGradient(std::vector<FastReference::Node>& nodes,
   const double lambda[2] = {0.5 * (tr + disc), 0.5 * (tr - disc)};
   if (!(lambda[0] > 0)) return;
   double inv00 = 0, inv01 = 0, inv11 = 0;
-  for (double l : lambda) {
-    if (l <= kGradientRankTolerance * lambda[0]) continue;
-    double ex = m01, ey = l - m00;
-    if (norm2(ex, ey) < norm2(l - m11, m01)) {
-      ex = l - m11;
-      ey = m01;
+  if (lambda[1] > kWellConditioned * lambda[0]) {
+    // Both eigenvalues kept (the usual four quadrants): the pseudo-inverse is the inverse.
+    const double inv_det = 1 / (m00 * m11 - m01 * m01);
+    inv00 = m11 * inv_det;
+    inv01 = -m01 * inv_det;
+    inv11 = m00 * inv_det;
+  } else {
+    for (double l : lambda) {
+      if (l <= kGradientRankTolerance * lambda[0]) continue;
+      double ex = m01, ey = l - m00;
+      if (norm2(ex, ey) < norm2(l - m11, m01)) {
+        ex = l - m11;
+        ey = m01;
+      }
+      const double len = norm2(ex, ey);
+      if (len == 0) {  // M = l I
+        inv00 += 1 / l;
+        inv11 += 1 / l;
+        continue;
+      }
+      ex /= len;
+      ey /= len;
+      inv00 += ex * ex / l;
+      inv01 += ex * ey / l;
+      inv11 += ey * ey / l;
     }
-    const double len = norm2(ex, ey);
-    if (len == 0) {  // M = l I
-      ex = 1;
-      ey = 0;
-      inv00 += 1 / l;
-      inv11 += 1 / l;
-      continue;
-    }
-    ex /= len;
-    ey /= len;
-    inv00 += ex * ex / l;
-    inv01 += ex * ey / l;
-    inv11 += ey * ey / l;
   }
   // The channels' first moments about the node's centre and, summed, about the children's.
   std::array<Vec3, 3> parent_offset, children_offset;
