@@ -62,12 +62,12 @@
 // (no std::function).
 //
 // Measured (bench/reference_bench.cc, docs/shrm.md "Fast reference"; 1024 x 512, one core, CPU
-// time on a shared machine, session 39, the lat-long tree): 0.12-0.23 ms per direction for
-// Phong, 0.16 ms Lambert, 0.17-0.29 ms microfacet, 0.34-0.46 ms GGX, 0.68 ms Kajiya-Kay (4.5k-20k
-// rho-hat evaluations instead of 524288), 30-170x faster than the full sum; largest error over
-// the four bundled maps 6.9e-4 (tests/fast_reference_test.cc). The build: ~35 ms and ~27 MB from
-// a list of samples; ~6 ms and ~5 MB (the nodes: the samples are the map's own pixels) from a
-// 1024 x 512 lat-long map (session 41; ~12 ms and ~13 MB in session 39).
+// time on a shared machine, session 41, the lat-long tree, at 1e-3): 0.10-0.16 ms per direction
+// for Phong, 0.15 ms Lambert, 0.15-0.20 ms microfacet, 0.22-0.26 ms GGX, 0.52 ms Kajiya-Kay
+// (4.5k-20k rho-hat evaluations instead of 524288), 53-218x faster than the full sum; largest
+// error over the four bundled maps 6.9e-4 (tests/fast_reference_test.cc). The build: ~35 ms and ~27
+// MB from a list of samples; ~6 ms and ~5 MB (the nodes: the samples are the map's own pixels) from
+// a 1024 x 512 lat-long map (session 41; ~12 ms and ~13 MB in session 39).
 #ifndef SHRM_CORE_SHRM_FAST_REFERENCE_H_
 #define SHRM_CORE_SHRM_FAST_REFERENCE_H_
 
