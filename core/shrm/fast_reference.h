@@ -203,17 +203,17 @@ class FastReference {
     // The lat-long tree's position k: its pixel's row and column in the map.
     void PixelOf(int32_t k, int* row, int* col) const;
     Vec3 Dir(int32_t k) const;
-    // Dir(begin + j) for j < count into out.
-    void Dirs(int32_t begin, int count, Vec3* out) const;
-    // The same as separate coordinates.
+    // The directions and weights of positions [begin, begin + count) (a leaf's samples), in an
+    // order of their own: an aligned lat-long leaf's row by row (its pixels), others' in position
+    // order. For sums, which do not depend on it.
+    void LeafSamples(int32_t begin, int count, Vec3* dirs, std::array<float, 3>* weights) const;
+    // Dir(begin + j) for j < count as separate coordinates.
     void Coordinates(int32_t begin, int count, double* x, double* y, double* z) const;
     // Starts fetching positions [begin, begin + count) (a leaf's samples) into the cache.
     void Prefetch(int32_t begin, int count) const;
     // L_c dOmega of position k.
     std::array<float, 3> Weight(int32_t k) const;
-    // Weight(begin + j) for j < count into out.
-    void Weights(int32_t begin, int count, std::array<float, 3>* out) const;
-    // The same by channel, in double precision.
+    // Weight(begin + j) for j < count by channel, in double precision.
     void ChannelWeights(int32_t begin, int count, double* r, double* g, double* b) const;
     // The lat-long tree's pixel (its RGB in the map) and its weight.
     const float* Pixel(int row, int col) const {
