@@ -195,6 +195,7 @@ double MicrofacetBrdf::Transfer(const Vec3& n, const Vec3& v, const Vec3& w, int
 // and exp of the chunk in vectors (TransferMany and ReparamTransferArc).
 void MicrofacetBrdf::TransferChunk(const Vec3& n, const Vec3& v, const Vec3* w, int count,
                                    double* out) const {
+  if (count <= 0) return;
   const double nv = n.Dot(v);
   const double norm = nv > 0 ? 1.0 / (4.0 * kPi * sigma_ * sigma_) : 0.0;
   // Vec3's arithmetic written out on local copies (the directions by reference: a struct copy,
