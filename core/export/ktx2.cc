@@ -319,40 +319,11 @@ size_t LevelBytes(const Ktx2Image& im, size_t p) {
   const Level& lv = im.levels[p];
   return LevelValues(lv).size() / ValueStride(lv, info) * info.block_bytes;
 }
-// Level p's bytes appended to `out`, whose capacity the caller has reserved: the file is made in
-// one buffer, without a buffer and a copy per level. Its values must have passed
-// CheckLevelValues.
-void AppendLevel(const Ktx2Image& im, size_t p, std::string* out_ptr) {
+// Values of `format` (ChannelCount(format) per texel) appended to `out`.
+void AppendValues(Format format, std::span<const float> v, std::string* out_ptr) {
   std::string& out = *out_ptr;
-  const FormatInfo info = Info(im.format);
-  const Level& lv = im.levels[p];
-  if (!lv.rgb.empty() && info.channels == 4) {
-    // RGB triples of a four-channel format: each run of texels widened (alpha 1) and appended.
-    constexpr size_t kRun = 256;
-    std::vector<float> run(4 * kRun);
-    Ktx2Image part;
-    part.format = im.format;
-    part.levels.resize(1);
-    const size_t texels = lv.rgb.size() / 3;
-    for (size_t first = 0; first < texels; first += kRun) {
-      const size_t n = std::min(kRun, texels - first);
-      run.resize(4 * n);
-      const float* in = lv.rgb.data() + 3 * first;
-      for (size_t t = 0; t < n; ++t) {
-        run[4 * t] = in[3 * t];
-        run[4 * t + 1] = in[3 * t + 1];
-        run[4 * t + 2] = in[3 * t + 2];
-        run[4 * t + 3] = 1.0f;
-      }
-      part.levels[0].pixels.swap(run);
-      AppendLevel(part, 0, out_ptr);
-      part.levels[0].pixels.swap(run);
-    }
-    return;
-  }
-  const std::span<const float> v = LevelValues(lv);
-  const size_t texels = v.size() / info.channels;
-  switch (im.format) {
+  const size_t texels = v.size() / Info(format).channels;
+  switch (format) {
     case Format::kR16G16Sfloat:
     case Format::kR16G16B16Sfloat:
     case Format::kR16G16B16A16Sfloat: {
@@ -389,6 +360,32 @@ void AppendLevel(const Ktx2Image& im, size_t p, std::string* out_ptr) {
         PutU32(&out, PackE5B9G9R9(v[3 * t], v[3 * t + 1], v[3 * t + 2]));
       }
       break;
+  }
+}
+
+// Level p's bytes appended to `out`, whose capacity the caller has reserved: the file is made in
+// one buffer, without a buffer and a copy per level. Its values must have passed
+// CheckLevelValues.
+void AppendLevel(const Ktx2Image& im, size_t p, std::string* out_ptr) {
+  const Level& lv = im.levels[p];
+  if (lv.rgb.empty() || Info(im.format).channels == 3) {
+    AppendValues(im.format, LevelValues(lv), out_ptr);
+    return;
+  }
+  // RGB triples of a four-channel format: each run of texels widened (alpha 1) and appended.
+  constexpr size_t kRun = 256;
+  std::array<float, 4 * kRun> run;
+  const size_t texels = lv.rgb.size() / 3;
+  for (size_t first = 0; first < texels; first += kRun) {
+    const size_t n = std::min(kRun, texels - first);
+    const float* in = lv.rgb.data() + 3 * first;
+    for (size_t t = 0; t < n; ++t) {
+      run[4 * t] = in[3 * t];
+      run[4 * t + 1] = in[3 * t + 1];
+      run[4 * t + 2] = in[3 * t + 2];
+      run[4 * t + 3] = 1.0f;
+    }
+    AppendValues(im.format, std::span<const float>(run).first(4 * n), out_ptr);
   }
 }
 
