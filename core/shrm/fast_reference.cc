@@ -170,6 +170,41 @@ enum SumSlot {
   kSums = 24
 };
 
+// Eight doubles in vector lanes (one sample per lane) for the leaves' sums.
+constexpr int kSumLanes = 8;
+using SumLanes = double __attribute__((vector_size(kSumLanes * sizeof(double)), aligned(8)));
+SumLanes LoadLanes(const double* p) {
+  SumLanes v;
+  std::memcpy(&v, p, sizeof(v));
+  return v;
+}
+
+// Adds a lane's sample (direction x, y, z; weights w per channel) to each sum of `acc` (in
+// SumSlot order), for every lane at once.
+[[gnu::always_inline]] inline void AccumulateSamples(SumLanes* acc, const SumLanes& x,
+                                                     const SumLanes& y, const SumLanes& z,
+                                                     const SumLanes* w) {
+  const SumLanes sq = x * x + y * y + z * z;
+  SumLanes l = kLuminance[0] * w[0] + kLuminance[1] * w[1] + kLuminance[2] * w[2];
+  l = l > 0 ? l : 0;
+  for (int c = 0; c < 3; ++c) {
+    acc[kW + c] += w[c];
+    acc[kAbs + c] += w[c] < 0 ? -w[c] : w[c];
+    acc[kF + 3 * c] += w[c] * x;
+    acc[kF + 3 * c + 1] += w[c] * y;
+    acc[kF + 3 * c + 2] += w[c] * z;
+  }
+  acc[kLum] += l;
+  acc[kLumSq] += l * sq;
+  acc[kLumDir] += l * x;
+  acc[kLumDir + 1] += l * y;
+  acc[kLumDir + 2] += l * z;
+  acc[kSq] += sq;
+  acc[kPlain] += x;
+  acc[kPlain + 1] += y;
+  acc[kPlain + 2] += z;
+}
+
 // A node's sums over its samples, all additive (a parent's are its children's summed):
 // per channel the weight L_c dOmega and its first moment sum L_c dOmega w; the positive
 // luminance's sums lum_+, lum_+ w and lum_+ |w|^2 (the centroid and the spread about it); and the
@@ -204,37 +239,16 @@ struct Sums {
   // reassociating a sum), added up in a fixed order at the end.
   void AddWholeBlock(const double* x, const double* y, const double* z, const double* const w[3],
                      int n) {
-    constexpr int kLanes = 8;
-    static_assert(kFastReferenceLeafSamples % kLanes == 0);
-    double acc[kSums][kLanes] = {};
-    for (int h = 0; h < kFastReferenceLeafSamples; h += kLanes) {
-      for (int k = 0; k < kLanes; ++k) {
-        const int j = h + k;
-        const double sq = x[j] * x[j] + y[j] * y[j] + z[j] * z[j];
-        const double l = std::max(
-            kLuminance[0] * w[0][j] + kLuminance[1] * w[1][j] + kLuminance[2] * w[2][j], 0.0);
-        for (int c = 0; c < 3; ++c) {
-          acc[kW + c][k] += w[c][j];
-          acc[kAbs + c][k] += std::abs(w[c][j]);
-          acc[kF + 3 * c][k] += w[c][j] * x[j];
-          acc[kF + 3 * c + 1][k] += w[c][j] * y[j];
-          acc[kF + 3 * c + 2][k] += w[c][j] * z[j];
-        }
-        acc[kLum][k] += l;
-        acc[kLumSq][k] += l * sq;
-        acc[kLumDir][k] += l * x[j];
-        acc[kLumDir + 1][k] += l * y[j];
-        acc[kLumDir + 2][k] += l * z[j];
-        acc[kSq][k] += sq;
-        acc[kPlain][k] += x[j];
-        acc[kPlain + 1][k] += y[j];
-        acc[kPlain + 2][k] += z[j];
-      }
+    static_assert(kFastReferenceLeafSamples % kSumLanes == 0);
+    SumLanes acc[kSums] = {};
+    for (int h = 0; h < kFastReferenceLeafSamples; h += kSumLanes) {
+      const SumLanes lw[3] = {LoadLanes(w[0] + h), LoadLanes(w[1] + h), LoadLanes(w[2] + h)};
+      AccumulateSamples(acc, LoadLanes(x + h), LoadLanes(y + h), LoadLanes(z + h), lw);
     }
     double total[kSums];
     for (int i = 0; i < kSums; ++i) {
       double t = 0;
-      for (int k = 0; k < kLanes; ++k) t += acc[i][k];
+      for (int k = 0; k < kSumLanes; ++k) t += acc[i][k];
       total[i] = t;
     }
     AddTotals(total, n);
@@ -299,28 +313,23 @@ struct LeafBlock {
 };
 void MakeLeafBlock(const FastReference::SampleStore& store, int32_t begin, LeafBlock* out) {
   // Two leaves' four columns each in the lanes of a vector.
-  constexpr int kLanes = 8, kLeafSide = 4;
-  using V = double __attribute__((vector_size(kLanes * sizeof(double)), aligned(8)));
+  constexpr int kLanes = kSumLanes, kLeafSide = 4;
+  using V = SumLanes;
   using F = float __attribute__((vector_size(kLanes * sizeof(float)), aligned(4)));
   using I = int64_t __attribute__((vector_size(kLanes * sizeof(int64_t))));
-  const auto load = [](const double* p) {
-    V v;
-    std::memcpy(&v, p, sizeof(V));
-    return v;
-  };
   // A pixel run's interleaved RGB (three vectors) to its channels.
   const I r0 = {0, 3, 6, 9, 12, 15, 0, 0}, r1 = {0, 1, 2, 3, 4, 5, 10, 13};
   const I g0 = {1, 4, 7, 10, 13, 0, 0, 0}, g1 = {0, 1, 2, 3, 4, 8, 11, 14};
   const I b0 = {2, 5, 8, 11, 14, 0, 0, 0}, b1 = {0, 1, 2, 3, 4, 9, 12, 15};
   // Sums of lanes 0-3 and 4-7 (in lanes 0 and 4), as (a0 + a1) + (a2 + a3).
   const I pair = {1, 0, 3, 2, 5, 4, 7, 6}, quad = {2, 3, 0, 1, 6, 7, 4, 5};
-  const V lum0 = V{} + kLuminance[0], lum1 = V{} + kLuminance[1], lum2 = V{} + kLuminance[2];
   int row0, col0;
   store.PixelOf(begin, &row0, &col0);
   for (int g = 0; g < kBlockSide / kLeafSide; ++g) {  // a row of four leaves
     for (int half = 0; half < 2; ++half) {            // two of them
       const int col = col0 + half * kLanes;
-      const V cs = load(store.col_sin.data() + col), cc = load(store.col_cos.data() + col);
+      const V cs = LoadLanes(store.col_sin.data() + col),
+              cc = LoadLanes(store.col_cos.data() + col);
       V acc[kSums] = {};
       for (int t = 0; t < kLeafSide; ++t) {
         const int row = row0 + kLeafSide * g + t;
@@ -330,7 +339,7 @@ void MakeLeafBlock(const FastReference::SampleStore& store, int32_t begin, LeafB
         for (int q = 0; q < 3; ++q) {
           F f;
           std::memcpy(&f, p + kLanes * q, sizeof(F));
-          // L_c dOmega rounded to float, as the exact sums' Weights make it.
+          // L_c dOmega rounded to float, as the exact sums' LeafSamples make it.
           run[q] = __builtin_convertvector(
               __builtin_convertvector(__builtin_convertvector(f, V) * omega, F), V);
         }
@@ -338,26 +347,7 @@ void MakeLeafBlock(const FastReference::SampleStore& store, int32_t begin, LeafB
         w[0] = __builtin_shuffle(__builtin_shuffle(run[0], run[1], r0), run[2], r1);
         w[1] = __builtin_shuffle(__builtin_shuffle(run[0], run[1], g0), run[2], g1);
         w[2] = __builtin_shuffle(__builtin_shuffle(run[0], run[1], b0), run[2], b1);
-        const V x = rs * cs, y = V{} + store.row_cos[row], z = -rs * cc;
-        const V sq = x * x + y * y + z * z;
-        V l = lum0 * w[0] + lum1 * w[1] + lum2 * w[2];
-        l = l > 0 ? l : 0;
-        for (int ch = 0; ch < 3; ++ch) {
-          acc[kW + ch] += w[ch];
-          acc[kAbs + ch] += w[ch] < 0 ? -w[ch] : w[ch];
-          acc[kF + 3 * ch] += w[ch] * x;
-          acc[kF + 3 * ch + 1] += w[ch] * y;
-          acc[kF + 3 * ch + 2] += w[ch] * z;
-        }
-        acc[kLum] += l;
-        acc[kLumSq] += l * sq;
-        acc[kLumDir] += l * x;
-        acc[kLumDir + 1] += l * y;
-        acc[kLumDir + 2] += l * z;
-        acc[kSq] += sq;
-        acc[kPlain] += x;
-        acc[kPlain + 1] += y;
-        acc[kPlain + 2] += z;
+        AccumulateSamples(acc, rs * cs, V{} + store.row_cos[row], -rs * cc, w);
       }
       for (V& a : acc) {
         a += __builtin_shuffle(a, pair);
