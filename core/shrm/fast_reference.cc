@@ -1278,16 +1278,18 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
   r.nodes_.reserve(node_count);
   r.gradients_.reserve(internal_count);
 
-  // A leaf (at most kFastReferenceLeafSamples samples, except coincident ones): its sums, and
-  // the largest squared chord from its centre (left in `radius` for SetRadii).
   // The leaf block (MakeLeafBlock) of the 16 x 16 pixel node being built, when the tree is a
-  // lat-long map's: its leaves are taken from it.
+  // lat-long map's: its leaves are taken from it. in_block: [begin, end) lies in it.
   const bool leaf_blocks = lat_long != nullptr;
   LeafBlock block;
   int32_t block_begin = -1;
-  auto leaf = [&r, &block, &block_begin](int32_t i, int32_t begin, int32_t end) -> Sums {
-    if (block_begin >= 0 && begin >= block_begin && begin < block_begin + kBlockSide * kBlockSide &&
-        end - begin == kFastReferenceLeafSamples) {
+  const auto in_block = [&block_begin](int32_t begin, int32_t end) {
+    return block_begin >= 0 && begin >= block_begin && end <= block_begin + kBlockSide * kBlockSide;
+  };
+  // A leaf (at most kFastReferenceLeafSamples samples, except coincident ones): its sums, and
+  // the largest squared chord from its centre (left in `radius` for SetRadii).
+  auto leaf = [&r, &block, &block_begin, &in_block](int32_t i, int32_t begin, int32_t end) -> Sums {
+    if (in_block(begin, end) && end - begin == kFastReferenceLeafSamples) {
       const int j = (begin - block_begin) / kFastReferenceLeafSamples;
       Node& node = r.nodes_[i];
       node.begin = begin;
@@ -1331,7 +1333,7 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
   // Fills node i over samples [begin, end) and returns its sums. Nodes are numbered as they are
   // reached top-down (a node, then its children as one block); their values come bottom-up:
   // a leaf's from its samples, an internal node's from its children's sums.
-  auto build = [&r, &split, &leaf, leaf_blocks, &block, &block_begin](
+  auto build = [&r, &split, &leaf, leaf_blocks, &block, &block_begin, &in_block](
                    auto&& self, int32_t i, int32_t begin, int32_t end) -> Sums {
     int32_t bounds[5];
     const int groups = split(begin, end, bounds);
@@ -1346,8 +1348,7 @@ absl::StatusOr<FastReference> FastReference::CreateFrom(
     Sums sums;
     std::array<Sums, 4> own;
     std::span<const Sums> child;
-    if (block_begin >= 0 && begin >= block_begin && end <= block_begin + kBlockSide * kBlockSide &&
-        end - begin == 4 * kFastReferenceLeafSamples) {
+    if (in_block(begin, end) && end - begin == 4 * kFastReferenceLeafSamples) {
       // Four leaves of the leaf block: their sums are read where the block holds them.
       const int j = (begin - block_begin) / kFastReferenceLeafSamples;
       for (int g = 0; g < 4; ++g) leaf(first + g, bounds[g], bounds[g + 1]);
