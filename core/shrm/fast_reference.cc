@@ -314,15 +314,9 @@ struct LeafBlock {
 void MakeLeafBlock(const FastReference::SampleStore& store, int32_t begin, LeafBlock* out) {
   // Two leaves' four columns each in the lanes of a vector.
   constexpr int kLanes = kSumLanes, kLeafSide = 4;
+  static_assert(kLanes == 8, "the shuffles below are written for 8 lanes");
   using V = SumLanes;
   using F = float __attribute__((vector_size(kLanes * sizeof(float)), aligned(4)));
-  using I = int64_t __attribute__((vector_size(kLanes * sizeof(int64_t))));
-  // A pixel run's interleaved RGB (three vectors) to its channels.
-  const I r0 = {0, 3, 6, 9, 12, 15, 0, 0}, r1 = {0, 1, 2, 3, 4, 5, 10, 13};
-  const I g0 = {1, 4, 7, 10, 13, 0, 0, 0}, g1 = {0, 1, 2, 3, 4, 8, 11, 14};
-  const I b0 = {2, 5, 8, 11, 14, 0, 0, 0}, b1 = {0, 1, 2, 3, 4, 9, 12, 15};
-  // Sums of lanes 0-3 and 4-7 (in lanes 0 and 4), as (a0 + a1) + (a2 + a3).
-  const I pair = {1, 0, 3, 2, 5, 4, 7, 6}, quad = {2, 3, 0, 1, 6, 7, 4, 5};
   int row0, col0;
   store.PixelOf(begin, &row0, &col0);
   for (int g = 0; g < kBlockSide / kLeafSide; ++g) {  // a row of four leaves
@@ -344,14 +338,24 @@ void MakeLeafBlock(const FastReference::SampleStore& store, int32_t begin, LeafB
               __builtin_convertvector(__builtin_convertvector(f, V) * omega, F), V);
         }
         V w[3];
-        w[0] = __builtin_shuffle(__builtin_shuffle(run[0], run[1], r0), run[2], r1);
-        w[1] = __builtin_shuffle(__builtin_shuffle(run[0], run[1], g0), run[2], g1);
-        w[2] = __builtin_shuffle(__builtin_shuffle(run[0], run[1], b0), run[2], b1);
+        // A pixel run's interleaved RGB (three vectors) to its channels: the first shuffle takes
+        // a channel's lanes from run[0] and run[1], the second the rest from run[2] (lanes 8-15;
+        // -1: not used). __builtin_shufflevector: GCC's __builtin_shuffle is not in clang.
+        w[0] = __builtin_shufflevector(
+            __builtin_shufflevector(run[0], run[1], 0, 3, 6, 9, 12, 15, -1, -1), run[2], 0, 1, 2, 3,
+            4, 5, 10, 13);
+        w[1] = __builtin_shufflevector(
+            __builtin_shufflevector(run[0], run[1], 1, 4, 7, 10, 13, -1, -1, -1), run[2], 0, 1, 2,
+            3, 4, 8, 11, 14);
+        w[2] = __builtin_shufflevector(
+            __builtin_shufflevector(run[0], run[1], 2, 5, 8, 11, 14, -1, -1, -1), run[2], 0, 1, 2,
+            3, 4, 9, 12, 15);
         AccumulateSamples(acc, rs * cs, V{} + store.row_cos[row], -rs * cc, w);
       }
+      // Sums of lanes 0-3 and 4-7 (in lanes 0 and 4), as (a0 + a1) + (a2 + a3).
       for (V& a : acc) {
-        a += __builtin_shuffle(a, pair);
-        a += __builtin_shuffle(a, quad);
+        a += __builtin_shufflevector(a, a, 1, 0, 3, 2, 5, 4, 7, 6);
+        a += __builtin_shufflevector(a, a, 2, 3, 0, 1, 6, 7, 4, 5);
       }
       // The two leaves' sums and centres.
       V cx, cy, cz;
