@@ -303,6 +303,23 @@ struct Sums {
 // (sample by sample, with each leaf's directions and weights gathered from four rows, the
 // leaves were about 60% of the build). Leaf j of the block is its Morton digit j: the 4 x 4
 // pixels from row 4 BlockRow(j), column 4 BlockCol(j).
+// Channel c of a run of 8 RGB pixels held as three 8-lane vectors (value 3k + c is pixel k's):
+// lanes whose value lies in run[0] or run[1] (index < 16) from a first shuffle, the rest from
+// run[2] (indices 8 .. 15 of the second; -1: a lane not used). __builtin_shufflevector, not GCC's
+// __builtin_shuffle, which clang (the fuzz build) lacks.
+template <int c, size_t... k>
+SumLanes ChannelOfRun(const SumLanes* run, std::index_sequence<k...>) {
+  static_assert(sizeof...(k) == 8, "written for 8 lanes");
+  const SumLanes first =
+      __builtin_shufflevector(run[0], run[1], (3 * int(k) + c < 16 ? 3 * int(k) + c : -1)...);
+  return __builtin_shufflevector(first, run[2],
+                                 (3 * int(k) + c < 16 ? int(k) : 3 * int(k) + c - 8)...);
+}
+template <int c>
+SumLanes ChannelOfRun(const SumLanes* run) {
+  return ChannelOfRun<c>(run, std::make_index_sequence<8>{});
+}
+
 constexpr int kBlockSide = 16;  // pixels
 constexpr int kBlockLeaves = 16;
 static_assert(kFastReferenceLeafSamples * kBlockLeaves == kBlockSide * kBlockSide);
@@ -337,19 +354,7 @@ void MakeLeafBlock(const FastReference::SampleStore& store, int32_t begin, LeafB
           run[q] = __builtin_convertvector(
               __builtin_convertvector(__builtin_convertvector(f, V) * omega, F), V);
         }
-        V w[3];
-        // A pixel run's interleaved RGB (three vectors) to its channels: the first shuffle takes
-        // a channel's lanes from run[0] and run[1], the second the rest from run[2] (lanes 8-15;
-        // -1: not used). __builtin_shufflevector: GCC's __builtin_shuffle is not in clang.
-        w[0] = __builtin_shufflevector(
-            __builtin_shufflevector(run[0], run[1], 0, 3, 6, 9, 12, 15, -1, -1), run[2], 0, 1, 2, 3,
-            4, 5, 10, 13);
-        w[1] = __builtin_shufflevector(
-            __builtin_shufflevector(run[0], run[1], 1, 4, 7, 10, 13, -1, -1, -1), run[2], 0, 1, 2,
-            3, 4, 8, 11, 14);
-        w[2] = __builtin_shufflevector(
-            __builtin_shufflevector(run[0], run[1], 2, 5, 8, 11, 14, -1, -1, -1), run[2], 0, 1, 2,
-            3, 4, 9, 12, 15);
+        const V w[3] = {ChannelOfRun<0>(run), ChannelOfRun<1>(run), ChannelOfRun<2>(run)};
         AccumulateSamples(acc, rs * cs, V{} + store.row_cos[row], -rs * cc, w);
       }
       // Sums of lanes 0-3 and 4-7 (in lanes 0 and 4), as (a0 + a1) + (a2 + a3).
