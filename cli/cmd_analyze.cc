@@ -282,10 +282,10 @@ void DefineAnalyze(CLI::App* sub, absl::Status* status) {
                   "lighting-only: maximum degree (default: what the map resolves, at most 255)");
   sub->add_option("--print-lmax", args->print_lmax, "lighting-only: print L_lm up to this degree")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(jobs::kNonNegative);
   sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(jobs::kNonNegative);
   sub->add_flag("--json", args->json, "machine-readable output");
   sub->add_flag("--verbose", args->verbose, "stage timings on stderr");
   AddServerOption(sub, &args->server);

@@ -37,6 +37,7 @@
 #include "core/brdf/brdf.h"
 #include "core/io/atomic_file.h"
 #include "core/shrm/shrm_file.h"
+#include "jobs/cli_validators.h"
 #include "jobs/ibl_job.h"
 #include "jobs/option_text.h"
 #include "jobs/report_html.h"
@@ -743,10 +744,10 @@ void DefineBatch(CLI::App* sub, absl::Status* status) {
   sub->add_option("manifest", args->manifest, "the manifest (JSON, docs/cli.md)")->required();
   sub->add_option("--jobs", args->jobs, "jobs run at once")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(jobs::kPositive);
   sub->add_option("--threads", args->threads, "threads per job (0: cores / jobs)")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(jobs::kNonNegative);
   sub->add_flag("--force", args->force, "recompute every job, even up-to-date outputs");
   sub->add_flag("--json", args->json, "print the summary as JSON on stdout");
   AddServerOption(sub, &args->server);

@@ -21,6 +21,7 @@
 #endif
 #include "core/base/status_macros.h"
 #include "core/io/atomic_file.h"
+#include "jobs/cli_validators.h"
 #include "jobs/ibl_job.h"
 #include "jobs/ibl_outputs.h"
 #include "jobs/job_options.h"
@@ -163,24 +164,24 @@ void AddIblJobOptions(CLI::App* sub, IblArgs* args) {
   sub->add_option("--roughness", args->roughness, Help("roughness"));
   sub->add_option("--size", args->size, Help("size"))
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(jobs::kPositive);
   sub->add_option("--levels", args->levels, Help("levels"))
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(jobs::kNonNegative);
   sub->add_flag("--sheen", args->sheen, Help("sheen"));
   sub->add_option("--format", args->format, Help("format"))
       ->capture_default_str()
       ->check(CLI::IsMember({"rgba16f", "rgba32f", "r11g11b10f", "rgb9e5"}));
   sub->add_option("--irradiance-size", args->irradiance_size, Help("irradiance_size"))
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(jobs::kPositive);
   sub->add_option("--dfg-size", args->dfg_size, Help("dfg_size"))
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(jobs::kPositive);
   sub->add_option("--tolerance", args->tolerance, Help("tolerance"))->capture_default_str();
   sub->add_option("--verify", args->verify, Help("verify"))
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(jobs::kNonNegative);
   sub->add_option("--sh-window", args->sh_window, Help("sh_window"))
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "none", "cmgen"}));
@@ -273,7 +274,7 @@ void DefineIbl(CLI::App* sub, absl::Status* status) {
   AddIblJobOptions(sub, args.get());
   sub->add_option("-o,--output", run->output, "output folder (created if missing)")->required();
   sub->add_option("--threads", run->threads, "worker threads (0: all cores)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(jobs::kNonNegative);
   sub->add_flag("--json", run->json, "print the report as JSON on stdout");
   sub->add_flag("--verbose", run->verbose, "stage timings on stderr");
   AddServerOption(sub, &run->server);

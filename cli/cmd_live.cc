@@ -485,7 +485,7 @@ void DefineLive(CLI::App* sub, absl::Status* status) {
   sub->add_option("--env", args->env, "one map turned about the vertical axis (with --turntable)");
   sub->add_option("--turntable", args->turntable,
                   "frames per turn of --env (frame k rotated by 360 k / N degrees of yaw)")
-      ->check(CLI::Range(1, kMaxTurntableFrames));
+      ->check(jobs::InRange(1, kMaxTurntableFrames));
   sub->add_option("--brdf", args->brdf,
                   "BRDF spec of each frame's SHRM, e.g. microfacet:sigma=0.2 (docs/brdf.md); "
                   "optional with --ibl");
@@ -499,7 +499,7 @@ void DefineLive(CLI::App* sub, absl::Status* status) {
       ->capture_default_str()
       ->check(CLI::IsMember({"global", "local"}));
   sub->add_option("--size", args->size, "cube face size S_B (0: about 10 F_B)")
-      ->check(CLI::Range(0, jobs::kMaxFaceSize));
+      ->check(jobs::InRange(0, jobs::kMaxFaceSize));
   sub->add_option("--view", args->view,
                   "also write each frame's reflection map for this view (eq. 5.35), x,y,z")
       ->check(jobs::kDirection);
@@ -515,7 +515,7 @@ void DefineLive(CLI::App* sub, absl::Status* status) {
       ->check(CLI::IsMember({"filament", "gltf", "babylon"}));
   sub->add_option("--ibl-size", args->ibl_size, "--ibl: base face size (as shrm ibl --size)")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(jobs::kPositive);
   sub->add_option("--ibl-format", args->ibl_format, "--ibl: storage (as shrm ibl --format)")
       ->capture_default_str()
       ->check(CLI::IsMember({"rgba16f", "rgba32f", "r11g11b10f", "rgb9e5"}));
@@ -527,7 +527,7 @@ void DefineLive(CLI::App* sub, absl::Status* status) {
                   "frame_NNNN.ibl/ with --ibl)")
       ->required();
   sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(jobs::kNonNegative);
   sub->add_flag("--json", args->json, "print the frames' report as JSON on stdout");
   AddServerOption(sub, &args->server);
   sub->callback([args, status] { *status = RunLive(*args); });

@@ -220,7 +220,7 @@ void DefineRender(CLI::App* sub, absl::Status* status) {
                   "output: EXR (horizontal cross), or a KTX2 cube map (.ktx2)")
       ->required();
   sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(jobs::kNonNegative);
   sub->callback([args, status] { *status = RunRender(*args); });
 }
 
@@ -231,10 +231,10 @@ void DefineExplicit(CLI::App* sub, absl::Status* status) {
                   "cabral (12 icosahedral views), kautz-mccool (T_B "
                   "slices, local SHRMs) or grid (T_B x T_B views)")
       ->capture_default_str();
-  sub->add_option("--tb", args->tb, "T_B")->capture_default_str()->check(CLI::PositiveNumber);
+  sub->add_option("--tb", args->tb, "T_B")->capture_default_str()->check(jobs::kPositive);
   sub->add_option("-o,--output", args->output, "output prefix: PREFIX_<k>.exr")->required();
   sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(jobs::kNonNegative);
   sub->callback([args, status] { *status = RunExplicit(*args); });
 }
 
@@ -243,14 +243,14 @@ void DefineIrradiance(CLI::App* sub, absl::Status* status) {
   AddEnvOptions(sub, &args->env, /*required=*/true);
   sub->add_option("--size", args->size, "cube face size of the irradiance map")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(jobs::kPositive);
   sub->add_option("-o,--output", args->output, "output EXR (horizontal cross), optional");
   sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(jobs::kNonNegative);
   sub->add_option("--verify", args->verify,
                   "check the coefficients at N seeded normals against the pixel sum (0: no check)")
       ->capture_default_str()
-      ->check(CLI::Range(0, jobs::kMaxIrradianceVerify));
+      ->check(jobs::InRange(0, jobs::kMaxIrradianceVerify));
   sub->add_flag("--json", args->json, "machine-readable output");
   AddServerOption(sub, &args->server);
   sub->callback([args, status] { *status = RunIrradiance(*args); });

@@ -279,14 +279,14 @@ void AddPrefilterJobOptions(CLI::App* sub, PrefilterArgs* args) {
       ->check(CLI::IsMember({"auto", "view", "normal"}));
   sub->add_option("--verify", args->verify, Help("verify"))
       ->capture_default_str()
-      ->check(CLI::Range(0, jobs::kMaxVerifyPairs));
+      ->check(jobs::InRange(0, jobs::kMaxVerifyPairs));
   sub->add_option("--orders", args->orders, Help("orders"))->check(jobs::kOrders);
   sub->add_option("--kind", args->kind, Help("kind"))
       ->capture_default_str()
       ->check(CLI::IsMember({"global", "local"}));
   sub->add_option("--size", args->size, Help("size"))
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(jobs::kNonNegative);
   sub->add_flag("--half", args->half, Help("half"));
   // A bare --peak-lights (the flag it was until session 37) leaves "" here: "on".
   sub->add_option("--peak-lights", args->peak_lights,
@@ -295,7 +295,7 @@ void AddPrefilterJobOptions(CLI::App* sub, PrefilterArgs* args) {
       ->check(CLI::IsMember({"", "auto", "on", "off"}));  // (default auto: in the help text)
   sub->add_option("--max-size", args->max_size_mb, Help("max_size"))
       ->capture_default_str()
-      ->check(CLI::Range(0.0, jobs::kMaxSizeMbLimit));
+      ->check(jobs::InRange(0.0, jobs::kMaxSizeMbLimit));
 }
 
 absl::StatusOr<jobs::PrefilterJob> PrefilterJobFromArgs(const PrefilterArgs& a) {
@@ -364,7 +364,7 @@ void DefinePrefilter(CLI::App* sub, absl::Status* status) {
                   "shaders of docs/shaders.md)");
   sub->add_option("--threads", run->threads, "worker threads (0: all cores)")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(jobs::kNonNegative);
   sub->add_flag("--json", run->json, "print the report as JSON on stdout");
   sub->add_flag("--verbose", run->verbose, "stage timings on stderr");
   AddServerOption(sub, &run->server);

@@ -5,6 +5,11 @@
 #define SHRM_JOBS_CLI_VALIDATORS_H_
 
 #include <CLI/CLI.hpp>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
 #include <string>
 
 #include "jobs/option_text.h"
@@ -31,6 +36,54 @@ inline const CLI::Validator kDirection = TextValidator(ParseDirectionText, "x,y,
 inline const CLI::Validator kOrders = TextValidator(ParseOrdersText, "F,P");
 // A number in the open interval (0, 1).
 inline const CLI::Validator kOpenUnitInterval = TextValidator(ParseToleranceText, "(0,1)");
+
+// Numbers within bounds, with a message that names the bound and the value: "must be >= 0, got
+// '-2'". (CLI11's NonNegativeNumber printed its upper bound, the largest double, in full: "Value
+// -2 not in range 0.000000 to 17976931348623157...", 309 digits.) Text that is not a number is
+// left to the option's own conversion, which names it; infinities and NaN are out of every range.
+namespace internal {
+
+inline std::string BoundText(double v) {
+  char buf[64];
+  if (std::abs(v) < 1e15 && v == std::floor(v)) {
+    std::snprintf(buf, sizeof buf, "%.0f", v);
+  } else {
+    std::snprintf(buf, sizeof buf, "%g", v);
+  }
+  return buf;
+}
+
+// lo (open when lo_open) to hi (none when infinite).
+inline CLI::Validator NumberValidator(double lo, bool lo_open, double hi, std::string syntax) {
+  const std::string rule = std::isinf(hi)
+                               ? std::string(lo_open ? "must be > " : "must be >= ") + BoundText(lo)
+                               : "must be in [" + BoundText(lo) + ", " + BoundText(hi) + "]";
+  return CLI::Validator(
+      [lo, lo_open, hi, rule](std::string& s) -> std::string {
+        char* end = nullptr;
+        errno = 0;
+        const double v = std::strtod(s.c_str(), &end);
+        if (s.empty() || end != s.c_str() + s.size()) return "";  // not a number: the conversion's
+        const bool above = lo_open ? v > lo : v >= lo;
+        if (std::isfinite(v) && errno != ERANGE && above && v <= hi) return "";
+        return rule + ", got '" + s + "'";
+      },
+      std::move(syntax));
+}
+
+}  // namespace internal
+
+// A finite number >= 0.
+inline const CLI::Validator kNonNegative =
+    internal::NumberValidator(0, false, std::numeric_limits<double>::infinity(), "NONNEGATIVE");
+// A finite number > 0.
+inline const CLI::Validator kPositive =
+    internal::NumberValidator(0, true, std::numeric_limits<double>::infinity(), "POSITIVE");
+// A number in [lo, hi].
+inline CLI::Validator InRange(double lo, double hi) {
+  return internal::NumberValidator(
+      lo, false, hi, "in [" + internal::BoundText(lo) + ", " + internal::BoundText(hi) + "]");
+}
 
 }  // namespace shrm::jobs
 

@@ -14,6 +14,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/time.h"
+#include "jobs/cli_validators.h"
 #include "server/config_file.h"
 #include "server/decoder_sandbox.h"
 #include "server/memory_budget.h"
@@ -62,19 +63,19 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--spool-mib", spool_mib, "blob store bound in MiB (LRU eviction)")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(shrm::jobs::kPositive);
   app.add_option("--max-blob-mib", max_blob_mib, "largest accepted upload in MiB")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(shrm::jobs::kPositive);
   app.add_option("--max-jobs", opt.service.max_jobs,
                  "concurrent Prefilter/Analyze jobs; more are refused with RESOURCE_EXHAUSTED "
                  "(default: the number of cores)")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(shrm::jobs::kPositive);
   app.add_option("--job-threads", job_threads,
                  "worker threads per job (0: cores / max-jobs, at least 1)")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(shrm::jobs::kNonNegative);
   app.add_option("--cache-mib", cache_mib, "L_lm and rho_lpq caches together, in MiB (LRU)")
       ->capture_default_str();
   app.add_option("--memory-mib", memory_mib,
@@ -82,16 +83,16 @@ int main(int argc, char** argv) {
                  "peak from it first; a job that does not fit now gets RESOURCE_EXHAUSTED (retried "
                  "by clients), one larger than the budget INVALID_ARGUMENT (default: 3/4 of the "
                  "cgroup's memory limit, or of the machine's memory)")
-      ->check(CLI::PositiveNumber);
+      ->check(shrm::jobs::kPositive);
   app.add_option("--grace-period", grace_s,
                  "seconds running jobs get to finish after SIGTERM/SIGINT")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(shrm::jobs::kNonNegative);
   app.add_option("--idle-timeout", idle_timeout_s,
                  "seconds an upload may go without a chunk, or a client without reading the "
                  "result, before the call is ended (0: never)")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(shrm::jobs::kNonNegative);
   app.add_option("--decode-isolation", decode_isolation,
                  "'process': every uploaded map is first decoded in an isolated child process, so "
                  "an input that crashes the decoder costs that process, not the daemon; 'off': "
@@ -101,11 +102,11 @@ int main(int argc, char** argv) {
   app.add_option("--decode-memory-mib", decode_memory_mib,
                  "address-space limit of an isolated decoding process, in MiB")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(shrm::jobs::kPositive);
   app.add_option("--decode-timeout", decode_timeout_s,
                  "seconds an isolated decoding process may take (wall and CPU time)")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(shrm::jobs::kPositive);
   // Testing only (tests/deploy_test.sh): files starting with SHRM-TEST-POISON crash the isolated
   // decoder, SHRM-TEST-HANG make it hang.
   app.add_flag("--test-decoder-hooks", opt.service.decode_limits.test_hooks)->group("");
@@ -116,7 +117,7 @@ int main(int argc, char** argv) {
   app.add_option("--metrics-port", opt.metrics_port,
                  "serve Prometheus metrics on GET /metrics at this port (-1: off, 0: any)")
       ->capture_default_str()
-      ->check(CLI::Range(-1, 65535));
+      ->check(shrm::jobs::InRange(-1, 65535));
   app.add_option("--metrics-address", opt.metrics_address,
                  "IPv4 address of the metrics endpoint (loopback by default)")
       ->capture_default_str();

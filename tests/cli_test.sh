@@ -189,7 +189,16 @@ expect_error missing_output 2 'output' \
 expect_error malformed_size 2 'size' \
   "$SHRM" prefilter --env "$IN/ok.pfm" --brdf phong:s=32 --size abc -o out.shrm.exr
 expect_error malformed_orders 2 'orders' "$SHRM" "${PF[@]}" --env "$IN/ok.pfm" --orders x,y
-expect_error negative_max_size 2 'max-size' "$SHRM" "${PF[@]}" --env "$IN/ok.pfm" --max-size -1
+expect_error negative_max_size 2 "^--max-size: must be in \\[0, 1000000\\], got '-1'$" \
+  "$SHRM" "${PF[@]}" --env "$IN/ok.pfm" --max-size -1
+# Out-of-range numbers are named with their bound, in a line (CLI11's NonNegativeNumber printed
+# the largest double's 309 digits as the bound).
+expect_error negative_threads 2 "^--threads: must be >= 0, got '-2'$" \
+  "$SHRM" ibl --env "$IN/ok.pfm" -o ibl --threads -2
+expect_error zero_ibl_size 2 "^--size: must be > 0, got '0'$" \
+  "$SHRM" ibl --env "$IN/ok.pfm" -o ibl --size 0
+expect_error infinite_max_size 2 "^--max-size: must be in \\[0, 1000000\\], got 'inf'$" \
+  "$SHRM" "${PF[@]}" --env "$IN/ok.pfm" --max-size inf
 expect_error malformed_direction 2 'normal' \
   "$SHRM" reference --env "$IN/ok.pfm" --brdf phong:s=32 --normal 1,2 --view 0,1,0
 

@@ -103,7 +103,8 @@ expect_error view_distance 2 'distance 0.5 is out of range' "${ENV[@]}" "${BRDF[
   --view 10,5,0.5 --screenshot a.png
 expect_error bad_size 2 'size must be W,H' "${ENV[@]}" "${BRDF[@]}" --size 0,10 --screenshot a.png
 expect_error size_text 2 'size must be W,H' "${ENV[@]}" "${BRDF[@]}" --size big --screenshot a.png
-expect_error mode_range 2 'mode' "${ENV[@]}" "${BRDF[@]}" --mode 12 --screenshot a.png
+expect_error mode_range 2 "^shrm-view: --mode: must be in \\[1, 9\\], got '12'$" "${ENV[@]}" "${BRDF[@]}" \
+  --mode 12 --screenshot a.png
 expect_error mode_unregistered 2 'mode 9 is not available' "${ENV[@]}" "${BRDF[@]}" --mode 9 \
   --screenshot a.png
 expect_error bad_epsilon 2 'epsilon' "${ENV[@]}" "${BRDF[@]}" --epsilon 2 --screenshot a.png

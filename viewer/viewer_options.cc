@@ -145,20 +145,20 @@ int ParseViewerOptions(int argc, char** argv, ViewerOptions* o) {
                  "pairs each computed SHRM is checked at against the brute-force sum; the overlay "
                  "shows the measured error (0: none)")
       ->capture_default_str()
-      ->check(CLI::Range(0, jobs::kMaxVerifyPairs));
+      ->check(jobs::InRange(0, jobs::kMaxVerifyPairs));
   app.add_option("--face-size", o->face_size, "cube face size S_B of computed SHRMs (0: ~10 F_B)")
       ->capture_default_str()
-      ->check(CLI::Range(0, 2048));
+      ->check(jobs::InRange(0, 2048));
   app.add_option("--mesh", o->mesh, "sphere, torus or an OBJ file")->capture_default_str();
   app.add_option("--mode", o->mode, "render mode (the keys 1-9; docs/viewer.md)")
       ->capture_default_str()
-      ->check(CLI::Range(1, 9));
+      ->check(jobs::InRange(1, 9));
   app.add_flag("--diff", o->diff, "difference view against the ground truth (false colour)");
   app.add_option("--view", view,
                  "camera azimuth,elevation[,distance] in degrees (default 30,20,3)");
   app.add_option("--fov", o->fov_deg, "vertical field of view in degrees")
       ->capture_default_str()
-      ->check(CLI::Range(5.0, 120.0));
+      ->check(jobs::InRange(5.0, 120.0));
   app.add_option("--size", size, "window / image size W,H (default 1280,720)");
   app.add_option("--exposure", o->exposure, "exposure in EV (default: automatic from the map)");
   app.add_option("--screenshot", o->screenshot,
@@ -166,18 +166,18 @@ int ParseViewerOptions(int argc, char** argv, ViewerOptions* o) {
   app.add_flag("--overlay", o->overlay, "draw the overlay text into the --screenshot image");
   app.add_option("--bench-frames", o->bench_frames,
                  "render N frames offscreen per mode and print ms/frame")
-      ->check(CLI::Range(1, 100000));
+      ->check(jobs::InRange(1, 100000));
   app.add_option("--frames", o->quit_after_frames,
                  "interactive window: close after N frames (smoke tests); with --live and "
                  "--screenshot: the frames rendered before it (frame k at clock k x --live-step)")
-      ->check(CLI::Range(1, 100000000));
+      ->check(jobs::InRange(1, 100000000));
   app.add_option("--ref-width", o->reference_width,
                  "lat-long width of the map the ground truth integrates (even)")
       ->capture_default_str()
-      ->check(CLI::Range(8, 1024));
+      ->check(jobs::InRange(8, 1024));
   app.add_option("--threads", o->threads, "worker threads (0: all cores)")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(jobs::kNonNegative);
   app.add_flag("--verbose", o->verbose, "print GL information and timings");
   // --live (docs/viewer.md "Live").
   std::string live, date, time;
@@ -188,14 +188,14 @@ int ParseViewerOptions(int argc, char** argv, ViewerOptions* o) {
   app.add_option("--live-speed", o->live.speed,
                  "rotate: degrees per second (default 30); sky: hours of the day per second "
                  "(default 0.5)")
-      ->check(CLI::Range(-1e4, 1e4));
+      ->check(jobs::InRange(-1e4, 1e4));
   app.add_option("--live-fps", o->live.fps, "sequence: frames per second, looping")
       ->capture_default_str()
-      ->check(CLI::Range(1e-3, 1e3));
+      ->check(jobs::InRange(1e-3, 1e3));
   app.add_option("--live-step", o->live.step,
                  "deterministic clock: SECONDS of live time per rendered frame, each frame "
                  "waiting for its state's SHRM (screenshots, tests)")
-      ->check(CLI::Range(1e-6, 86400.0));
+      ->check(jobs::InRange(1e-6, 86400.0));
   app.add_option("--sequence", o->live.sequence,
                  "sequence: the maps, one per frame (FILES...), or a folder of .exr frames")
       ->expected(1, -1);
@@ -203,19 +203,19 @@ int ParseViewerOptions(int argc, char** argv, ViewerOptions* o) {
   app.add_option("--time", time, "sky: local standard time at the start, HH:MM (default 06:00)");
   app.add_option("--lat", o->live.sky.latitude_deg, "sky: latitude, degrees north")
       ->capture_default_str()
-      ->check(CLI::Range(-90.0, 90.0));
+      ->check(jobs::InRange(-90.0, 90.0));
   app.add_option("--lon", o->live.sky.longitude_deg, "sky: longitude, degrees EAST")
       ->capture_default_str()
-      ->check(CLI::Range(-180.0, 180.0));
+      ->check(jobs::InRange(-180.0, 180.0));
   app.add_option("--meridian", o->live.sky.meridian_deg,
                  "sky: standard meridian of the time zone, degrees east (default 15 round(lon/15))")
-      ->check(CLI::Range(-180.0, 180.0));
+      ->check(jobs::InRange(-180.0, 180.0));
   app.add_option("--turbidity", o->live.sky.turbidity, "sky: atmospheric turbidity")
       ->capture_default_str()
-      ->check(CLI::Range(sky::kMinTurbidity, sky::kMaxTurbidity));
+      ->check(jobs::InRange(sky::kMinTurbidity, sky::kMaxTurbidity));
   app.add_option("--sky-width", o->live.sky.width, "sky: lat-long width of the rendered sky")
       ->capture_default_str()
-      ->check(CLI::Range(16, 4096));
+      ->check(jobs::InRange(16, 4096));
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
