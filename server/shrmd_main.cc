@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -28,6 +29,9 @@ namespace {
 constexpr int kDefaultPort = 50051;
 constexpr double kDefaultGraceSeconds = 30;
 constexpr uint64_t kMiB = 1ull << 20;
+// Exit codes: 0 a clean stop (or --help, --version), 1 a start-up error, 2 a usage error.
+constexpr int kExitOk = 0;
+constexpr int kExitUsage = 2;
 
 std::string DefaultSpoolDir() {
   const char* tmp = std::getenv("TMPDIR");
@@ -137,7 +141,18 @@ int main(int argc, char** argv) {
                  "config file: 'key = value' lines, keys are the long flag names; flags on the "
                  "command line override it")
       ->check(CLI::ExistingFile);
-  CLI11_PARSE(app, argc, argv);
+  // Usage errors exit 2, as the shrm command's and shrm-view's do (docs/server.md); CLI11's own
+  // codes (105 for a missing file, 109 for an extra argument, ...) said nothing a unit could use.
+  // --help and --version print and exit 0.
+  const auto parse = [&app](int n, char** v) -> std::optional<int> {
+    try {
+      app.parse(n, v);
+    } catch (const CLI::ParseError& e) {
+      return app.exit(e) == 0 ? kExitOk : kExitUsage;
+    }
+    return std::nullopt;
+  };
+  if (const std::optional<int> rc = parse(argc, argv)) return *rc;
   if (!config_path.empty()) {
     // Parse again with the file's settings in front of the command line, leaving out the keys
     // the command line already gave (so they win).
@@ -164,7 +179,8 @@ int main(int argc, char** argv) {
     for (int i = 1; i < argc; ++i) args.push_back(argv[i]);
     std::vector<char*> argv2;
     for (std::string& a : args) argv2.push_back(a.data());
-    CLI11_PARSE(app, static_cast<int>(argv2.size()), argv2.data());
+    if (const std::optional<int> rc = parse(static_cast<int>(argv2.size()), argv2.data()))
+      return *rc;
   }
 
   opt.service.spool_bytes = spool_mib * kMiB;
