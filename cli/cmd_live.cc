@@ -13,6 +13,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -20,6 +21,7 @@
 #include "cli/cli_common.h"
 #include "cli/commands.h"
 #if SHRM_CLI_HAS_CLIENT
+#include "client/remote_jobs.h"
 #include "client/shrm_client.h"
 #include "proto/job_codec.h"
 #endif
@@ -267,9 +269,14 @@ absl::Status RunLiveRemote(const LiveArgs& a, const std::vector<FrameJob>& frame
     open.mutable_ibl()->clear_verify();
   }
   SHRM_ASSIGN_OR_RETURN(std::unique_ptr<client::LiveCall> call, client->OpenLive(open));
+  // The server's errors name the maps by their blobs: by their files here.
+  const std::vector<std::pair<std::string, std::string>> uploaded(sha_of.begin(), sha_of.end());
+  const auto named = [&](const absl::Status& s) {
+    return absl::Status(s.code(), client::NameUploadedFiles(std::string(s.message()), uploaded));
+  };
   auto ended = [&](const char* what) {
     const absl::Status s = call->Finish();
-    return s.ok() ? absl::DataLossError(absl::StrCat("the live call ended ", what)) : s;
+    return s.ok() ? absl::DataLossError(absl::StrCat("the live call ended ", what)) : named(s);
   };
   uint64_t request = 0;
   if (!a.brdf.empty()) {
@@ -305,7 +312,9 @@ absl::Status RunLiveRemote(const LiveArgs& a, const std::vector<FrameJob>& frame
     ++request;
     std::optional<client::LiveFrameOutcome> frame;
     do {
-      SHRM_ASSIGN_OR_RETURN(frame, call->Next());
+      absl::StatusOr<std::optional<client::LiveFrameOutcome>> next = call->Next();
+      if (!next.ok()) return named(next.status());
+      frame = *std::move(next);
       if (!frame) return ended(absl::StrCat("before the frame of ", f.path).c_str());
     } while (frame->update < request);
     const auto write_start = std::chrono::steady_clock::now();

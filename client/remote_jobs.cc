@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_replace.h"
 #include "absl/time/clock.h"
 #include "core/base/status_macros.h"
 #include "proto/job_codec.h"
@@ -20,6 +21,14 @@ absl::Status UploadEnvironment(const jobs::EnvironmentSpec& env, ShrmClient* cli
     hashes.push_back(*std::move(sha));
   }
   return wire::EncodeEnvironment(env, hashes, out);
+}
+
+std::string NameUploadedFiles(std::string message,
+                              const std::vector<std::pair<std::string, std::string>>& files) {
+  for (const auto& [path, sha] : files) {
+    message = absl::StrReplaceAll(message, {{absl::StrCat("blob ", sha), path}});
+  }
+  return message;
 }
 
 absl::Status RunRemoteJob(ShrmClient* client, const jobs::EnvironmentSpec& env,
@@ -53,7 +62,13 @@ absl::Status RunRemoteJob(ShrmClient* client, const jobs::EnvironmentSpec& env,
   }
   if (retries != nullptr) *retries = retried;
   if (s.ok()) return s;
-  return WithMessage(s, absl::StrCat(target, ": ", s.message(),
+  std::vector<std::pair<std::string, std::string>> uploaded;
+  for (const std::string& f : env.files) {
+    absl::StatusOr<std::string> sha = client->FileSha256(f);  // cached since the upload
+    if (sha.ok()) uploaded.emplace_back(f, *sha);
+  }
+  const std::string message = NameUploadedFiles(std::string(s.message()), uploaded);
+  return WithMessage(s, absl::StrCat(target, ": ", message,
                                      retried > 0 ? absl::StrCat(" (after ", retried, " retries)")
                                                  : std::string()));
 }

@@ -6,6 +6,8 @@
 
 #include <functional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -21,6 +23,12 @@ namespace shrm::client {
 // name the file). Options a server cannot honour (an OCIO config file) are refused.
 absl::Status UploadEnvironment(const jobs::EnvironmentSpec& env, ShrmClient* client,
                                shrm::v1::Environment* out);
+
+// `message` with each "blob <sha256>" of `files` (uploaded files by their paths, each's SHA-256)
+// replaced by the path: the server names an input by its blob (never by a path of its own), the
+// user by the file uploaded as that blob.
+std::string NameUploadedFiles(std::string message,
+                              const std::vector<std::pair<std::string, std::string>>& files);
 
 // Called before each retry of a remote job with the failure and the attempt about to start.
 using RetryCallback =

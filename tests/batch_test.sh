@@ -253,6 +253,19 @@ if [ -x "$SHRMD" ]; then
       cmp -s "$f" "remote/$(basename "$f")" || fail "--server: remote/$(basename "$f") differs"
     done
     [ "$(grep -c '"call":"UploadBlob"' shrmd.log)" -le 2 ] || fail "--server: a map uploaded twice"
+    # An input the server cannot decode is named by the user's file, not by its blob's hash
+    # (the server never says a path of its own).
+    printf 'no image format begins like this\n' >notamap.exr
+    for cmd in "prefilter --brdf phong:s=32 --env notamap.exr -o bad.shrm.exr" \
+      "live --brdf phong:s=32 --sequence notamap.exr -o badlive"; do
+      # shellcheck disable=SC2086
+      if "$SHRM" $cmd --server "127.0.0.1:$PORT" >bad.out 2>bad.err; then
+        fail "--server ${cmd%% *}: a file that is no image was accepted"
+      elif ! grep -q 'notamap\.exr: unrecognized file signature' bad.err ||
+        grep -Eq 'blob [0-9a-f]{64}' bad.err; then
+        fail "--server ${cmd%% *}: the error does not name notamap.exr: $(cat bad.err)"
+      fi
+    done
   fi
   kill $SHRMD_PID 2>/dev/null
   wait $SHRMD_PID 2>/dev/null

@@ -200,5 +200,43 @@ TEST_F(BlobStoreTest, ClientRecoversFromACorruptBlob) {
   (*srv)->Shutdown(absl::ZeroDuration());
 }
 
+// A map the server cannot decode is named in the client's message by the user's own file, as an
+// embedded run names it: the server says "blob <sha256>" (no path of its own), and the client knows
+// which file it uploaded as that blob.
+TEST_F(BlobStoreTest, RemoteErrorsNameTheLocalFile) {
+  server::ServerOptions opt;
+  opt.listen = "127.0.0.1:0";
+  opt.service.spool_dir = dir_ + "/spool";
+  opt.service.max_jobs = 1;
+  absl::StatusOr<std::unique_ptr<server::ShrmServer>> srv = server::ShrmServer::Start(opt);
+  ASSERT_TRUE(srv.ok()) << srv.status();
+  absl::StatusOr<std::unique_ptr<client::ShrmClient>> c =
+      client::ShrmClient::Connect(absl::StrCat("127.0.0.1:", (*srv)->port()));
+  ASSERT_TRUE(c.ok()) << c.status();
+  const std::string file = dir_ + "/not_a_map.exr";
+  {
+    std::ofstream out(file, std::ios::binary);
+    out << "these bytes are no image format's";
+  }
+  absl::StatusOr<std::string> sha = Sha256OfFile(file);
+  ASSERT_TRUE(sha.ok());
+  jobs::PrefilterJob job;
+  job.env.files = {file};
+  job.brdf = "phong:s=32";
+  jobs::UseExplicitOrders(&job, jobs::Orders{kTestF, kTestP});
+  job.verify = 0;
+  job.face_size = kTestFaceSize;
+  absl::StatusOr<client::RemotePrefilterResult> r =
+      client::RunRemotePrefilter(c->get(), "target", job, {}, nullptr);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument) << r.status();
+  const std::string message(r.status().message());
+  EXPECT_NE(message.find(absl::StrCat("target: ", file, ": unrecognized file signature")),
+            std::string::npos)
+      << message;
+  EXPECT_EQ(message.find(*sha), std::string::npos) << message;
+  (*srv)->Shutdown(absl::ZeroDuration());
+}
+
 }  // namespace
 }  // namespace shrm
