@@ -89,7 +89,35 @@ class BlobStoreTest : public ::testing::Test {
     std::filesystem::remove_all(dir_, ec);
   }
   int IncomingFiles() const { return testing::CountFiles(dir_ + "/spool/incoming"); }
+  // A loopback server on this test's spool and a client of it (quick retries).
+  void StartService() {
+    server::ServerOptions opt;
+    opt.listen = "127.0.0.1:0";
+    opt.service.spool_dir = dir_ + "/spool";
+    opt.service.max_jobs = 2;
+    absl::StatusOr<std::unique_ptr<server::ShrmServer>> srv = server::ShrmServer::Start(opt);
+    ASSERT_TRUE(srv.ok()) << srv.status();
+    server_ = *std::move(srv);
+    client::ClientOptions copt;
+    copt.initial_backoff = absl::Milliseconds(1);
+    absl::StatusOr<std::unique_ptr<client::ShrmClient>> c =
+        client::ShrmClient::Connect(absl::StrCat("127.0.0.1:", server_->port()), copt);
+    ASSERT_TRUE(c.ok()) << c.status();
+    client_ = *std::move(c);
+  }
+  // A small prefilter job of `file` (explicit orders, no check: neither is what these test).
+  static jobs::PrefilterJob SmallJob(const std::string& file) {
+    jobs::PrefilterJob job;
+    job.env.files = {file};
+    job.brdf = "phong:s=32";
+    jobs::UseExplicitOrders(&job, jobs::Orders{kTestF, kTestP});
+    job.verify = 0;
+    job.face_size = kTestFaceSize;
+    return job;
+  }
   std::string dir_;
+  std::unique_ptr<server::ShrmServer> server_;
+  std::unique_ptr<client::ShrmClient> client_;
 };
 
 TEST_F(BlobStoreTest, FullSpoolIsResourceExhaustedLeavesNothingAndServesOn) {
@@ -167,52 +195,30 @@ TEST_F(BlobStoreTest, BlobsFoundAtStartupAreVerifiedAtFirstUse) {
 // Through the service: the client finds the blob missing, uploads it again and the job's file
 // equals the one of a run on an intact spool.
 TEST_F(BlobStoreTest, ClientRecoversFromACorruptBlob) {
-  server::ServerOptions opt;
-  opt.listen = "127.0.0.1:0";
-  opt.service.spool_dir = dir_ + "/spool";
-  opt.service.max_jobs = 2;
-  absl::StatusOr<std::unique_ptr<server::ShrmServer>> srv = server::ShrmServer::Start(opt);
-  ASSERT_TRUE(srv.ok()) << srv.status();
-  client::ClientOptions copt;
-  copt.initial_backoff = absl::Milliseconds(1);
-  absl::StatusOr<std::unique_ptr<client::ShrmClient>> c =
-      client::ShrmClient::Connect(absl::StrCat("127.0.0.1:", (*srv)->port()), copt);
-  ASSERT_TRUE(c.ok()) << c.status();
-  jobs::PrefilterJob job;
-  job.env.files = {absl::StrCat(SHRM_SOURCE_DIR, "/data/envmaps/interior.exr")};
-  job.brdf = "phong:s=32";
-  jobs::UseExplicitOrders(&job, jobs::Orders{kTestF, kTestP});
-  job.verify = 0;  // the check is not what this test is about
-  job.face_size = kTestFaceSize;
+  ASSERT_NO_FATAL_FAILURE(StartService());
+  const jobs::PrefilterJob job =
+      SmallJob(absl::StrCat(SHRM_SOURCE_DIR, "/data/envmaps/interior.exr"));
   int retries = 0;
   absl::StatusOr<client::RemotePrefilterResult> first =
-      client::RunRemotePrefilter(c->get(), "interior", job, {}, &retries);
+      client::RunRemotePrefilter(client_.get(), "interior", job, {}, &retries);
   ASSERT_TRUE(first.ok()) << first.status();
   EXPECT_EQ(retries, 0);
   absl::StatusOr<std::string> sha = Sha256OfFile(job.env.files[0]);
   ASSERT_TRUE(sha.ok());
-  Corrupt(opt.service.spool_dir + "/" + *sha);
+  Corrupt(dir_ + "/spool/" + *sha);
   absl::StatusOr<client::RemotePrefilterResult> second =
-      client::RunRemotePrefilter(c->get(), "interior", job, {}, &retries);
+      client::RunRemotePrefilter(client_.get(), "interior", job, {}, &retries);
   ASSERT_TRUE(second.ok()) << second.status();
   EXPECT_EQ(retries, 1);  // BLOB_NOT_FOUND once, then uploaded again
   EXPECT_EQ(second->outcome.shrm_file, first->outcome.shrm_file);
-  (*srv)->Shutdown(absl::ZeroDuration());
+  server_->Shutdown(absl::ZeroDuration());
 }
 
 // A map the server cannot decode is named in the client's message by the user's own file, as an
 // embedded run names it: the server says "blob <sha256>" (no path of its own), and the client knows
 // which file it uploaded as that blob.
 TEST_F(BlobStoreTest, RemoteErrorsNameTheLocalFile) {
-  server::ServerOptions opt;
-  opt.listen = "127.0.0.1:0";
-  opt.service.spool_dir = dir_ + "/spool";
-  opt.service.max_jobs = 1;
-  absl::StatusOr<std::unique_ptr<server::ShrmServer>> srv = server::ShrmServer::Start(opt);
-  ASSERT_TRUE(srv.ok()) << srv.status();
-  absl::StatusOr<std::unique_ptr<client::ShrmClient>> c =
-      client::ShrmClient::Connect(absl::StrCat("127.0.0.1:", (*srv)->port()));
-  ASSERT_TRUE(c.ok()) << c.status();
+  ASSERT_NO_FATAL_FAILURE(StartService());
   const std::string file = dir_ + "/not_a_map.exr";
   {
     std::ofstream out(file, std::ios::binary);
@@ -220,14 +226,8 @@ TEST_F(BlobStoreTest, RemoteErrorsNameTheLocalFile) {
   }
   absl::StatusOr<std::string> sha = Sha256OfFile(file);
   ASSERT_TRUE(sha.ok());
-  jobs::PrefilterJob job;
-  job.env.files = {file};
-  job.brdf = "phong:s=32";
-  jobs::UseExplicitOrders(&job, jobs::Orders{kTestF, kTestP});
-  job.verify = 0;
-  job.face_size = kTestFaceSize;
   absl::StatusOr<client::RemotePrefilterResult> r =
-      client::RunRemotePrefilter(c->get(), "target", job, {}, nullptr);
+      client::RunRemotePrefilter(client_.get(), "target", SmallJob(file), {}, nullptr);
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument) << r.status();
   const std::string message(r.status().message());
@@ -235,7 +235,7 @@ TEST_F(BlobStoreTest, RemoteErrorsNameTheLocalFile) {
             std::string::npos)
       << message;
   EXPECT_EQ(message.find(*sha), std::string::npos) << message;
-  (*srv)->Shutdown(absl::ZeroDuration());
+  server_->Shutdown(absl::ZeroDuration());
 }
 
 }  // namespace
