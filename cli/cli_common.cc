@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 #include <thread>
 
 #include "absl/strings/match.h"
@@ -18,6 +19,7 @@
 #include "absl/time/clock.h"
 #include "core/base/cubemap.h"
 #include "core/base/status_macros.h"
+#include "core/brdf/brdf.h"
 #include "core/envmap/lighting.h"
 #include "core/io/atomic_file.h"
 #include "core/io/image.h"
@@ -221,10 +223,19 @@ double Progress::End() {
   return ms;
 }
 
-absl::Status CheckOutputPath(const std::string& path, const char* option) {
+absl::Status CheckOutputPath(const std::string& path, const char* option,
+                             std::span<const InputFile> inputs) {
   if (path.empty()) return absl::OkStatus();
   namespace fs = std::filesystem;
   const fs::path p(path);
+  for (const InputFile& in : inputs) {
+    std::error_code ec;
+    if (!in.path.empty() && fs::equivalent(p, fs::path(in.path), ec) && !ec) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(option, " ", path, " is the input file of ", in.option, " (", in.path,
+                       "): writing it would replace that input; choose another output path"));
+    }
+  }
   const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
   std::error_code ec;
   if (!fs::exists(dir, ec)) {
@@ -247,6 +258,13 @@ absl::Status CheckOutputPath(const std::string& path, const char* option) {
   std::fclose(f);
   DiscardTempFile(probe);
   return absl::OkStatus();
+}
+
+std::vector<InputFile> JobInputFiles(const jobs::EnvironmentSpec& env, const std::string& brdf) {
+  std::vector<InputFile> out;
+  for (const std::string& f : env.files) out.push_back({"--env", f});
+  if (const std::optional<std::string> file = BrdfSpecFile(brdf)) out.push_back({"--brdf", *file});
+  return out;
 }
 
 OutputTransaction::~OutputTransaction() {

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -118,10 +119,22 @@ class StageLines {
   bool open_ = false;
 };
 
+// An input file of a command and the option that names it (for CheckOutputPath).
+struct InputFile {
+  const char* option;
+  std::string path;
+};
+
 // Checks before any work that an output can be created: its folder exists, is a folder, and a
-// file can be created in it (probed with a temporary that is removed). Errors name the option and
-// the path. Empty paths (optional outputs not asked for) pass.
-absl::Status CheckOutputPath(const std::string& path, const char* option);
+// file can be created in it (probed with a temporary that is removed), and that it is none of
+// `inputs` (the same file by any name: the output's rename would replace the user's input, e.g.
+// `shrm prefilter --env map.exr -o map.exr`). Errors name the option and the path. Empty paths
+// (optional outputs not asked for) pass.
+absl::Status CheckOutputPath(const std::string& path, const char* option,
+                             std::span<const InputFile> inputs = {});
+
+// The input files of a job: its map's files (--env) and a BRDF's file (table:PATH, merl:PATH).
+std::vector<InputFile> JobInputFiles(const jobs::EnvironmentSpec& env, const std::string& brdf);
 
 // The outputs of one command, committed together: each is written to a temporary path (Temp())
 // and renamed into place by Commit(); if the command fails before Commit(), the destructor

@@ -48,7 +48,8 @@ struct OutputArgs {
 };
 
 absl::Status RunRender(const OutputArgs& a) {
-  SHRM_RETURN_IF_ERROR(CheckOutputPath(a.output, "--output"));
+  const InputFile shrm_input[] = {{"--shrm", a.shrm}};
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(a.output, "--output", shrm_input));
   SHRM_ASSIGN_OR_RETURN(Vec3 v, ParseDirection(a.view, "--view"));
   SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrm(a.shrm));
   SHRM_ASSIGN_OR_RETURN(RadianceCube map,
@@ -89,7 +90,8 @@ absl::Status RunRender(const OutputArgs& a) {
 
 absl::Status RunExplicit(const OutputArgs& a) {
   if (a.tb < 1) return absl::InvalidArgumentError("--tb must be >= 1");
-  SHRM_RETURN_IF_ERROR(CheckOutputPath(absl::StrCat(a.output, "_0.exr"), "--output"));
+  const InputFile shrm_input[] = {{"--shrm", a.shrm}};
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(absl::StrCat(a.output, "_0.exr"), "--output", shrm_input));
   SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrm(a.shrm));
   std::unique_ptr<Brdf> lights_brdf;
   if (!file.cube.lights.empty()) {
@@ -136,8 +138,8 @@ absl::Status RunExplicit(const OutputArgs& a) {
 
 absl::Status RunIrradiance(const OutputArgs& a) {
   if (a.size < 1) return absl::InvalidArgumentError("--size must be >= 1");
-  SHRM_RETURN_IF_ERROR(CheckOutputPath(a.output, "--output"));
   SHRM_ASSIGN_OR_RETURN(const jobs::EnvironmentSpec spec, EnvSpecFromArgs(a.env));
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(a.output, "--output", JobInputFiles(spec, "")));
   std::vector<double> e9;
   ibl::LevelError measured;
   if (!a.server.empty()) {

@@ -339,11 +339,12 @@ absl::Status RunPrefilterJob(const jobs::PrefilterJob& job, const PrefilterRun& 
                              PrefilterJobOutcome* outcome) {
   SHRM_RETURN_IF_ERROR(jobs::ValidatePrefilterJob(job));
   if (run.threads < 0) return absl::InvalidArgumentError("--threads must be >= 0");
-  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.output, "--output"));
-  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.preview, "--preview"));
-  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.ktx2, "--ktx2"));
-  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.report, "--report"));
-  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.report_html, "--report-html"));
+  const std::vector<InputFile> inputs = JobInputFiles(job.env, job.brdf);
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.output, "--output", inputs));
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.preview, "--preview", inputs));
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.ktx2, "--ktx2", inputs));
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.report, "--report", inputs));
+  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.report_html, "--report-html", inputs));
   if (!run.server.empty()) return RunPrefilterRemote(job, run, outcome);
   return RunPrefilterEmbedded(job, run, outcome);
 }

@@ -202,6 +202,22 @@ expect_error infinite_max_size 2 "^--max-size: must be in \\[0, 1000000\\], got 
 expect_error malformed_direction 2 'normal' \
   "$SHRM" reference --env "$IN/ok.pfm" --brdf phong:s=32 --normal 1,2 --view 0,1,0
 
+# An output that is an input file (by any name) would replace it: refused before any work, the
+# input untouched.
+cp "$IN/ok.pfm" "$TMP/ok_copy.pfm"
+ln -s "$IN/ok.pfm" "$IN/ok_link.pfm"
+NOCHECK=(--brdf phong:s=32 --epsilon 0.03 --verify 0 --size 16)
+expect_error output_is_input 1 "--output .*/ok\.pfm is the input file of --env \(.*/ok\.pfm\)" \
+  "$SHRM" prefilter "${NOCHECK[@]}" --env "$IN/ok.pfm" -o "$IN/ok.pfm"
+expect_error output_is_input_by_link 1 "--output .*/ok_link\.pfm is the input file of --env" \
+  "$SHRM" prefilter "${NOCHECK[@]}" --env "$IN/ok.pfm" -o "$IN/../inputs/ok_link.pfm"
+expect_error preview_is_input 1 "--preview .*/ok\.pfm is the input file of --env" \
+  "$SHRM" prefilter "${NOCHECK[@]}" --env "$IN/ok.pfm" -o out.shrm.exr --preview "$IN/ok.pfm"
+expect_error irradiance_output_is_input 1 "--output .*/ok\.pfm is the input file of --env" \
+  "$SHRM" irradiance --env "$IN/ok.pfm" -o "$IN/ok.pfm"
+cmp -s "$IN/ok.pfm" "$TMP/ok_copy.pfm" || fail "output_is_input: the input map was changed"
+rm -f "$IN/ok_link.pfm"
+
 # One order rule: --epsilon, --tolerance and --orders exclude each other; out of range is a usage
 # error.
 expect_error tolerance_with_orders 1 'tolerance and --orders exclude each other' \
@@ -323,6 +339,10 @@ if "$SHRM" render --shrm h.shrm.exr --view 0.3,0.5,0.8 -o from_exr.exr >/dev/nul
 else
   fail "ktx2: render failed: $(cat r1.stderr r2.stderr)"
 fi
+cp h.shrm.exr "$TMP/render_input.shrm.exr"
+expect_error render_output_is_input 1 "--output .*render_input\.shrm\.exr is the input file of --shrm" \
+  "$SHRM" render --shrm "$TMP/render_input.shrm.exr" --view 0,0,1 -o "$TMP/render_input.shrm.exr"
+cmp -s h.shrm.exr "$TMP/render_input.shrm.exr" || fail "render_output_is_input: the SHRM was changed"
 head -c 300 h.shrm.ktx2 >"$TMP/truncated.shrm.ktx2"
 expect_error truncated_shrm_ktx2 1 'truncated\.shrm\.ktx2.*(outside|truncated|runs past)' \
   "$SHRM" render --shrm "$TMP/truncated.shrm.ktx2" --view 0,0,1 -o r.exr
