@@ -260,6 +260,30 @@ absl::Status CheckOutputPath(const std::string& path, const char* option,
   return absl::OkStatus();
 }
 
+absl::Status CheckDistinctOutputs(std::span<const OptionPath> outputs) {
+  namespace fs = std::filesystem;
+  std::vector<fs::path> canonical;
+  for (const OptionPath& o : outputs) {
+    std::error_code ec;
+    // Absolute first: weakly_canonical leaves a relative path whose file does not exist yet
+    // relative ("a.exr"), and makes "./a.exr" absolute.
+    const fs::path absolute = o.path.empty() ? fs::path() : fs::absolute(fs::path(o.path), ec);
+    fs::path c = ec ? fs::path() : fs::weakly_canonical(absolute, ec);
+    canonical.push_back(ec ? absolute.lexically_normal() : c);
+  }
+  for (size_t i = 0; i < outputs.size(); ++i) {
+    for (size_t j = 0; j < i; ++j) {
+      if (outputs[i].path.empty() || outputs[j].path.empty() || canonical[i] != canonical[j]) {
+        continue;
+      }
+      return absl::InvalidArgumentError(absl::StrCat(outputs[i].option, " ", outputs[i].path,
+                                                     " is also the path of ", outputs[j].option,
+                                                     ": each output needs a path of its own"));
+    }
+  }
+  return absl::OkStatus();
+}
+
 std::vector<InputFile> JobInputFiles(const jobs::EnvironmentSpec& env, const std::string& brdf) {
   std::vector<InputFile> out;
   for (const std::string& f : env.files) out.push_back({"--env", f});

@@ -119,11 +119,12 @@ class StageLines {
   bool open_ = false;
 };
 
-// An input file of a command and the option that names it (for CheckOutputPath).
-struct InputFile {
+// A file of a command and the option that names it.
+struct OptionPath {
   const char* option;
   std::string path;
 };
+using InputFile = OptionPath;
 
 // Checks before any work that an output can be created: its folder exists, is a folder, and a
 // file can be created in it (probed with a temporary that is removed), and that it is none of
@@ -132,6 +133,10 @@ struct InputFile {
 // (optional outputs not asked for) pass.
 absl::Status CheckOutputPath(const std::string& path, const char* option,
                              std::span<const InputFile> inputs = {});
+
+// Fails when two of a command's outputs name the same file (by any name, existing or not): the
+// second would replace the first ("--report a.exr is also --output").
+absl::Status CheckDistinctOutputs(std::span<const OptionPath> outputs);
 
 // The input files of a job: its map's files (--env) and a BRDF's file (table:PATH, merl:PATH).
 std::vector<InputFile> JobInputFiles(const jobs::EnvironmentSpec& env, const std::string& brdf);

@@ -339,12 +339,19 @@ absl::Status RunPrefilterJob(const jobs::PrefilterJob& job, const PrefilterRun& 
                              PrefilterJobOutcome* outcome) {
   SHRM_RETURN_IF_ERROR(jobs::ValidatePrefilterJob(job));
   if (run.threads < 0) return absl::InvalidArgumentError("--threads must be >= 0");
+  const OptionPath outputs[] = {{"--output", run.output},
+                                {"--preview", run.preview},
+                                {"--ktx2", run.ktx2},
+                                {"--report", run.report},
+                                {"--report-html", run.report_html}};
+  SHRM_RETURN_IF_ERROR(CheckDistinctOutputs(outputs));
   const std::vector<InputFile> inputs = JobInputFiles(job.env, job.brdf);
-  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.output, "--output", inputs));
-  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.preview, "--preview", inputs));
-  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.ktx2, "--ktx2", inputs));
-  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.report, "--report", inputs));
-  SHRM_RETURN_IF_ERROR(CheckOutputPath(run.report_html, "--report-html", inputs));
+  for (const OptionPath& o : outputs)
+    SHRM_RETURN_IF_ERROR(CheckOutputPath(o.path, o.option, inputs));
+  if (!run.preview.empty() && !Check8BitExtension(run.preview).ok()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--preview ", run.preview, ": needs a .png, .tif or .tiff extension (an 8-bit image)"));
+  }
   if (!run.server.empty()) return RunPrefilterRemote(job, run, outcome);
   return RunPrefilterEmbedded(job, run, outcome);
 }

@@ -215,6 +215,12 @@ expect_error preview_is_input 1 "--preview .*/ok\.pfm is the input file of --env
   "$SHRM" prefilter "${NOCHECK[@]}" --env "$IN/ok.pfm" -o out.shrm.exr --preview "$IN/ok.pfm"
 expect_error irradiance_output_is_input 1 "--output .*/ok\.pfm is the input file of --env" \
   "$SHRM" irradiance --env "$IN/ok.pfm" -o "$IN/ok.pfm"
+# Two outputs on one path: the second's rename replaced the first (the SHRM lost to the report,
+# exit 1 after the whole job); an 8-bit preview with another extension failed after the job.
+expect_error two_outputs_one_path 1 "--report \./out\.shrm\.exr is also the path of --output" \
+  "$SHRM" prefilter "${NOCHECK[@]}" --env "$IN/ok.pfm" -o out.shrm.exr --report ./out.shrm.exr
+expect_error preview_extension 1 "--preview out\.jpg: needs a \.png, \.tif or \.tiff extension" \
+  "$SHRM" prefilter "${NOCHECK[@]}" --env "$IN/ok.pfm" -o out.shrm.exr --preview out.jpg
 cmp -s "$IN/ok.pfm" "$TMP/ok_copy.pfm" || fail "output_is_input: the input map was changed"
 rm -f "$IN/ok_link.pfm"
 

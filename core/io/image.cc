@@ -416,13 +416,25 @@ absl::Status WriteExr(const std::string& path, const Image& image) {
   return WriteFileAtomically(path, bytes);
 }
 
-absl::Status WriteImage8Bit(const std::string& path, const Image& image) {
+namespace {
+
+// "png" or "tiff" by the path's extension; nullptr for any other.
+const char* Format8Bit(const std::string& path) {
   const std::string ext = absl::AsciiStrToLower(std::filesystem::path(path).extension().string());
-  const char* format = ext == ".png" ? "png" : (ext == ".tif" || ext == ".tiff") ? "tiff" : nullptr;
-  if (format == nullptr) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(path, ": 8-bit output needs a .png, .tif or .tiff extension"));
-  }
+  return ext == ".png" ? "png" : (ext == ".tif" || ext == ".tiff") ? "tiff" : nullptr;
+}
+
+}  // namespace
+
+absl::Status Check8BitExtension(const std::string& path) {
+  if (Format8Bit(path) != nullptr) return absl::OkStatus();
+  return absl::InvalidArgumentError(
+      absl::StrCat(path, ": 8-bit output needs a .png, .tif or .tiff extension"));
+}
+
+absl::Status WriteImage8Bit(const std::string& path, const Image& image) {
+  SHRM_RETURN_IF_ERROR(Check8BitExtension(path));
+  const char* format = Format8Bit(path);
   SHRM_RETURN_IF_ERROR(CheckConsistent(image, absl::StrCat(path, ": inconsistent image to write")));
   const std::vector<unsigned char> bytes = To8Bit(image);
   if (std::string(format) == "png") {

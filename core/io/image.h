@@ -98,6 +98,8 @@ Image TonemapPreview(const Image& linear, double exposure = 0);
 // extension (.png, .tif, .tiff; anything else is InvalidArgument), without any colour
 // transform. Atomic like WriteExr.
 absl::Status WriteImage8Bit(const std::string& path, const Image& image);
+// WriteImage8Bit's extension rule alone, for checking an output path before any work.
+absl::Status Check8BitExtension(const std::string& path);
 
 // The same encodings in memory (for outputs that every front end writes identically): a float
 // OpenEXR file (zip, or uncompressed for data that zip barely shrinks, such as smooth tables of
