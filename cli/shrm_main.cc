@@ -6,6 +6,7 @@
 #include <cstdlib>
 
 #include "cli/commands.h"
+#include "core/io/atomic_file.h"
 
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 #define SHRM_SANITIZED 1
@@ -16,6 +17,8 @@
 #endif
 
 int main(int argc, char** argv) {
+  // Ctrl-C (or a service manager's SIGTERM) while outputs are written removes their temporaries.
+  shrm::RemoveTempFilesOnSignal();
   const int rc = shrm::cli::RunShrm(argc, argv);
 #ifndef SHRM_SANITIZED
   // Every output is complete (written and renamed) and every stream flushed here: the static

@@ -2,6 +2,11 @@
 // input (unknown signature, truncated file, absurd header, limits, NaN/Inf) gets a clear error.
 #include "core/io/image.h"
 
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -9,8 +14,10 @@
 #include <limits>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "absl/status/status.h"
+#include "core/io/atomic_file.h"
 #include "core/io/cube_exr.h"
 #include "core/io/sha256.h"
 #include "gtest/gtest.h"
@@ -287,6 +294,43 @@ TEST(ImageTest, WriteLeavesNoTemporaryAndRoundTrips) {
   bad.pixels.pop_back();
   EXPECT_EQ(WriteExr(path, bad).code(), absl::StatusCode::kInvalidArgument);
   EXPECT_FALSE(fs::exists(path));
+}
+
+// RemoveTempFilesOnSignal: a process ended by SIGTERM (or SIGINT, Ctrl-C) while its outputs are
+// being written leaves no temporary beside them, and still ends by the signal; a committed output
+// stays, and an untouched old output keeps its bytes. (A child process: the signal ends it.)
+TEST(ImageTest, SignalWhileWritingRemovesTheTemporaries) {
+  for (int sig : {SIGTERM, SIGINT}) {
+    const std::string dir = TempPath("signal_dir");
+    fs::create_directories(dir);
+    WriteBytes(dir + "/old.exr", "the old output");
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      ::signal(sig, SIG_DFL);  // as a shell starts a command (gtest may have changed nothing)
+      RemoveTempFilesOnSignal();
+      if (!WriteFileAtomically(dir + "/done.json", "{}").ok()) ::_exit(3);
+      // Two outputs in progress: a writer's own temporary, and a transaction's (a temporary
+      // name whose file a writer fills through its own temporary, then renames).
+      AtomicFileWriter writer(dir + "/old.exr");
+      writer.Append("half of a new output");
+      const std::string outer = TempPathFor(dir + "/cube.shrm.exr");
+      if (!WriteFileAtomically(outer, "a whole temporary").ok()) ::_exit(4);
+      ::raise(sig);
+      ::_exit(5);  // not reached
+    }
+    int status = 0;
+    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    ASSERT_TRUE(WIFSIGNALED(status)) << "exit status " << status;
+    EXPECT_EQ(WTERMSIG(status), sig);
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename());
+    std::sort(names.begin(), names.end());
+    EXPECT_EQ(names, (std::vector<std::string>{"done.json", "old.exr"})) << sig;
+    std::ifstream old(dir + "/old.exr", std::ios::binary);
+    EXPECT_EQ(std::string(std::istreambuf_iterator<char>(old), {}), "the old output");
+    fs::remove_all(dir);
+  }
 }
 
 TEST(ImageTest, PreviewPngIsToneMappedSrgb) {

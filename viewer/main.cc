@@ -1,6 +1,7 @@
 // shrm-view: the OpenGL reflection-map viewer (docs/viewer.md).
 #include <string>
 
+#include "core/io/atomic_file.h"
 #include "viewer/app.h"
 #include "viewer/error_report.h"
 #include "viewer/render_mode.h"
@@ -8,6 +9,7 @@
 
 int main(int argc, char** argv) {
   using namespace shrm::viewer;
+  shrm::RemoveTempFilesOnSignal();  // an interrupted screenshot leaves no temporary
   ViewerOptions options;
   const int code = ParseViewerOptions(argc, argv, &options);
   if (code >= 0) return code;

@@ -13,7 +13,8 @@
 namespace shrm {
 
 // "<stem>.tmp-<pid><ext>" next to `path`: same folder (so the rename is atomic), unique per
-// process, same extension.
+// process, same extension. The name is remembered until CommitTempFile or DiscardTempFile takes
+// it, for RemoveTempFilesOnSignal.
 std::string TempPathFor(const std::string& path);
 // Renames `tmp` over `path`; on failure removes `tmp` and returns Unavailable naming `path`.
 absl::Status CommitTempFile(const std::string& tmp, const std::string& path);
@@ -21,6 +22,16 @@ absl::Status CommitTempFile(const std::string& tmp, const std::string& path);
 void DiscardTempFile(const std::string& tmp);
 // Writes `bytes` to `path` atomically.
 absl::Status WriteFileAtomically(const std::string& path, std::string_view bytes);
+
+// Makes SIGINT, SIGTERM and SIGHUP (those not ignored: a command run with nohup keeps ignoring
+// SIGHUP) remove the temporary files TempPathFor named and no commit or discard has taken yet,
+// then end the process as the signal would have (exit status 128 + the signal). Without it, a
+// command interrupted while writing (Ctrl-C during a 200 MB SHRM's write) left its temporaries
+// beside the outputs; the outputs themselves are never touched either way. For programs' main();
+// the handler only unlinks (async-signal-safe) names it can read without locks. At most
+// kMaxTrackedTempFiles names are held at once (more are written as before, untracked).
+void RemoveTempFilesOnSignal();
+inline constexpr int kMaxTrackedTempFiles = 256;
 
 // The same for a file written piece by piece (a large output streamed from its encoder instead of
 // held whole in memory): Append, then Commit once; destroyed uncommitted, the temporary file is
