@@ -44,12 +44,12 @@ constexpr int kPreviewSize = 256;
 
 // `brdf_spec`: the BRDF the cube was made with, for its lights (none: not parsed).
 absl::Status WritePreview(const std::string& tmp, const ShrmCube& cube,
-                          const std::string& brdf_spec) {
+                          const std::string& brdf_spec, int threads) {
   std::unique_ptr<Brdf> brdf;
   if (!cube.lights.empty()) {
     SHRM_ASSIGN_OR_RETURN(brdf, ParseBrdfSpec(brdf_spec));
   }
-  const Image spheres = jobs::RenderShrmSpheres(cube, kPreviewSize, brdf.get());
+  const Image spheres = jobs::RenderShrmSpheres(cube, kPreviewSize, brdf.get(), threads);
   return WritePreviewPng(tmp, spheres, jobs::MidGreyExposure(spheres));
 }
 
@@ -152,7 +152,8 @@ absl::Status RunPrefilterRemote(const jobs::PrefilterJob& job, const PrefilterRu
     }
     if (!run.preview.empty()) {
       progress.Begin("preview");
-      SHRM_RETURN_IF_ERROR(WritePreview(outputs.Temp(run.preview), file.cube, BrdfAttribute(file)));
+      SHRM_RETURN_IF_ERROR(WritePreview(outputs.Temp(run.preview), file.cube, BrdfAttribute(file),
+                                        ResolveThreads(run.threads)));
       report["timings"]["preview_ms"] = progress.End();
     }
   }
@@ -231,8 +232,8 @@ absl::Status RunPrefilterEmbedded(const jobs::PrefilterJob& job, const Prefilter
   }
   if (!run.preview.empty()) {
     progress.Begin("preview");
-    SHRM_RETURN_IF_ERROR(
-        WritePreview(outputs.Temp(run.preview), r->result.cube, r->provenance.brdf_spec));
+    SHRM_RETURN_IF_ERROR(WritePreview(outputs.Temp(run.preview), r->result.cube,
+                                      r->provenance.brdf_spec, ResolveThreads(run.threads)));
     timings["preview_ms"] = progress.End();
   }
   if (!run.report_html.empty()) timings["report_ms"] = r->visuals_ms;

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "absl/strings/escaping.h"
+#include "core/base/parallel.h"
 #include "core/base/status_macros.h"
 #include "core/shrm/fast_reference.h"
 #include "core/shrm/shrm_eval.h"
@@ -126,12 +127,15 @@ std::array<SphereView, kSphereViews> SphereViews() {
   return {{{"front", {0, 0, 1}}, {"side", {1, 0, 0}}, {"above", Vec3{0, 0.7, 0.7}.Normalized()}}};
 }
 
-Image RenderShrmSpheres(const ShrmCube& cube, int size, const Brdf* brdf) {
+Image RenderShrmSpheres(const ShrmCube& cube, int size, const Brdf* brdf, int threads) {
   Image img = BlankImage(kSphereViews * size, size, 3);
   const auto views = SphereViews();
-  for (int s = 0; s < kSphereViews; ++s) {
-    const Frame f = ViewFrame(views[s].view);
-    for (int y = 0; y < size; ++y)
+  // Each task a run of (view, row) pairs: a preview's 768 rows of SHRM evaluations took 1.3 s of
+  // a 3.5 s default job on one thread (courtyard, microfacet sigma 0.3, P_B = 29).
+  ParallelChunks(kSphereViews * size, threads, [&](int begin, int end) {
+    for (int row = begin; row < end; ++row) {
+      const int s = row / size, y = row % size;
+      const Frame f = ViewFrame(views[s].view);
       for (int x = 0; x < size; ++x) {
         const std::optional<Vec3> n =
             SphereNormal(f, 2 * (x + 0.5) / size - 1, 1 - 2 * (y + 0.5) / size);
@@ -144,7 +148,8 @@ Image RenderShrmSpheres(const ShrmCube& cube, int size, const Brdf* brdf) {
           img.pixels[(static_cast<size_t>(y) * img.width + s * size + x) * 3 + c] =
               static_cast<float>(b[c]);
       }
-  }
+    }
+  });
   return img;
 }
 
@@ -234,7 +239,7 @@ absl::StatusOr<nlohmann::json> PrefilterVisuals(const EnvMap& env, const Brdf& b
 
   // Spheres: the SHRM at every pixel, the brute-force sum at the cell centres.
   const int size = kSpherePixels, cells = kReferenceCells;
-  const Image shrm = RenderShrmSpheres(cube, size, &brdf);
+  const Image shrm = RenderShrmSpheres(cube, size, &brdf, threads);
   const double exposure = MidGreyExposure(shrm);
   const auto views = SphereViews();
   std::vector<Vec3> cell_index, cell_view;
@@ -295,7 +300,7 @@ absl::StatusOr<nlohmann::json> PrefilterVisuals(const EnvMap& env, const Brdf& b
   SHRM_ASSIGN_OR_RETURN(std::string ref_png,
                         PngBase64(WithDiscAlpha(TonemapPreview(ref_img, exposure), size)));
   SHRM_ASSIGN_OR_RETURN(std::string err_png, PngBase64(WithDiscAlpha(err_img, size)));
-  const Image small = RenderShrmSpheres(cube, kThumbnailSpherePixels, &brdf);
+  const Image small = RenderShrmSpheres(cube, kThumbnailSpherePixels, &brdf, threads);
   SHRM_ASSIGN_OR_RETURN(
       std::string thumb_png,
       PngBase64(WithDiscAlpha(TonemapPreview(small, exposure), kThumbnailSpherePixels)));

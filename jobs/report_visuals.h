@@ -54,8 +54,10 @@ std::array<SphereView, kSphereViews> SphereViews();
 
 // Orthographic renders of a unit sphere carrying the SHRM, the three views side by side
 // (3 size x size pixels, black outside the discs), linear radiance; the cube's lights summed
-// with `brdf` when it is given (ShrmEvalWithLights).
-Image RenderShrmSpheres(const ShrmCube& cube, int size, const Brdf* brdf = nullptr);
+// with `brdf` when it is given (ShrmEvalWithLights). Rows split over `threads` threads (the same
+// pixels for any count).
+Image RenderShrmSpheres(const ShrmCube& cube, int size, const Brdf* brdf = nullptr,
+                        int threads = 1);
 // Exposure (stops) that brings the mean luminance of the non-black pixels to mid-grey (0.18).
 double MidGreyExposure(const Image& linear);
 // The colour of a value in [0, 1] on the report's error scale: luminance rises monotonically
