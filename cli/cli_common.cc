@@ -224,11 +224,11 @@ double Progress::End() {
 }
 
 absl::Status CheckOutputPath(const std::string& path, const char* option,
-                             std::span<const InputFile> inputs) {
+                             std::span<const OptionPath> inputs) {
   if (path.empty()) return absl::OkStatus();
   namespace fs = std::filesystem;
   const fs::path p(path);
-  for (const InputFile& in : inputs) {
+  for (const OptionPath& in : inputs) {
     std::error_code ec;
     if (!in.path.empty() && fs::equivalent(p, fs::path(in.path), ec) && !ec) {
       return absl::InvalidArgumentError(
@@ -284,8 +284,8 @@ absl::Status CheckDistinctOutputs(std::span<const OptionPath> outputs) {
   return absl::OkStatus();
 }
 
-std::vector<InputFile> JobInputFiles(const jobs::EnvironmentSpec& env, const std::string& brdf) {
-  std::vector<InputFile> out;
+std::vector<OptionPath> JobInputFiles(const jobs::EnvironmentSpec& env, const std::string& brdf) {
+  std::vector<OptionPath> out;
   for (const std::string& f : env.files) out.push_back({"--env", f});
   if (const std::optional<std::string> file = BrdfSpecFile(brdf)) out.push_back({"--brdf", *file});
   return out;

@@ -124,7 +124,6 @@ struct OptionPath {
   const char* option;
   std::string path;
 };
-using InputFile = OptionPath;
 
 // Checks before any work that an output can be created: its folder exists, is a folder, and a
 // file can be created in it (probed with a temporary that is removed), and that it is none of
@@ -132,14 +131,14 @@ using InputFile = OptionPath;
 // `shrm prefilter --env map.exr -o map.exr`). Errors name the option and the path. Empty paths
 // (optional outputs not asked for) pass.
 absl::Status CheckOutputPath(const std::string& path, const char* option,
-                             std::span<const InputFile> inputs = {});
+                             std::span<const OptionPath> inputs = {});
 
 // Fails when two of a command's outputs name the same file (by any name, existing or not): the
 // second would replace the first ("--report a.exr is also --output").
 absl::Status CheckDistinctOutputs(std::span<const OptionPath> outputs);
 
 // The input files of a job: its map's files (--env) and a BRDF's file (table:PATH, merl:PATH).
-std::vector<InputFile> JobInputFiles(const jobs::EnvironmentSpec& env, const std::string& brdf);
+std::vector<OptionPath> JobInputFiles(const jobs::EnvironmentSpec& env, const std::string& brdf);
 
 // The outputs of one command, committed together: each is written to a temporary path (Temp())
 // and renamed into place by Commit(); if the command fails before Commit(), the destructor

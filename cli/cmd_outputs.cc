@@ -48,7 +48,7 @@ struct OutputArgs {
 };
 
 absl::Status RunRender(const OutputArgs& a) {
-  const InputFile shrm_input[] = {{"--shrm", a.shrm}};
+  const OptionPath shrm_input[] = {{"--shrm", a.shrm}};
   SHRM_RETURN_IF_ERROR(CheckOutputPath(a.output, "--output", shrm_input));
   SHRM_ASSIGN_OR_RETURN(Vec3 v, ParseDirection(a.view, "--view"));
   SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrm(a.shrm));
@@ -90,7 +90,7 @@ absl::Status RunRender(const OutputArgs& a) {
 
 absl::Status RunExplicit(const OutputArgs& a) {
   if (a.tb < 1) return absl::InvalidArgumentError("--tb must be >= 1");
-  const InputFile shrm_input[] = {{"--shrm", a.shrm}};
+  const OptionPath shrm_input[] = {{"--shrm", a.shrm}};
   SHRM_RETURN_IF_ERROR(CheckOutputPath(absl::StrCat(a.output, "_0.exr"), "--output", shrm_input));
   SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrm(a.shrm));
   std::unique_ptr<Brdf> lights_brdf;

@@ -346,7 +346,7 @@ absl::Status RunPrefilterJob(const jobs::PrefilterJob& job, const PrefilterRun& 
                                 {"--report", run.report},
                                 {"--report-html", run.report_html}};
   SHRM_RETURN_IF_ERROR(CheckDistinctOutputs(outputs));
-  const std::vector<InputFile> inputs = JobInputFiles(job.env, job.brdf);
+  const std::vector<OptionPath> inputs = JobInputFiles(job.env, job.brdf);
   for (const OptionPath& o : outputs)
     SHRM_RETURN_IF_ERROR(CheckOutputPath(o.path, o.option, inputs));
   if (!run.preview.empty() && !Check8BitExtension(run.preview).ok()) {
