@@ -83,9 +83,19 @@ std::string Resolve(const fs::path& dir, const std::string& entry) {
   return (dir / p).lexically_normal().string();
 }
 
-// Why an existing output must be recomputed ("" when it matches the job; then *orders is the
-// file's "F_B,P_B").
-std::string Mismatch(const BatchJob& job, const std::string& source_sha256, std::string* orders) {
+// What a resumed batch knows of an output it skips: its orders, the measured error it records
+// and, when it missed its tolerance when it was written, what it missed (reported again, not
+// recomputed: docs/cli.md "Resume").
+struct ExistingOutput {
+  std::string orders;  // "F_B,P_B" (prefilter)
+  MeasuredError measured;
+  std::string miss;
+};
+
+// Why an existing output must be recomputed ("" when it matches the job; then *existing holds
+// what the file records).
+std::string Mismatch(const BatchJob& job, const std::string& source_sha256,
+                     ExistingOutput* existing) {
   std::error_code ec;
   if (!fs::exists(job.output, ec)) return "new";
   if (!job.report.empty() && !fs::exists(job.report, ec)) return "report missing";
@@ -95,14 +105,22 @@ std::string Mismatch(const BatchJob& job, const std::string& source_sha256, std:
   absl::StatusOr<ShrmFile> file = ReadShrmFile(job.output);
   if (!file.ok()) return absl::StrCat("existing output unreadable (", file.status().message(), ")");
   if (auto it = file->attributes.find("shrm:orders"); it != file->attributes.end()) {
-    *orders = it->second;
+    existing->orders = it->second;
   }
+  if (auto m = jobs::FileRecordedError(file->attributes, "shrm:measured_error");
+      m && m->pairs > 0) {
+    existing->measured.rms = m->error.front.rms;
+    existing->measured.max = m->error.front.max;
+  }
+  existing->miss = jobs::RecordedToleranceMiss(*file);
   return jobs::WhyFileDiffers(job.job, job.canonical_brdf, source_sha256, *file);
 }
 
 // Why an existing IBL set must be recomputed ("" when its ibl.json records the job: the map's
-// SHA-256 and the same options, and every file it lists exists).
-std::string IblMismatch(const BatchJob& job, const std::string& source_sha256) {
+// SHA-256 and the same options, and every file it lists exists; then *existing holds what
+// ibl.json records).
+std::string IblMismatch(const BatchJob& job, const std::string& source_sha256,
+                        ExistingOutput* existing) {
   std::error_code ec;
   const std::string sidecar = job.output + "/ibl.json";
   if (!fs::exists(sidecar, ec)) return "new";
@@ -118,6 +136,13 @@ std::string IblMismatch(const BatchJob& job, const std::string& source_sha256) {
     if (!f.is_object() || !fs::exists(job.output + "/" + f.value("name", ""), ec)) {
       return "a file is missing";
     }
+  }
+  existing->measured = IblMeasuredError(j);
+  if (const auto met = j.find("met"); met != j.end() && met->is_boolean() && !met->get<bool>()) {
+    existing->miss = absl::StrFormat(
+        "a level missed the tolerance when the set was written (worst measured RMS %.3g, "
+        "largest %.3g; ibl.json)",
+        existing->measured.rms, existing->measured.max);
   }
   return "";
 }
@@ -602,14 +627,22 @@ absl::Status RunBatch(const BatchArgs& args) {
             hashes[job.map] = hash;
           }
         }
+        ExistingOutput existing;
         reason = hash.empty() ? "new"
-                 : job.ibl    ? IblMismatch(job, hash)
-                              : Mismatch(job, hash, &orders);
+                 : job.ibl    ? IblMismatch(job, hash, &existing)
+                              : Mismatch(job, hash, &existing);
+        if (reason.empty()) {
+          orders = existing.orders;
+          measured = existing.measured;
+          // A file that missed its tolerance is complete and up to date, so it is not
+          // recomputed; it is reported as missed again, as when it was written.
+          status = existing.miss.empty() ? "skipped" : "missed";
+          message = existing.miss.empty()
+                        ? "up to date"
+                        : absl::StrCat("up to date, not recomputed: ", existing.miss);
+        }
       }
-      if (reason.empty()) {
-        status = "skipped";
-        message = "up to date";
-      } else {
+      if (!reason.empty()) {
         absl::Status s;
         // What both kinds of run take from the batch.
         auto batch_run = [&](auto* run) {
@@ -625,6 +658,7 @@ absl::Status RunBatch(const BatchArgs& args) {
           s = RunIblJob(job.ibl_job, run, &outcome);
           retries = outcome.retries;
           measured = outcome.measured;
+          written = outcome.written;
         } else {
           PrefilterRun run;
           batch_run(&run);

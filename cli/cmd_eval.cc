@@ -66,6 +66,20 @@ absl::Status RunEval(const PointArgs& a) {
   SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrm(a.shrm));
   Vec3 index, v;
   SHRM_RETURN_IF_ERROR(ParseGeometry(a, file.cube.index == ReparamKind::kTangent, &index, &v));
+  if (file.cube.index == ReparamKind::kReflection && !(index.Dot(v) > 0)) {
+    // V below the surface: the expansion, indexed by R = 2 (N.V) N - V, would give the surface
+    // of normal -N. A BRDF clipped at the normal's horizon reflects nothing there, which is what
+    // `shrm reference` sums; Phong (no horizon) keeps its value.
+    absl::StatusOr<std::unique_ptr<Brdf>> brdf = ShrmFileBrdf(file, a.shrm);
+    if (brdf.ok() && (*brdf)->clipped_at_normal_horizon()) {
+      std::fprintf(stderr,
+                   "shrm: note: N.V = %.3g: the view is below the surface, where %s reflects "
+                   "nothing\n",
+                   index.Dot(v) / (index.Norm() * v.Norm()), (*brdf)->spec().c_str());
+      PrintRgb({0, 0, 0}, a.json);
+      return absl::OkStatus();
+    }
+  }
   if (file.cube.lights.empty()) {
     PrintRgb(ShrmEval(file.cube, index, v), a.json);
     return absl::OkStatus();

@@ -258,6 +258,7 @@ absl::Status RunIblJob(const jobs::IblJob& job, const IblCommandRun& run, IblJob
   if (outcome != nullptr) {
     outcome->levels = static_cast<int>(report["specular"]["levels"].size());
     outcome->measured = IblMeasuredError(report);
+    outcome->written = true;
   }
   if (run.quiet) return jobs::IblOutcome(job, report);
   if (run.json) {

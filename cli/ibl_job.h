@@ -49,6 +49,7 @@ struct IblJobOutcome {
   int levels = 0;          // of the specular chain written
   int retries = 0;         // remote: attempts beyond the first
   MeasuredError measured;  // the worst level's, when --verify measured it
+  bool written = false;    // every file was written (an error after it: the tolerance missed)
 };
 
 // Adds the job's options (jobs/job_options.h, IblJobOptions) to `sub`.

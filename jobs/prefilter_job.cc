@@ -6,9 +6,11 @@
 #include <cmath>
 
 #include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
 #include "core/base/status_macros.h"
 #include "jobs/report.h"
 #include "jobs/report_visuals.h"
@@ -208,6 +210,12 @@ std::map<std::string, std::string> PrefilterFileAttributes(const PrefilterJob& j
     attrs["shrm:measured_error"] =
         absl::StrCat(EstimateText(result.measured), ",", result.verified_pairs);
   }
+  if (result.tolerance_rule) {
+    // The verdict the front ends give (exit code, batch status), so that a resumed batch that
+    // skips the file still reports a miss.
+    const bool met = ToleranceOutcome(job, PrefilterReportJson(job, provenance, result)).ok();
+    attrs["shrm:tolerance_met"] = met ? "true" : "false";
+  }
   return attrs;
 }
 
@@ -264,6 +272,53 @@ nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProve
   report["layout"] = EnvLayoutName(provenance.layout);
   report["shrm_version"] = kVersion;
   return report;
+}
+
+std::optional<RecordedError> FileRecordedError(const std::map<std::string, std::string>& attributes,
+                                               const std::string& attribute) {
+  auto it = attributes.find(attribute);
+  if (it == attributes.end()) return std::nullopt;
+  const std::vector<std::string> v = absl::StrSplit(it->second, ',');
+  RecordedError r;
+  DirectionalError& e = r.error;
+  if (v.size() < 4 || v.size() > 5 || !absl::SimpleAtod(v[0], &e.front.rms) ||
+      !absl::SimpleAtod(v[1], &e.front.max) || !absl::SimpleAtod(v[2], &e.grazing.rms) ||
+      !absl::SimpleAtod(v[3], &e.grazing.max) ||
+      (v.size() == 5 && (!absl::SimpleAtoi(v[4], &r.pairs) || r.pairs <= 0))) {
+    return std::nullopt;
+  }
+  return r;
+}
+
+std::string RecordedToleranceMiss(const ShrmFile& file) {
+  const std::map<std::string, std::string>& a = file.attributes;
+  auto tol_it = a.find("shrm:tolerance");
+  double tolerance = 0;
+  if (tol_it == a.end() || !absl::SimpleAtod(tol_it->second, &tolerance) || !(tolerance > 0))
+    return "";
+  const ToleranceTargets targets = TargetsForTolerance(tolerance, file.cube.view);
+  const std::optional<RecordedError> measured = FileRecordedError(a, "shrm:measured_error");
+  const auto figures = [&](const char* what, const RecordedError& r) {
+    return absl::StrCat(what, " front RMS ", r.error.front.rms, " (target ", targets.rms,
+                        "), largest ", r.error.front.max, " (target ", targets.max, ")",
+                        targets.grazing ? absl::StrCat(", grazing RMS ", r.error.grazing.rms,
+                                                       " (target ", targets.grazing_rms, ")")
+                                        : "",
+                        r.pairs > 0 ? absl::StrCat(" at ", r.pairs, " pairs") : "");
+  };
+  bool met = true;
+  if (auto it = a.find("shrm:tolerance_met"); it != a.end()) {
+    met = it->second != "false";
+  } else if (measured) {  // written before the verdict was recorded: the measurement decides
+    const DirectionalError& e = measured->error;
+    met = e.front.rms <= targets.rms && e.front.max <= targets.max &&
+          (!targets.grazing || e.grazing.rms <= targets.grazing_rms);
+  }
+  if (met) return "";
+  const std::string prefix = absl::StrCat("tolerance ", tol_it->second, " not met when written: ");
+  if (measured) return prefix + figures("measured", *measured);
+  const std::optional<RecordedError> estimated = FileRecordedError(a, "shrm:estimated_error");
+  return estimated ? prefix + figures("estimated", *estimated) : prefix + "(no figures recorded)";
 }
 
 std::string WhyFileDiffers(const PrefilterJob& job, const std::string& canonical_brdf,

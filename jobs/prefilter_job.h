@@ -145,7 +145,8 @@ std::string EpsilonAttribute(const PrefilterJob& job);
 // shrm:source_sha256, shrm:working_space, shrm:layout, shrm:version (shrm::kVersion), when
 // rotated shrm:rotate_ypr_deg, with the tolerance rule shrm:tolerance and shrm:estimated_error
 // ("front_rms,front_max,grazing_rms,grazing_max", core/shrm/tolerance.h) and, when checked,
-// shrm:measured_error (the same four and the number of pairs).
+// shrm:measured_error (the same four and the number of pairs), and with the tolerance rule
+// shrm:tolerance_met ("true" or "false": ToleranceOutcome's verdict on the job's report).
 std::map<std::string, std::string> PrefilterFileAttributes(const PrefilterJob& job,
                                                            const PrefilterProvenance& provenance,
                                                            const PrefilterResult& result);
@@ -162,6 +163,22 @@ nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProve
 // itself (--verify), the measurement is the verdict: an estimate that missed (within a size
 // budget, or at the reference orders) with every measured target met is OK (session 23).
 absl::Status ToleranceOutcome(const PrefilterJob& job, const nlohmann::json& report);
+
+// An error an SHRM file records: shrm:estimated_error ("front_rms,front_max,grazing_rms,
+// grazing_max") or shrm:measured_error (the same and the number of pairs); docs/formats.md.
+struct RecordedError {
+  DirectionalError error;
+  int pairs = 0;  // measured: > 0
+};
+// `attribute`'s value among a file's `attributes`, parsed; nullopt when absent or malformed.
+std::optional<RecordedError> FileRecordedError(const std::map<std::string, std::string>& attributes,
+                                               const std::string& attribute);
+
+// What an existing SHRM file says it missed when it was written ("" when it met its tolerance or
+// was made without one): shrm:tolerance_met "false" (ToleranceOutcome's verdict, recorded since
+// session 44), or in a file written before it, its shrm:measured_error against the targets of
+// shrm:tolerance. A resumed batch reports such a file as missed, without recomputing it.
+std::string RecordedToleranceMiss(const ShrmFile& file);
 
 // Why an existing SHRM file was not made by `job` from a source with `source_sha256` and a BRDF
 // whose canonical spec is `canonical_brdf` ("" when it was): a resumed batch recomputes it then.

@@ -210,7 +210,8 @@ grep -q "1 of 2 jobs failed" fails.err || fail "failing job: no error line: $(ca
 
 # A job that misses its tolerance (the default rule, 1%, on a 16-texel cube, which cannot hold
 # Phong s = 32's F_B = 20): "missed", its file written and complete, its figures in the message,
-# the batch's exit 1; a rerun skips it (it is the job's output, only not within its tolerance).
+# the batch's exit 1; a rerun does not recompute it (it is the job's output, only not within its
+# tolerance) but reports it missed again, from the verdict its header records, and exits 1.
 echo "== a job that misses its tolerance"
 cat >missed.json <<'JSON'
 {"maps": ["maps/courtyard.exr"], "brdfs": ["phong:s=32"],
@@ -226,8 +227,20 @@ grep -q "0 of 1 jobs failed, 1 missed their tolerance" missed.err ||
   fail "missed tolerance: no error line: $(cat missed.err)"
 "$SHRM" info missed/courtyard_phong_s_32.shrm.exr >missed.info 2>&1 &&
   grep -q 'shrm:measured_error' missed.info || fail "missed tolerance: the file is not complete: $(cat missed.info)"
-"$SHRM" batch missed.json --json >missed2.out 2>&1
-[ "$(count skipped missed2.out)" -eq 1 ] || fail "missed tolerance: rerun did not skip: $(cat missed2.out)"
+grep -q 'shrm:tolerance_met *false' missed.info || fail "missed tolerance: no verdict in the header: $(cat missed.info)"
+cp missed/courtyard_phong_s_32.shrm.exr missed_first.exr
+"$SHRM" batch missed.json --json >missed2.out 2>missed2.err
+rc=$?
+[ $rc -eq 1 ] || fail "missed tolerance: the rerun exits $rc, expected 1 (a miss is not forgotten)"
+[ "$(count missed missed2.out)" -eq 1 ] || fail "missed tolerance: the rerun does not report the miss: $(cat missed2.out)"
+grep -q '"message": "up to date, not recomputed: tolerance 0.01 not met when written: measured front RMS' missed2.out ||
+  fail "missed tolerance: the rerun's message: $(cat missed2.out)"
+grep -q '"rms": ' missed2.out || fail "missed tolerance: the rerun shows no measured error: $(cat missed2.out)"
+cmp -s missed/courtyard_phong_s_32.shrm.exr missed_first.exr || fail "missed tolerance: the rerun rewrote the file"
+# A job that met its tolerance is skipped on a rerun, with the measured error its header records.
+"$SHRM" batch verify.json --json >met2.out 2>&1 || fail "rerun of a met batch: $(cat met2.out)"
+[ "$(count skipped met2.out)" -eq 1 ] || fail "rerun of a met batch: expected 1 skipped: $(cat met2.out)"
+grep -q '"measured": null' met2.out && fail "a skipped job shows no measured error: $(cat met2.out)"
 
 # --- 6. --server (when shrmd is built next to shrm): same files, each map uploaded once ---------
 SHRMD="$(dirname "$SHRM")/../server/shrmd"
@@ -303,6 +316,22 @@ rm ibl/courtyard/sh9.json
 [ "$(count ok ibl3.json)" -eq 1 ] && [ "$(count skipped ibl3.json)" -eq 1 ] ||
   fail "ibl: only the set missing a file must be recomputed: $(cat ibl3.json)"
 grep -q '"message": "recomputed: a file is missing"' ibl3.json || fail "ibl: reason missing: $(cat ibl3.json)"
+# A set whose ibl.json says it missed its tolerance (the bundled maps meet every tolerance the
+# formats allow, so the verdict is edited here): a rerun does not recompute it, reports it
+# missed again and exits 1.
+python3 - ibl/city/ibl.json <<'PY'
+import json, sys
+j = json.load(open(sys.argv[1]))
+j["met"] = False
+json.dump(j, open(sys.argv[1], "w"))
+PY
+"$SHRM" batch ibl.json --json >ibl4.json 2>/dev/null
+rc=$?
+[ $rc -eq 1 ] || fail "ibl: a set that missed, rerun: exit $rc, expected 1"
+[ "$(count missed ibl4.json)" -eq 1 ] && [ "$(count skipped ibl4.json)" -eq 1 ] ||
+  fail "ibl: a set that missed is not reported again: $(cat ibl4.json)"
+grep -q '"message": "up to date, not recomputed: a level missed the tolerance' ibl4.json ||
+  fail "ibl: the rerun's message: $(cat ibl4.json)"
 sed 's/"size": 16/"size": 24/; s/"sheen": true/"sheen": 1, "brdf": "x"/' ibl.json >ibl_bad.json
 "$SHRM" batch ibl_bad.json >ibl_bad.out 2>ibl_bad.err
 rc=$?

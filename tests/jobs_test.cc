@@ -92,22 +92,33 @@ TEST(PrefilterJob, ReportCarriesTheJobAndItsProvenance) {
   EXPECT_EQ(r["P_B"], 2);
 }
 
-TEST(PrefilterJob, ToleranceRuleRecordsItsEstimateAndSaysWhenItIsMissed) {
+// A Phong s = 32 job of the tolerance rule at 0.01, and a result of it with the reference orders
+// (32, 8) and a truncation estimate of 0.003 RMS, 0.02 largest in front, its estimate met.
+PrefilterJob ToleranceJob() {
   PrefilterJob job;
   job.env.files = {"a.exr"};
   job.brdf = "phong:s=32";
   job.tolerance = 0.01;
+  return job;
+}
+PrefilterResult ToleranceResult() {
   PrefilterResult r = Result(48);
   r.tolerance_rule = true;
-  r.choice.f = 11;
-  r.choice.p = 2;
-  r.choice.face_size = 48;
   r.choice.f_ref = 32;
   r.choice.p_ref = 8;
   r.choice.truncation.front = {10, 0.003, 0.02};
+  r.choice.met = true;
+  return r;
+}
+
+TEST(PrefilterJob, ToleranceRuleRecordsItsEstimateAndSaysWhenItIsMissed) {
+  const PrefilterJob job = ToleranceJob();
+  PrefilterResult r = ToleranceResult();
+  r.choice.f = 11;
+  r.choice.p = 2;
+  r.choice.face_size = 48;
   r.choice.interpolation.front = {10, 0.004, 0.01};
   r.choice.truncation.grazing = {4, 0.05, 0.25};
-  r.choice.met = true;
   const auto attrs = jobs::PrefilterFileAttributes(job, Provenance(), r);
   EXPECT_EQ(attrs.at("shrm:epsilon"), "per-direction tolerance");
   EXPECT_EQ(attrs.at("shrm:tolerance"), "0.01");
@@ -159,6 +170,66 @@ TEST(PrefilterJob, ToleranceRuleRecordsItsEstimateAndSaysWhenItIsMissed) {
   EXPECT_EQ(jobs::WhyFileDiffers(job, "phong:s=32", std::string(64, 'a'), file), "");
   EXPECT_EQ(jobs::WhyFileDiffers(other, "phong:s=32", std::string(64, 'a'), file),
             "shrm:tolerance 0.01 != 0.02");
+}
+
+// A file records the job's verdict (shrm:tolerance_met), so that a resumed batch that skips it
+// still reports a miss; files written before the verdict was recorded are judged by their
+// measured error against the targets of their tolerance.
+TEST(PrefilterJob, TheFileRecordsWhetherItsToleranceWasMet) {
+  const PrefilterJob job = ToleranceJob();
+  PrefilterResult r = ToleranceResult();
+  r.verified_pairs = 64;
+  r.measured.front = {48, 0.004, 0.03};
+  ShrmFile file;
+  file.cube.kind = ShrmKind::kGlobal;
+  file.attributes = jobs::PrefilterFileAttributes(job, Provenance(), r);
+  EXPECT_EQ(file.attributes.at("shrm:tolerance_met"), "true");
+  EXPECT_EQ(jobs::RecordedToleranceMiss(file), "");
+  // The measurement misses its largest-error target (5 x 0.01): the verdict is false, and the
+  // file names the figures.
+  r.measured.front = {48, 0.004, 0.08};
+  file.attributes = jobs::PrefilterFileAttributes(job, Provenance(), r);
+  EXPECT_EQ(file.attributes.at("shrm:tolerance_met"), "false");
+  EXPECT_FALSE(jobs::ToleranceOutcome(job, jobs::PrefilterReportJson(job, Provenance(), r)).ok());
+  EXPECT_EQ(jobs::RecordedToleranceMiss(file),
+            "tolerance 0.01 not met when written: measured front RMS 0.004 (target 0.01), "
+            "largest 0.08 (target 0.05) at 64 pairs");
+  // Unchecked (--verify 0): the estimate's verdict, its figures named.
+  r.verified_pairs = 0;
+  r.measured = {};
+  r.choice.met = false;
+  file.attributes = jobs::PrefilterFileAttributes(job, Provenance(), r);
+  EXPECT_EQ(file.attributes.count("shrm:measured_error"), 0u);
+  EXPECT_EQ(jobs::RecordedToleranceMiss(file),
+            "tolerance 0.01 not met when written: estimated front RMS 0.003 (target 0.01), "
+            "largest 0.02 (target 0.05)");
+  // A file written before the verdict was recorded: its measurement decides, with the grazing
+  // RMS a target in the normal variable (5 x 0.01).
+  ShrmFile old;
+  old.cube.view = ViewVariable::kNormal;
+  old.attributes = {{"shrm:tolerance", "0.01"}, {"shrm:measured_error", "0.004,0.03,0.04,0.2,64"}};
+  EXPECT_EQ(jobs::RecordedToleranceMiss(old), "");
+  old.attributes["shrm:measured_error"] = "0.004,0.03,0.06,0.2,64";
+  EXPECT_EQ(jobs::RecordedToleranceMiss(old),
+            "tolerance 0.01 not met when written: measured front RMS 0.004 (target 0.01), "
+            "largest 0.03 (target 0.05), grazing RMS 0.06 (target 0.05) at 64 pairs");
+  old.cube.view = ViewVariable::kView;  // the grazing RMS is reported, not a target
+  EXPECT_EQ(jobs::RecordedToleranceMiss(old), "");
+  // Without a tolerance (the epsilon rule, explicit orders) there is nothing to miss.
+  old.attributes.erase("shrm:tolerance");
+  old.attributes["shrm:measured_error"] = "0.5,0.9,0.6,0.9,64";
+  EXPECT_EQ(jobs::RecordedToleranceMiss(old), "");
+  // Malformed figures are not read.
+  for (const char* bad :
+       {"", "0.1,0.2,0.3", "0.1,0.2,0.3,0.4,0", "0.1,x,0.3,0.4,64", "0.1,0.2,0.3,0.4,64,1"}) {
+    EXPECT_FALSE(jobs::FileRecordedError({{"shrm:measured_error", bad}}, "shrm:measured_error"))
+        << bad;
+  }
+  const auto parsed = jobs::FileRecordedError({{"shrm:measured_error", "0.1,0.2,0.3,0.4,64"}},
+                                              "shrm:measured_error");
+  ASSERT_TRUE(parsed);
+  EXPECT_EQ(parsed->pairs, 64);
+  EXPECT_EQ(parsed->error.grazing.max, 0.4);
 }
 
 TEST(PrefilterJob, WhyFileDiffersNamesTheFirstDifference) {

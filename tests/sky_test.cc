@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -677,6 +678,21 @@ TEST(SkyRender, BadInputNamesTheProblem) {
   o = {};
   o.sun_min_radius_px = -1;
   expect_error(RenderSkyLatLong(sun, o, 64).status(), "sun minimum radius");
+  // A finite scale that takes the sun (and, with a black ground, 0 x inf there) beyond single
+  // precision: refused, not a map of infinities that every reader rejects. The largest scale
+  // that keeps the brightest value finite still renders.
+  for (double ground : {0.0, 0.2}) {
+    o = {};
+    o.ground_albedo = ground;
+    const auto unit = RenderSkyLatLong(sun, o, 64);
+    ASSERT_TRUE(unit.ok());
+    float brightest = 0;
+    for (float v : unit->pixels) brightest = std::max(brightest, v);
+    o.scale = 1e38;
+    expect_error(RenderSkyLatLong(sun, o, 64).status(), "beyond single precision");
+    o.scale = 0.5 * std::numeric_limits<float>::max() / brightest;
+    EXPECT_TRUE(RenderSkyLatLong(sun, o, 64).ok()) << o.scale;
+  }
 }
 
 }  // namespace

@@ -6,10 +6,8 @@
 #include <cstdlib>
 #include <optional>
 
-#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "absl/strings/str_split.h"
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
 #include "core/export/shrm_ktx2.h"
@@ -128,15 +126,10 @@ absl::StatusOr<ShrmData> ShrmDataFromCube(ShrmCube cube,
     d.eps_bound = std::strtod(it->second.c_str(), nullptr);
   }
   if (auto it = attributes.find("shrm:tolerance"); it != attributes.end()) d.tolerance = it->second;
-  if (auto it = attributes.find("shrm:measured_error"); it != attributes.end()) {
-    // "front_rms,front_max,grazing_rms,grazing_max,pairs" (docs/formats.md).
-    const std::vector<std::string> v = absl::StrSplit(it->second, ',');
-    ShrmData::Measured m;
-    if (v.size() == 5 && absl::SimpleAtod(v[0], &m.front_rms) &&
-        absl::SimpleAtod(v[1], &m.front_max) && absl::SimpleAtod(v[2], &m.grazing_rms) &&
-        absl::SimpleAtod(v[3], &m.grazing_max) && absl::SimpleAtoi(v[4], &m.pairs) && m.pairs > 0) {
-      d.measured = m;
-    }
+  if (const auto r = jobs::FileRecordedError(attributes, "shrm:measured_error");
+      r && r->pairs > 0) {
+    d.measured = ShrmData::Measured{r->error.front.rms, r->error.front.max, r->error.grazing.rms,
+                                    r->error.grazing.max, r->pairs};
   }
   d.attributes = std::move(attributes);
   return d;

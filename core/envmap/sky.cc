@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -399,6 +400,17 @@ absl::Status RenderSkyLatLongInto(const Vec3& sun_dir, const SkyOptions& options
     px[k * 3 + 0] = ground[0];
     px[k * 3 + 1] = ground[1];
     px[k * 3 + 2] = ground[2];
+  }
+  // A scale that takes the brightest values (the sun's pixels, ~1e6 kcd/m^2 in the model's
+  // units) beyond single precision would give a map of infinities, which every reader rejects.
+  const size_t values = image->pixels.size();
+  bool finite = true;
+  for (size_t k = 0; k < values; ++k) finite &= std::isfinite(px[k]);
+  if (!finite) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "scale %g takes the sky's brightest values beyond single precision's range (%g): give "
+        "a smaller scale",
+        options.scale, static_cast<double>(std::numeric_limits<float>::max())));
   }
   return absl::OkStatus();
 }
