@@ -223,6 +223,19 @@ double Progress::End() {
   return ms;
 }
 
+absl::Status CheckOutputExtension(const std::string& path, const char* option,
+                                  std::initializer_list<const char*> extensions,
+                                  const char* content) {
+  if (path.empty()) return absl::OkStatus();
+  std::vector<std::string> names;
+  for (const char* e : extensions) {
+    if (absl::EndsWithIgnoreCase(path, e)) return absl::OkStatus();
+    names.push_back(absl::StrCat("*", e));
+  }
+  return absl::InvalidArgumentError(
+      absl::StrCat(option, " ", path, ": ", content, ": name it ", absl::StrJoin(names, " or ")));
+}
+
 absl::Status CheckOutputPath(const std::string& path, const char* option,
                              std::span<const OptionPath> inputs) {
   if (path.empty()) return absl::OkStatus();

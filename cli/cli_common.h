@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <functional>
+#include <initializer_list>
 #include <memory>
 #include <span>
 #include <string>
@@ -132,6 +133,14 @@ struct OptionPath {
 // (optional outputs not asked for) pass.
 absl::Status CheckOutputPath(const std::string& path, const char* option,
                              std::span<const OptionPath> inputs = {});
+
+// An output written in one container is named for it: InvalidArgument "OPTION PATH: CONTENT:
+// name it *.EXT" unless `path` ends with one of `extensions` (case-insensitive), e.g. "--output
+// x.png: the SHRM is written as OpenEXR: name it *.exr" (a reader or viewer picks the format by
+// the name). Empty paths pass.
+absl::Status CheckOutputExtension(const std::string& path, const char* option,
+                                  std::initializer_list<const char*> extensions,
+                                  const char* content);
 
 // Fails when two of a command's outputs name the same file (by any name, existing or not): the
 // second would replace the first ("--report a.exr is also --output").

@@ -447,6 +447,10 @@ void ParseManifest(const nlohmann::json& m, const fs::path& dir, BatchOptions* o
     } else if (ibl && pattern.find("{brdf}") != std::string::npos) {
       err("$.output", "an ibl manifest has no {brdf} (the pattern names a folder per map)");
       pattern.clear();
+    } else if (!ibl && !absl::EndsWithIgnoreCase(pattern, ".exr")) {
+      // As `shrm prefilter -o` (CheckOutputExtension).
+      err("$.output", "the SHRMs are written as OpenEXR: the pattern must end in .exr");
+      pattern.clear();
     } else if (pattern.find("{index}") == std::string::npos) {
       if (maps.size() > 1 && pattern.find("{map}") == std::string::npos) {
         err("$.output", "several maps: the pattern needs {map} (or {index})");

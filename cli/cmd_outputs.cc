@@ -13,6 +13,7 @@
 #if SHRM_CLI_HAS_CLIENT
 #include "client/shrm_client.h"
 #endif
+#include "core/base/cubemap.h"
 #include "core/base/status_macros.h"
 #include "core/envmap/lighting.h"
 #include "core/export/ktx2.h"
@@ -23,6 +24,7 @@
 #include "core/shrm/shrm_file.h"
 #include "jobs/cli_validators.h"
 #include "jobs/point_jobs.h"
+#include "jobs/prefilter_job.h"
 #include "jobs/report.h"
 #include "shrm/version.h"
 
@@ -50,6 +52,9 @@ struct OutputArgs {
 absl::Status RunRender(const OutputArgs& a) {
   const OptionPath shrm_input[] = {{"--shrm", a.shrm}};
   SHRM_RETURN_IF_ERROR(CheckOutputPath(a.output, "--output", shrm_input));
+  SHRM_RETURN_IF_ERROR(CheckOutputExtension(
+      a.output, "--output", {".exr", ".ktx2"},
+      "the reflection map is written as OpenEXR (a horizontal cross), or as a KTX2 cube map"));
   SHRM_ASSIGN_OR_RETURN(Vec3 v, ParseDirection(a.view, "--view"));
   SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrm(a.shrm));
   SHRM_ASSIGN_OR_RETURN(RadianceCube map,
@@ -59,7 +64,7 @@ absl::Status RunRender(const OutputArgs& a) {
     SHRM_ASSIGN_OR_RETURN(std::unique_ptr<Brdf> brdf, ShrmFileBrdf(file, a.shrm));
     AddLightsToViewMap(file.cube, *brdf, v, map, ResolveThreads(a.threads));
   }
-  if (absl::EndsWith(a.output, ".ktx2")) {
+  if (absl::EndsWithIgnoreCase(a.output, ".ktx2")) {
     // A cube map an engine (or the shader tests, docs/shaders.md) reads as it is: RGBA32F, A = 1.
     ktx2::Ktx2Image image;
     image.format = ktx2::Format::kR32G32B32A32Sfloat;
@@ -89,7 +94,10 @@ absl::Status RunRender(const OutputArgs& a) {
 }
 
 absl::Status RunExplicit(const OutputArgs& a) {
-  if (a.tb < 1) return absl::InvalidArgumentError("--tb must be >= 1");
+  if (a.tb < 1 || a.tb > kMaxExplicitTb) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--tb ", a.tb, " is outside [1, ", kMaxExplicitTb, "]"));
+  }
   const OptionPath shrm_input[] = {{"--shrm", a.shrm}};
   SHRM_RETURN_IF_ERROR(CheckOutputPath(absl::StrCat(a.output, "_0.exr"), "--output", shrm_input));
   SHRM_ASSIGN_OR_RETURN(ShrmFile file, ReadShrm(a.shrm));
@@ -103,6 +111,19 @@ absl::Status RunExplicit(const OutputArgs& a) {
     }
     // The views' maps get the lights as `shrm render` adds them (docs/shrm.md "Peak lights").
     SHRM_ASSIGN_OR_RETURN(lights_brdf, ShrmFileBrdf(file, a.shrm));
+  }
+  // The maps are all held before they are written: refused, with their size, when they would
+  // not fit (half this machine's memory, as a prefilter's cube).
+  const double count = a.form == "grid"           ? static_cast<double>(a.tb) * a.tb
+                       : a.form == "kautz-mccool" ? a.tb
+                                                  : 12.0;
+  const double values = count * kCubeFaceCount * file.cube.face_size * file.cube.face_size * 3;
+  if (const double limit = jobs::EmbeddedCubeValueLimit(); limit > 0 && values > limit) {
+    return absl::ResourceExhaustedError(absl::StrFormat(
+        "--form %s --tb %d: %.0f maps of 6 x %d x %d texels need %.1f GB, above half this "
+        "machine's memory (%.1f GB): give a smaller --tb",
+        a.form, a.tb, count, file.cube.face_size, file.cube.face_size, values * 4 / 1e9,
+        limit * 4 / 1e9));
   }
   const int threads = ResolveThreads(a.threads);
   std::vector<RadianceCube> maps;
@@ -140,6 +161,9 @@ absl::Status RunIrradiance(const OutputArgs& a) {
   if (a.size < 1) return absl::InvalidArgumentError("--size must be >= 1");
   SHRM_ASSIGN_OR_RETURN(const jobs::EnvironmentSpec spec, EnvSpecFromArgs(a.env));
   SHRM_RETURN_IF_ERROR(CheckOutputPath(a.output, "--output", JobInputFiles(spec, "")));
+  SHRM_RETURN_IF_ERROR(
+      CheckOutputExtension(a.output, "--output", {".exr"},
+                           "the irradiance cube is written as OpenEXR (a horizontal cross)"));
   std::vector<double> e9;
   ibl::LevelError measured;
   if (!a.server.empty()) {
@@ -233,7 +257,9 @@ void DefineExplicit(CLI::App* sub, absl::Status* status) {
                   "cabral (12 icosahedral views), kautz-mccool (T_B "
                   "slices, local SHRMs) or grid (T_B x T_B views)")
       ->capture_default_str();
-  sub->add_option("--tb", args->tb, "T_B")->capture_default_str()->check(jobs::kPositive);
+  sub->add_option("--tb", args->tb, "T_B")
+      ->capture_default_str()
+      ->check(jobs::InRange(1, kMaxExplicitTb));
   sub->add_option("-o,--output", args->output, "output prefix: PREFIX_<k>.exr")->required();
   sub->add_option("--threads", args->threads, "worker threads (0: all cores)")
       ->check(jobs::kNonNegative);

@@ -349,6 +349,10 @@ absl::Status RunPrefilterJob(const jobs::PrefilterJob& job, const PrefilterRun& 
   const std::vector<OptionPath> inputs = JobInputFiles(job.env, job.brdf);
   for (const OptionPath& o : outputs)
     SHRM_RETURN_IF_ERROR(CheckOutputPath(o.path, o.option, inputs));
+  SHRM_RETURN_IF_ERROR(
+      CheckOutputExtension(run.output, "--output", {".exr"}, "the SHRM is written as OpenEXR"));
+  SHRM_RETURN_IF_ERROR(
+      CheckOutputExtension(run.ktx2, "--ktx2", {".ktx2"}, "the SHRM is written there as KTX2"));
   if (!run.preview.empty() && !Check8BitExtension(run.preview).ok()) {
     return absl::InvalidArgumentError(absl::StrCat(
         "--preview ", run.preview, ": needs a .png, .tif or .tiff extension (an 8-bit image)"));

@@ -119,10 +119,8 @@ absl::Status RunSky(const SkyArgs& a) {
     return absl::InvalidArgumentError(
         absl::StrCat("--width ", a.width, " must be even and in [2, 16384]"));
   }
-  if (!a.output.empty() && !absl::EndsWithIgnoreCase(a.output, ".exr")) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--output ", a.output, ": the sky is written as OpenEXR: name it *.exr"));
-  }
+  SHRM_RETURN_IF_ERROR(
+      CheckOutputExtension(a.output, "--output", {".exr"}, "the sky is written as OpenEXR"));
 
   sky::SunPosition sun;
   std::optional<int> day;

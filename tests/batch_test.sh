@@ -186,6 +186,15 @@ JSON
 "$SHRM" batch nopat.json >/dev/null 2>nopat.err
 [ $? -eq 1 ] || fail "pattern without {brdf}: expected exit 1"
 grep -qF '$.output' nopat.err || fail "pattern without {brdf} not reported: $(cat nopat.err)"
+# A pattern that does not name an OpenEXR file (the SHRMs were written as EXR named out/*.png).
+cat >png.json <<'JSON'
+{"maps": ["maps/city.exr"], "brdfs": ["phong:s=32"], "output": "x/{map}.png"}
+JSON
+"$SHRM" batch png.json >/dev/null 2>png.err
+[ $? -eq 1 ] || fail "pattern of a .png: expected exit 1"
+grep -qF '$.output: the SHRMs are written as OpenEXR: the pattern must end in .exr' png.err ||
+  fail "pattern of a .png not reported: $(cat png.err)"
+[ -e x ] && fail "pattern of a .png: something ran"
 echo '{"maps": [' >notjson.json
 "$SHRM" batch notjson.json >/dev/null 2>notjson.err
 [ $? -eq 1 ] || fail "malformed JSON: expected exit 1"

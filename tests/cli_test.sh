@@ -221,6 +221,14 @@ expect_error two_outputs_one_path 1 "--report \./out\.shrm\.exr is also the path
   "$SHRM" prefilter "${NOCHECK[@]}" --env "$IN/ok.pfm" -o out.shrm.exr --report ./out.shrm.exr
 expect_error preview_extension 1 "--preview out\.jpg: needs a \.png, \.tif or \.tiff extension" \
   "$SHRM" prefilter "${NOCHECK[@]}" --env "$IN/ok.pfm" -o out.shrm.exr --preview out.jpg
+# An output in one container named for another: an OpenEXR SHRM as out.png, a KTX2 as .ktx, an
+# irradiance cross as .png (each was written, in the container the name does not say).
+expect_error output_extension 1 '^shrm: error: --output out\.png: the SHRM is written as OpenEXR: name it \*\.exr$' \
+  "$SHRM" prefilter "${NOCHECK[@]}" --env "$IN/ok.pfm" -o out.png
+expect_error ktx2_extension 1 '^shrm: error: --ktx2 out\.ktx: the SHRM is written there as KTX2: name it \*\.ktx2$' \
+  "$SHRM" prefilter "${NOCHECK[@]}" --env "$IN/ok.pfm" -o out.shrm.exr --ktx2 out.ktx
+expect_error irradiance_extension 1 '--output irr\.png: the irradiance cube is written as OpenEXR .*: name it \*\.exr$' \
+  "$SHRM" irradiance --env "$IN/ok.pfm" -o irr.png
 cmp -s "$IN/ok.pfm" "$TMP/ok_copy.pfm" || fail "output_is_input: the input map was changed"
 rm -f "$IN/ok_link.pfm"
 
@@ -349,6 +357,16 @@ cp h.shrm.exr "$TMP/render_input.shrm.exr"
 expect_error render_output_is_input 1 "--output .*render_input\.shrm\.exr is the input file of --shrm" \
   "$SHRM" render --shrm "$TMP/render_input.shrm.exr" --view 0,0,1 -o "$TMP/render_input.shrm.exr"
 cmp -s h.shrm.exr "$TMP/render_input.shrm.exr" || fail "render_output_is_input: the SHRM was changed"
+expect_error render_extension 1 '--output view\.png: the reflection map is written as OpenEXR .*: name it \*\.exr or \*\.ktx2$' \
+  "$SHRM" render --shrm "$TMP/render_input.shrm.exr" --view 0,0,1 -o view.png
+# The KTX2 cube is chosen by the name in any case (VIEW.KTX2 was written as an EXR).
+CHECKS=$((CHECKS + 1))
+if "$SHRM" render --shrm "$TMP/render_input.shrm.exr" --view 0,0,1 -o VIEW.KTX2 >/dev/null 2>&1 &&
+  [ "$(head -c 12 VIEW.KTX2 | od -An -tx1 | tr -d ' \n')" = "ab4b5458203230bb0d0a1a0a" ]; then
+  echo "ok: render -o VIEW.KTX2 writes KTX2"
+else
+  fail "render -o VIEW.KTX2: not a KTX2 file: $(head -c 12 VIEW.KTX2 | od -An -tx1)"
+fi
 head -c 300 h.shrm.ktx2 >"$TMP/truncated.shrm.ktx2"
 expect_error truncated_shrm_ktx2 1 'truncated\.shrm\.ktx2.*(outside|truncated|runs past)' \
   "$SHRM" render --shrm "$TMP/truncated.shrm.ktx2" --view 0,0,1 -o r.exr
@@ -384,6 +402,9 @@ if "$SHRM" prefilter --env "$CITY" --brdf phong:s=32 --epsilon 0.1 --verify 0 --
   fi
   expect_error peak_lights_kautz_mccool 1 'peak lights.*Kautz-McCool' \
     "$SHRM" explicit --shrm "$TMP/lit.shrm.exr" --form kautz-mccool -o x
+  # A view grid too large to hold is a usage error (it was std::bad_alloc, an abort: exit 134).
+  expect_error explicit_tb_range 2 '^--tb: must be in \[1, 128\], got .100000.$' \
+    "$SHRM" explicit --shrm "$TMP/lit.shrm.exr" --form grid --tb 100000 -o x
   rm -f "$TMP/lit.shrm.exr" "$TMP/lit.shrm.ktx2"
 else
   fail "peak_lights: prefilter --peak-lights --ktx2 failed: $(head -c 400 lit.stderr)"

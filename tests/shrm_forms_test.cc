@@ -143,6 +143,12 @@ TEST(ShrmExplicitTest, KautzMcCoolSlicesAreTheQZeroPart) {
   auto slices = KautzMcCoolSlices(*cube, kT);
   ASSERT_TRUE(slices.ok());
   EXPECT_FALSE(KautzMcCoolSlices(*synth->BuildCube(ShrmKind::kGlobal, 4), kT).ok());
+  // T_B beyond the limit is refused before any map is allocated (a grid of 1e5 x 1e5 views was
+  // std::bad_alloc).
+  for (int t_b : {0, kMaxExplicitTb + 1, 100000}) {
+    EXPECT_EQ(KautzMcCoolSlices(*cube, t_b).status().code(), absl::StatusCode::kInvalidArgument);
+    EXPECT_EQ(ViewGridMaps(*cube, t_b).status().code(), absl::StatusCode::kInvalidArgument);
+  }
   // Independent q = 0 part: direct complex B_p0 at the texel centre times Y_p0(theta_o).
   std::vector<std::complex<double>> b(ShCount(3) * 3);
   double worst = 0, scale = 0;

@@ -248,7 +248,10 @@ absl::StatusOr<std::vector<RadianceCube>> ViewGridMaps(const ShrmCube& cube, int
 
 absl::Status ViewGridMapsInto(const ShrmCube& cube, int t_b, std::vector<RadianceCube>& maps,
                               int threads) {
-  if (t_b < 1) return absl::InvalidArgumentError(absl::StrCat("T_B = ", t_b, " (must be >= 1)"));
+  if (t_b < 1 || t_b > kMaxExplicitTb) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("T_B = ", t_b, " is outside [1, ", kMaxExplicitTb, "]"));
+  }
   const std::vector<Vec3> views = ViewGrid(t_b);
   return ReflectionMapsForViewsInto(cube, views, maps, threads);
 }
@@ -259,7 +262,10 @@ absl::StatusOr<std::vector<RadianceCube>> KautzMcCoolSlices(const ShrmCube& loca
   if (absl::Status s = CheckCube(local_cube, 1); !s.ok()) return s;
   if (local_cube.kind != ShrmKind::kLocal)
     return absl::InvalidArgumentError("Kautz-McCool slices need a local SHRM (q = 0 terms)");
-  if (t_b < 1) return absl::InvalidArgumentError(absl::StrCat("T_B = ", t_b, " (must be >= 1)"));
+  if (t_b < 1 || t_b > kMaxExplicitTb) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("T_B = ", t_b, " is outside [1, ", kMaxExplicitTb, "]"));
+  }
   const int size = local_cube.face_size, ch = local_cube.channels, pm = local_cube.pmax;
   std::vector<RadianceCube> slices(t_b, EmptyMap(size, ch));
   std::vector<double> lambda(LegendreCount(pm));

@@ -48,6 +48,9 @@ absl::Status ReflectionMapsForViewsInto(const ShrmCube& cube, std::span<const Ve
 std::array<Vec3, 12> IcosahedronVertices();
 // Cabral's 12 prerendered maps: ReflectionMapsForViews at IcosahedronVertices().
 absl::StatusOr<std::vector<RadianceCube>> CabralMaps(const ShrmCube& cube, int threads = 1);
+// The largest T_B of the view grid and the Kautz-McCool slices (a grid of 128 x 128 views is
+// 16384 maps); larger is InvalidArgument.
+inline constexpr int kMaxExplicitTb = 128;
 // T_B x T_B world views on a lat-long grid (docs/conventions.md pixel directions of a T_B x T_B
 // image: theta = pi (j + 1/2)/T_B, p = 2 pi ((i + 1/2)/T_B - 1/2)), index j * T_B + i.
 std::vector<Vec3> ViewGrid(int t_b);
