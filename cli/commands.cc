@@ -2,8 +2,10 @@
 
 #include <cstdio>
 #include <string>
+#include <vector>
 
 #include "cli/cli_common.h"
+#include "jobs/cli_validators.h"
 #include "shrm/version.h"
 
 namespace shrm::cli {
@@ -92,6 +94,16 @@ int RunShrm(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
+    // An unknown option: named, with the nearest known one (CLI11 lists the extras in reverse).
+    if (dynamic_cast<const CLI::ExtrasError*>(&e) != nullptr) {
+      const std::string msg =
+          jobs::UnknownOptionMessage(chosen_sub != nullptr ? *chosen_sub : app,
+                                     std::vector<std::string>(argv + 1, argv + argc));
+      if (!msg.empty()) {
+        std::fprintf(stderr, "%s\nRun with --help for more information.\n", msg.c_str());
+        return kExitUsage;
+      }
+    }
     const int rc = app.exit(e);
     return rc == 0 ? kExitOk : kExitUsage;
   }

@@ -5,12 +5,14 @@
 #define SHRM_JOBS_CLI_VALIDATORS_H_
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "jobs/option_text.h"
 
@@ -83,6 +85,63 @@ inline const CLI::Validator kPositive =
 inline CLI::Validator InRange(double lo, double hi) {
   return internal::NumberValidator(
       lo, false, hi, "in [" + internal::BoundText(lo) + ", " + internal::BoundText(hi) + "]");
+}
+
+namespace internal {
+
+// Levenshtein distance of two short strings (option names).
+inline size_t EditDistance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diagonal = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] != b[j - 1] ? 1 : 0)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+}  // namespace internal
+
+// What a user meant by the unknown long options among `args` (CLI11's ExtrasError says only "The
+// following arguments were not expected: 45 --latitude", in reverse order): "unknown option
+// --latitude (did you mean --lat?)", one per unknown option, the suggestion the option of `app`
+// nearest by edit distance (at most a third of the name's letters, or the one option the name
+// starts or is the start of); "" when no argument is an unknown --option (positional extras keep
+// CLI11's message).
+inline std::string UnknownOptionMessage(const CLI::App& app, const std::vector<std::string>& args) {
+  std::vector<std::string> known;
+  for (const CLI::Option* o : app.get_options()) {
+    for (const std::string& n : o->get_lnames()) known.push_back(n);
+  }
+  std::string out;
+  for (const std::string& arg : args) {
+    if (arg.size() < 3 || arg.compare(0, 2, "--") != 0) continue;
+    const std::string name =
+        arg.substr(2, arg.find('=') == std::string::npos ? std::string::npos : arg.find('=') - 2);
+    if (std::find(known.begin(), known.end(), name) != known.end()) continue;
+    std::string best;
+    size_t best_distance = std::max<size_t>(1, name.size() / 3) + 1;
+    std::vector<std::string> prefixed;
+    for (const std::string& k : known) {
+      const size_t d = internal::EditDistance(name, k);
+      if (d < best_distance) {
+        best_distance = d;
+        best = k;
+      }
+      if (name.size() >= 3 && (k.rfind(name, 0) == 0 || name.rfind(k, 0) == 0)) {
+        prefixed.push_back(k);
+      }
+    }
+    if (best.empty() && prefixed.size() == 1) best = prefixed[0];
+    if (!out.empty()) out += "\n";
+    out += "unknown option --" + name + (best.empty() ? "" : " (did you mean --" + best + "?)");
+  }
+  return out;
 }
 
 }  // namespace shrm::jobs

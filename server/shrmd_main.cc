@@ -148,6 +148,14 @@ int main(int argc, char** argv) {
     try {
       app.parse(n, v);
     } catch (const CLI::ParseError& e) {
+      if (dynamic_cast<const CLI::ExtrasError*>(&e) != nullptr) {
+        const std::string unknown =
+            shrm::jobs::UnknownOptionMessage(app, std::vector<std::string>(v + 1, v + n));
+        if (!unknown.empty()) {
+          std::fprintf(stderr, "%s\nRun with --help for more information.\n", unknown.c_str());
+          return kExitUsage;
+        }
+      }
       return app.exit(e) == 0 ? kExitOk : kExitUsage;
     }
     return std::nullopt;

@@ -183,7 +183,15 @@ expect_error unwritable_report 1 '/nonexistent/r\.json' \
   --report /nonexistent/r.json
 
 # Usage errors: exit 2 (unknown option, missing or malformed argument).
-expect_error unknown_option 2 'bogus' "$SHRM" "${PF[@]}" --env "$IN/ok.pfm" --bogus
+expect_error unknown_option 2 '^unknown option --bogus$' "$SHRM" "${PF[@]}" --env "$IN/ok.pfm" --bogus
+# A misspelt option is named with the one meant (CLI11 said "The following arguments were not
+# expected: 0.01 --tolerence", in reverse order).
+expect_error misspelt_option 2 '^unknown option --tolerence \(did you mean --tolerance\?\)$' \
+  "$SHRM" "${PF[@]}" --env "$IN/ok.pfm" --tolerence 0.01
+expect_error long_name_of_short_option 2 '^unknown option --latitude \(did you mean --lat\?\)$' \
+  "$SHRM" sky --latitude 45
+expect_error stray_argument 2 '^The following argument was not expected: stray$' \
+  "$SHRM" sky --lat 45 stray
 expect_error missing_output 2 'output' \
   "$SHRM" prefilter --env "$IN/ok.pfm" --brdf phong:s=32 --size 16
 expect_error malformed_size 2 'size' \

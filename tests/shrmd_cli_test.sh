@@ -48,7 +48,8 @@ expect max_jobs_zero 2 "^--max-jobs: must be > 0, got '0'$" "${L[@]}" --max-jobs
 expect negative_grace 2 "^--grace-period: must be >= 0, got '-1'$" "${L[@]}" --grace-period -1
 expect metrics_port_range 2 "^--metrics-port: must be in \\[-1, 65535\\], got '70000'$" \
   "${L[@]}" --metrics-port 70000
-expect unknown_flag 2 'not expected: --bogus' "${L[@]}" --bogus
+expect unknown_flag 2 '^unknown option --bogus$' "${L[@]}" --bogus
+expect misspelt_flag 2 '^unknown option --max-job \(did you mean --max-jobs\?\)$' "${L[@]}" --max-job 2
 expect missing_config 2 '^--config: File does not exist' "${L[@]}" --config "$TMP/none.conf"
 printf 'max-jobs = 0\n' >"$TMP/zero.conf"
 expect config_value 2 "^--max-jobs: must be > 0, got '0'$" "${L[@]}" --config "$TMP/zero.conf"

@@ -105,6 +105,8 @@ expect_error bad_size 2 'size must be W,H' "${ENV[@]}" "${BRDF[@]}" --size 0,10 
 expect_error size_text 2 'size must be W,H' "${ENV[@]}" "${BRDF[@]}" --size big --screenshot a.png
 expect_error mode_range 2 "^shrm-view: --mode: must be in \\[1, 9\\], got '12'$" "${ENV[@]}" "${BRDF[@]}" \
   --mode 12 --screenshot a.png
+expect_error misspelt_option 2 "^shrm-view: unknown option --exposre \\(did you mean --exposure\\?\\)$" \
+  "${ENV[@]}" "${BRDF[@]}" --exposre 2 --screenshot a.png
 expect_error mode_unregistered 2 'mode 9 is not available' "${ENV[@]}" "${BRDF[@]}" --mode 9 \
   --screenshot a.png
 expect_error bad_epsilon 2 'epsilon' "${ENV[@]}" "${BRDF[@]}" --epsilon 2 --screenshot a.png

@@ -225,7 +225,11 @@ int ParseViewerOptions(int argc, char** argv, ViewerOptions* o) {
     std::printf("%s\n", e.what());
     return kExitOk;
   } catch (const CLI::ParseError& e) {
-    Usage(e.what());
+    const std::string unknown =
+        dynamic_cast<const CLI::ExtrasError*>(&e) != nullptr
+            ? jobs::UnknownOptionMessage(app, std::vector<std::string>(argv + 1, argv + argc))
+            : "";
+    Usage(unknown.empty() ? e.what() : unknown);
     return kExitUsage;
   }
   o->exposure_set = app.count("--exposure") > 0;
