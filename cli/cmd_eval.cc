@@ -3,7 +3,9 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "cli/cli_common.h"
@@ -110,6 +112,9 @@ absl::Status RunReference(const PointArgs& a) {
     set(index, req.mutable_index());
     set(v, req.mutable_view());
     v1::ReferenceResponse resp;
+    // A table or MERL file travels as a blob: the server's errors name it by the file.
+    std::vector<std::string> brdf_files;
+    if (std::optional<std::string> f = BrdfSpecFile(a.brdf)) brdf_files.push_back(*f);
     SHRM_RETURN_IF_ERROR(client::RunRemoteJob(
         c.get(), spec, a.server,
         [&] {
@@ -120,7 +125,7 @@ absl::Status RunReference(const PointArgs& a) {
           SHRM_ASSIGN_OR_RETURN(resp, c->Reference(req));
           return absl::OkStatus();
         },
-        RetryReporter(a.server, /*quiet=*/false)));
+        RetryReporter(a.server, /*quiet=*/false), nullptr, brdf_files));
     if (resp.rgb_size() != 3) return absl::DataLossError("the server's answer lacks 3 values");
     PrintRgb({resp.rgb(0), resp.rgb(1), resp.rgb(2)}, a.json);
     return absl::OkStatus();

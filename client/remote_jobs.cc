@@ -1,5 +1,7 @@
 #include "client/remote_jobs.h"
 
+#include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -7,6 +9,7 @@
 #include "absl/strings/str_replace.h"
 #include "absl/time/clock.h"
 #include "core/base/status_macros.h"
+#include "core/brdf/brdf.h"
 #include "proto/job_codec.h"
 
 namespace shrm::client {
@@ -26,6 +29,8 @@ absl::Status UploadEnvironment(const jobs::EnvironmentSpec& env, ShrmClient* cli
 std::string NameUploadedFiles(std::string message,
                               const std::vector<std::pair<std::string, std::string>>& files) {
   for (const auto& [path, sha] : files) {
+    // The server calls a BRDF file "BRDF blob <sha>" where the embedded run names the path.
+    message = absl::StrReplaceAll(message, {{absl::StrCat("BRDF blob ", sha), path}});
     message = absl::StrReplaceAll(message, {{absl::StrCat("blob ", sha), path}});
   }
   return message;
@@ -33,7 +38,8 @@ std::string NameUploadedFiles(std::string message,
 
 absl::Status RunRemoteJob(ShrmClient* client, const jobs::EnvironmentSpec& env,
                           const std::string& target, const std::function<absl::Status()>& attempt,
-                          const RetryCallback& on_retry, int* retries) {
+                          const RetryCallback& on_retry, int* retries,
+                          const std::vector<std::string>& other_files) {
   const int max_attempts = client->options().max_attempts;
   if (env.files.size() == 1) {
     absl::StatusOr<std::string> key = client->FileSha256(env.files[0]);
@@ -63,15 +69,25 @@ absl::Status RunRemoteJob(ShrmClient* client, const jobs::EnvironmentSpec& env,
   if (retries != nullptr) *retries = retried;
   if (s.ok()) return s;
   std::vector<std::pair<std::string, std::string>> uploaded;
-  for (const std::string& f : env.files) {
-    absl::StatusOr<std::string> sha = client->FileSha256(f);  // cached since the upload
-    if (sha.ok()) uploaded.emplace_back(f, *sha);
+  for (const std::vector<std::string>* files : {&env.files, &other_files}) {
+    for (const std::string& f : *files) {
+      absl::StatusOr<std::string> sha = client->FileSha256(f);  // cached since the upload
+      if (sha.ok()) uploaded.emplace_back(f, *sha);
+    }
   }
   const std::string message = NameUploadedFiles(std::string(s.message()), uploaded);
   return WithMessage(s, absl::StrCat(target, ": ", message,
                                      retried > 0 ? absl::StrCat(" (after ", retried, " retries)")
                                                  : std::string()));
 }
+
+namespace {
+// The file of a table:PATH or merl:PATH BRDF spec, as RunRemoteJob's other_files.
+std::vector<std::string> BrdfFiles(const std::string& spec) {
+  std::optional<std::string> file = BrdfSpecFile(spec);
+  return file ? std::vector<std::string>{*file} : std::vector<std::string>{};
+}
+}  // namespace
 
 absl::StatusOr<RemotePrefilterResult> RunRemotePrefilter(ShrmClient* client,
                                                          const std::string& target,
@@ -97,7 +113,7 @@ absl::StatusOr<RemotePrefilterResult> RunRemotePrefilter(ShrmClient* client,
                               options.progress));
         return absl::OkStatus();
       },
-      options.on_retry, &out.retries);
+      options.on_retry, &out.retries, BrdfFiles(job.brdf));
   if (retries != nullptr) *retries = out.retries;
   if (!s.ok()) return s;
   return out;

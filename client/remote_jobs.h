@@ -41,10 +41,12 @@ using RetryCallback =
 // such answers k + 1 copies are uploaded). The map's SHA-256 (one file) is the calls' affinity
 // key. `retries` (optional) gets the attempts beyond the first, counting the calls the client sent
 // again by itself (ShrmClient::resent_calls). Errors are prefixed with the
-// server's target (and the number of retries).
+// server's target (and the number of retries), and name the map's files and `other_files` (a
+// BRDF table or MERL file the job uploads) where the server names their blobs.
 absl::Status RunRemoteJob(ShrmClient* client, const jobs::EnvironmentSpec& env,
                           const std::string& target, const std::function<absl::Status()>& attempt,
-                          const RetryCallback& on_retry = nullptr, int* retries = nullptr);
+                          const RetryCallback& on_retry = nullptr, int* retries = nullptr,
+                          const std::vector<std::string>& other_files = {});
 
 // What a front end sees of a remote job besides its result.
 struct RemoteJobOptions {

@@ -235,6 +235,24 @@ TEST_F(BlobStoreTest, RemoteErrorsNameTheLocalFile) {
             std::string::npos)
       << message;
   EXPECT_EQ(message.find(*sha), std::string::npos) << message;
+  // A BRDF table travels as a blob too: the server's "BRDF blob <sha>" is the local file, named
+  // as the embedded run names it ("brdf table 'PATH': not an SHRMBRDF file ...").
+  const std::string table = dir_ + "/not_a_table.shrmbrdf";
+  {
+    std::ofstream out(table, std::ios::binary);
+    out << "these bytes are no BRDF table's";
+  }
+  absl::StatusOr<std::string> table_sha = Sha256OfFile(table);
+  ASSERT_TRUE(table_sha.ok());
+  jobs::PrefilterJob job = SmallJob(absl::StrCat(SHRM_SOURCE_DIR, "/data/envmaps/interior.exr"));
+  job.brdf = "table:" + table;
+  r = client::RunRemotePrefilter(client_.get(), "target", job, {}, nullptr);
+  ASSERT_FALSE(r.ok());
+  const std::string table_message(r.status().message());
+  EXPECT_NE(table_message.find(absl::StrCat("brdf table '", table, "': not an SHRMBRDF file")),
+            std::string::npos)
+      << table_message;
+  EXPECT_EQ(table_message.find(*table_sha), std::string::npos) << table_message;
   server_->Shutdown(absl::ZeroDuration());
 }
 
