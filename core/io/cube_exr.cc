@@ -234,8 +234,11 @@ absl::StatusOr<CubeExr> ReadCubeExr(const std::string& path, const ImageLimits& 
                         exr::PartReader::Open(path, limits, kCubeFaceCount, 3 * kMaxGroups));
   const std::vector<exr::PartInfo>& parts = reader->parts();
   if (parts.size() < static_cast<size_t>(kCubeFaceCount)) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": has fewer than 6 parts (face ",
-                                                   kCubeFaceNames[parts.size()], " missing)"));
+    // An environment map (one part) given where an SHRM or a cube of six parts is read.
+    return absl::InvalidArgumentError(absl::StrCat(
+        path, ": not a cube file: it has ", parts.size(), " part", parts.size() == 1 ? "" : "s",
+        ", a cube file (an SHRM: docs/formats.md) has the six faces as parts (face ",
+        kCubeFaceNames[parts.size()], " missing)"));
   }
   const exr::PartInfo& first = parts[0];
   CubeExr cube;
