@@ -3,9 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
-#include <optional>
 #include <string>
-#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "cli/cli_common.h"
@@ -112,9 +110,6 @@ absl::Status RunReference(const PointArgs& a) {
     set(index, req.mutable_index());
     set(v, req.mutable_view());
     v1::ReferenceResponse resp;
-    // A table or MERL file travels as a blob: the server's errors name it by the file.
-    std::vector<std::string> brdf_files;
-    if (std::optional<std::string> f = BrdfSpecFile(a.brdf)) brdf_files.push_back(*f);
     SHRM_RETURN_IF_ERROR(client::RunRemoteJob(
         c.get(), spec, a.server,
         [&] {
@@ -125,7 +120,8 @@ absl::Status RunReference(const PointArgs& a) {
           SHRM_ASSIGN_OR_RETURN(resp, c->Reference(req));
           return absl::OkStatus();
         },
-        RetryReporter(a.server, /*quiet=*/false), nullptr, brdf_files));
+        // A table or MERL file travels as a blob: the server's errors name it by the file.
+        RetryReporter(a.server, /*quiet=*/false), nullptr, client::BrdfFiles(a.brdf)));
     if (resp.rgb_size() != 3) return absl::DataLossError("the server's answer lacks 3 values");
     PrintRgb({resp.rgb(0), resp.rgb(1), resp.rgb(2)}, a.json);
     return absl::OkStatus();

@@ -81,13 +81,10 @@ absl::Status RunRemoteJob(ShrmClient* client, const jobs::EnvironmentSpec& env,
                                                  : std::string()));
 }
 
-namespace {
-// The file of a table:PATH or merl:PATH BRDF spec, as RunRemoteJob's other_files.
 std::vector<std::string> BrdfFiles(const std::string& spec) {
   std::optional<std::string> file = BrdfSpecFile(spec);
   return file ? std::vector<std::string>{*file} : std::vector<std::string>{};
 }
-}  // namespace
 
 absl::StatusOr<RemotePrefilterResult> RunRemotePrefilter(ShrmClient* client,
                                                          const std::string& target,

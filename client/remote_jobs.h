@@ -48,6 +48,10 @@ absl::Status RunRemoteJob(ShrmClient* client, const jobs::EnvironmentSpec& env,
                           const RetryCallback& on_retry = nullptr, int* retries = nullptr,
                           const std::vector<std::string>& other_files = {});
 
+// The file of a table:PATH or merl:PATH BRDF spec (none for an analytic model): RunRemoteJob's
+// other_files.
+std::vector<std::string> BrdfFiles(const std::string& spec);
+
 // What a front end sees of a remote job besides its result.
 struct RemoteJobOptions {
   ProgressCallback progress;  // each server stage

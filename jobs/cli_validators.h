@@ -121,8 +121,8 @@ inline std::string UnknownOptionMessage(const CLI::App& app, const std::vector<s
   std::string out;
   for (const std::string& arg : args) {
     if (arg.size() < 3 || arg.compare(0, 2, "--") != 0) continue;
-    const std::string name =
-        arg.substr(2, arg.find('=') == std::string::npos ? std::string::npos : arg.find('=') - 2);
+    const size_t equals = arg.find('=');  // --name=value
+    const std::string name = arg.substr(2, equals == std::string::npos ? equals : equals - 2);
     if (std::find(known.begin(), known.end(), name) != known.end()) continue;
     std::string best;
     size_t best_distance = std::max<size_t>(1, name.size() / 3) + 1;

@@ -274,6 +274,15 @@ nlohmann::json PrefilterReportJson(const PrefilterJob& job, const PrefilterProve
   return report;
 }
 
+namespace {
+// A measured error within the job's targets (the grazing RMS counted where it is one): the
+// verdict of a check, in ToleranceOutcome and for the files that record only the measurement.
+bool MeasurementMeets(double front_rms, double front_max, double grazing_rms,
+                      const ToleranceTargets& t) {
+  return front_rms <= t.rms && front_max <= t.max && (!t.grazing || grazing_rms <= t.grazing_rms);
+}
+}  // namespace
+
 std::optional<RecordedError> FileRecordedError(const std::map<std::string, std::string>& attributes,
                                                const std::string& attribute) {
   auto it = attributes.find(attribute);
@@ -311,8 +320,7 @@ std::string RecordedToleranceMiss(const ShrmFile& file) {
     met = it->second != "false";
   } else if (measured) {  // written before the verdict was recorded: the measurement decides
     const DirectionalError& e = measured->error;
-    met = e.front.rms <= targets.rms && e.front.max <= targets.max &&
-          (!targets.grazing || e.grazing.rms <= targets.grazing_rms);
+    met = MeasurementMeets(e.front.rms, e.front.max, e.grazing.rms, targets);
   }
   if (met) return "";
   const std::string prefix = absl::StrCat("tolerance ", tol_it->second, " not met when written: ");
@@ -426,13 +434,15 @@ absl::Status ToleranceOutcome(const PrefilterJob& job, const nlohmann::json& rep
                    "), S_B ", report.value("face_size", 0));
   // The job's own check, where it ran, is the verdict: an estimate that missed (within a size
   // budget, or at the reference orders) is not an error when the measurement meets every target.
-  bool measured_met = false;
-  if (report.contains("measured")) {
+  const bool measured = report.contains("measured");
+  double rms = 0, largest = 0, grazing_rms = 0;
+  if (measured) {
     const nlohmann::json& m = report["measured"];
-    measured_met = m["front"].value("rms", 0.0) <= targets.rms &&
-                   m["front"].value("max", 0.0) <= targets.max &&
-                   (!targets.grazing || m["grazing"].value("rms", 0.0) <= targets.grazing_rms);
+    rms = m["front"].value("rms", 0.0);
+    largest = m["front"].value("max", 0.0);
+    grazing_rms = m["grazing"].value("rms", 0.0);
   }
+  const bool measured_met = measured && MeasurementMeets(rms, largest, grazing_rms, targets);
   if (!t.value("met", false) && !measured_met) {
     const nlohmann::json& front = t["estimate"]["front"];
     const std::string grazing =
@@ -453,22 +463,15 @@ absl::Status ToleranceOutcome(const PrefilterJob& job, const nlohmann::json& rep
         " (target ", targets.rms, "), largest ", front.value("max", 0.0), " (target ", targets.max,
         ")", grazing, where, ": ", within, "; the outputs were written"));
   }
-  if (report.contains("measured")) {
-    const nlohmann::json& front = report["measured"]["front"];
-    const double rms = front.value("rms", 0.0), largest = front.value("max", 0.0);
-    const nlohmann::json& graze = report["measured"]["grazing"];
-    const double grazing_rms = graze.value("rms", 0.0);
-    const bool grazing_missed = targets.grazing && grazing_rms > targets.grazing_rms;
-    if (rms > targets.rms || largest > targets.max || grazing_missed) {
-      return absl::FailedPreconditionError(absl::StrCat(
-          "tolerance ", job.tolerance, " not met: measured front RMS ", rms, " (target ",
-          targets.rms, "), largest ", largest, " (target ", targets.max, ")",
-          targets.grazing
-              ? absl::StrCat(", grazing RMS ", grazing_rms, " (target ", targets.grazing_rms, ")")
-              : "",
-          " at ", report["measured"].value("pairs", 0), " pairs", where,
-          "; the outputs were written"));
-    }
+  if (measured && !measured_met) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "tolerance ", job.tolerance, " not met: measured front RMS ", rms, " (target ", targets.rms,
+        "), largest ", largest, " (target ", targets.max, ")",
+        targets.grazing
+            ? absl::StrCat(", grazing RMS ", grazing_rms, " (target ", targets.grazing_rms, ")")
+            : "",
+        " at ", report["measured"].value("pairs", 0), " pairs", where,
+        "; the outputs were written"));
   }
   return absl::OkStatus();
 }
