@@ -111,9 +111,9 @@ const std::array<JobOption, 12> kPrefilterJobOptions = {{
     {"peak_lights",
      "auto|on|off: ship the map's brightest pixels as directional lights beside the SHRM, summed "
      "exactly wherever it is evaluated (shrm eval and render, shrm-view, the shipped shaders "
-     "through --ktx2); the expansion holds the rest. auto: a sun's pixels, with the tolerance "
-     "rule and a view-dependent analytic BRDF; on: wherever a split pays (docs/shrm.md \"Peak "
-     "lights\")",
+     "through --ktx2); the expansion holds the rest. on: wherever a split pays (a sun, lamps, a "
+     "bright sky); auto: the same, with the tolerance rule and a view-dependent analytic BRDF "
+     "(docs/shrm.md \"Peak lights\")",
      kEverywhere, "--peak-lights off", "\"off\"",
      [](PrefilterJob* j) { j->peak_lights = PeakLights::kOff; }, ""},
 }};

@@ -140,35 +140,29 @@ TEST(PeakLightsTest, LightsSurviveTheFileAndDamagedListsAreRefused) {
   }
 }
 
-TEST(PeakLightsTest, InteriorsLampsNoLongerDefeatTheDefaultJob) {
-  // interior.exr's lamps sit near the horizon of many normals: the default job without lights is
-  // budget-limited at (97, 31), a 231 MB file, and measures 5.7% front RMS, 144% largest and 46%
-  // grazing RMS at 1024 pairs (docs/results.md, "Accuracy, session 35"). With them (and the
-  // rest's orders chosen at 1024 stratified pairs, kLightsSelectionFactor), at pairs the job
-  // neither chose nor checked with, against the pixel sum of the whole map (FastReference, within
-  // 2e-3 of it per direction: fast_reference_test), the file is (36, 24) at S 56 (141 MB) and
-  // meets both RMS targets: 0.41% front, 1.9% grazing. The largest front error, 8.7% at this seed
-  // (4.0% at the job's own 1024 pairs), is printed, not asserted: its 5% target is not met at
-  // every seed yet (docs/results.md, "Peak lights, session 36" and "Stratified selection,
-  // session 37").
-  constexpr double kTolerance = 0.01;  // the default job's
+// The default job (jobs/prefilter_job.cc CorePrefilterOptions, peak lights auto) of `brdf` on a
+// bundled map, measured at kPairs pairs the job neither chose nor checked with, against the pixel
+// sum of the whole map (FastReference, within 2e-3 of it per direction: fast_reference_test).
+constexpr double kDefaultTolerance = 0.01;  // the default job's
+void MeasureDefaultJob(const char* map_name, const char* brdf_spec, PrefilterResult* result,
+                       DirectionalError* error) {
   constexpr int kPairs = 512;
   constexpr uint64_t kTestSeed = 0x5045414b4c495431;  // "PEAKLIT1": neither job seed
-  auto map = LoadBundled("interior.exr");
+  auto map = LoadBundled(map_name);
   ASSERT_TRUE(map.ok()) << map.status();
-  auto brdf = ParseBrdfSpec("microfacet:sigma=0.2");
+  auto brdf = ParseBrdfSpec(brdf_spec);
   ASSERT_TRUE(brdf.ok()) << brdf.status();
-  PrefilterOptions options;  // the default job's (jobs/prefilter_job.cc CorePrefilterOptions)
-  options.tolerance = kTolerance;
+  PrefilterOptions options;
+  options.tolerance = kDefaultTolerance;
   options.window = RingingWindow::kAuto;
   options.view = ViewVariable::kNormal;
   options.try_other_view = true;
   options.size_budget_values = 256e6 / 4;
   options.threads = 2;
-  options.peak_lights = PeakLights::kAuto;  // the job layer's default: interior's lamps split
+  options.peak_lights = PeakLights::kAuto;
   absl::StatusOr<PrefilterResult> r = Prefilter(*map, **brdf, options);
   ASSERT_TRUE(r.ok()) << r.status();
-  ASSERT_FALSE(r->cube.lights.empty()) << r->peak_lights_note;
+  ASSERT_FALSE(r->cube.lights.empty()) << map_name << ": " << r->peak_lights_note;
   const std::vector<DirectionPair> pairs =
       StratifiedDirectionPairs(kTestSeed, kPairs, ReparamKind::kReflection);
   absl::StatusOr<FastReference> reference = FastReference::Create(*map);
@@ -178,26 +172,63 @@ TEST(PeakLightsTest, InteriorsLampsNoLongerDefeatTheDefaultJob) {
     got.push_back(ShrmEvalWithLights(r->cube, **brdf, p.index, p.view));
     ref.push_back(reference->Radiance(**brdf, Mat3::Identity(), p.index, p.view));
   }
-  const DirectionalError e = MeasureDirectionalError(pairs, got, ref);
+  *error = MeasureDirectionalError(pairs, got, ref);
   std::printf(
-      "interior microfacet sigma 0.2 with %zu lights, (%d, %d) S %d: front RMS %.4f, "
-      "largest %.4f; grazing RMS %.4f\n",
-      r->cube.lights.size(), r->analysis.f_b, r->analysis.p_b, r->cube.face_size, e.front.rms,
-      e.front.max, e.grazing.rms);
-  const ToleranceTargets targets = TargetsForTolerance(kTolerance, r->cube.view);
+      "%s %s with %zu lights, (%d, %d) S %d: front RMS %.4f, largest %.4f; grazing RMS %.4f\n",
+      map_name, brdf_spec, r->cube.lights.size(), r->analysis.f_b, r->analysis.p_b,
+      r->cube.face_size, error->front.rms, error->front.max, error->grazing.rms);
+  *result = *std::move(r);
+}
+
+// Both RMS targets and no negative value, at the default job's tolerance.
+void ExpectRmsTargetsMet(const PrefilterResult& r, const DirectionalError& e) {
+  const ToleranceTargets targets = TargetsForTolerance(kDefaultTolerance, r.cube.view);
   EXPECT_LE(e.front.rms, targets.rms);
   ASSERT_TRUE(targets.grazing);  // the normal variable's grazing RMS is a target
   EXPECT_LE(e.grazing.rms, targets.grazing_rms);
   EXPECT_EQ(e.negative, 0);
 }
 
-// The default, auto: a sun's pixels are split, a bright sky's are not. The split's rest share on
-// the four bundled maps against values computed independently from their pixels (a script over
-// `oiiotool --dumpdata`: Rec. 709 luminance, sin(theta) pixel weights; the transform's Fejer
-// weights differ in the third digit): city 0.0002, interior 0.0005, forest 0.112 (128 pixels);
-// courtyard's brightest pixels (98 x its mean) would leave 99.7%. Auto leaves the whole map to the
-// expansion for a radially symmetric BRDF, a tabulated one, and the epsilon rule, saying why.
-TEST(PeakLightsTest, AutoSplitsASunOnlyAndSaysWhyNot) {
+TEST(PeakLightsTest, InteriorsLampsNoLongerDefeatTheDefaultJob) {
+  // interior.exr's lamps sit near the horizon of many normals: the default job without lights is
+  // budget-limited at (97, 31), a 231 MB file, and measures 5.7% front RMS, 144% largest and 46%
+  // grazing RMS at 1024 pairs (docs/results.md, "Accuracy, session 35"). With them (and the
+  // rest's orders chosen at 1024 stratified pairs, kLightsSelectionFactor) the file is (36, 24)
+  // at S 56 (141 MB) and meets both RMS targets: 0.41% front, 1.9% grazing. The largest front
+  // error, 8.7% at this seed (4.0% at the job's own 1024 pairs), is printed, not asserted: its 5%
+  // target is not met at every seed yet (docs/results.md, "Peak lights, session 36" and
+  // "Stratified selection, session 37").
+  PrefilterResult r;
+  DirectionalError e;
+  MeasureDefaultJob("interior.exr", "microfacet:sigma=0.2", &r, &e);
+  if (HasFatalFailure()) return;
+  ExpectRmsTargetsMet(r, e);
+}
+
+TEST(PeakLightsTest, ForestsBrightSkyIsSplitByDefault) {
+  // forest.exr's 128 brightest pixels (a bright sky, not a sun) leave 11% of its non-constant
+  // energy in the rest. Until session 45 the default split only a sun (at most 1% left), and
+  // forest's microfacet sigma 0.3 default, (25, 22) at S 32, measured 1.01% front RMS, 12.7%
+  // largest and 4.2% grazing RMS at this test's pairs (0.53%, 9.8%, 8.1% at the job's 1024):
+  // an RMS target missed at either. Split, (27, 25) at S 40: 0.40%, 7.6%, 1.6% here (0.27%,
+  // 5.4%, 2.7% at the job's); docs/results.md "Session 45". The largest error is printed only,
+  // as above.
+  PrefilterResult r;
+  DirectionalError e;
+  MeasureDefaultJob("forest.exr", "microfacet:sigma=0.3", &r, &e);
+  if (HasFatalFailure()) return;
+  ExpectRmsTargetsMet(r, e);
+}
+
+// The default, auto, splits where the split pays (the rest keeps at most kPeakSpreadShare of the
+// map's non-constant luminance energy), as on does. The split's rest share on the four bundled
+// maps against values computed independently from their pixels (a script over `oiiotool
+// --dumpdata`: Rec. 709 luminance, sin(theta) pixel weights; the transform's Fejer weights
+// differ in the third digit): city 0.0002, interior 0.0005, forest 0.112 (128 pixels: its bright
+// sky, split since session 45); courtyard's brightest pixels (98 x its mean) would leave 99.7%.
+// Auto leaves the whole map to the expansion for a radially symmetric BRDF, a tabulated one, and
+// the epsilon rule, saying why.
+TEST(PeakLightsTest, AutoSplitsWhereItPaysAndSaysWhyNot) {
   struct Expected {
     const char* map;
     double share_min, share_max;
@@ -205,12 +236,12 @@ TEST(PeakLightsTest, AutoSplitsASunOnlyAndSaysWhyNot) {
   };
   const Expected kMaps[] = {{"city.exr", 0, 0.001, true},
                             {"interior.exr", 0, 0.002, true},
-                            {"forest.exr", 0.09, 0.14, false},
+                            {"forest.exr", 0.09, 0.14, true},
                             {"courtyard.exr", 0.5, 1.0, false}};
   for (const Expected& e : kMaps) {
     auto map = LoadBundled(e.map);
     ASSERT_TRUE(map.ok()) << map.status();
-    const PeakSplit split = SplitLightPeaks(*map, kAutoPeakRestShare);
+    const PeakSplit split = SplitLightPeaks(*map, kPeakSpreadShare);
     std::printf("%s: rest share %.5f\n", e.map, split.rest_share);
     EXPECT_GE(split.rest_share, e.share_min) << e.map;
     EXPECT_LE(split.rest_share, e.share_max) << e.map;

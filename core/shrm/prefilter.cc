@@ -376,11 +376,9 @@ absl::StatusOr<PrefilterResult> Prefilter(const EnvMap& env, const Brdf& brdf,
   std::string peak_note = PeakLightsSkipReason(options, brdf);
   std::vector<StageTiming> split_timing;  // the split's pass, reported whether or not it split
   if (options.peak_lights != PeakLights::kOff && peak_note.empty()) {
-    const double max_share =
-        options.peak_lights == PeakLights::kAuto ? kAutoPeakRestShare : kPeakSpreadShare;
     StageClock clock(&split_timing, progress);
     SHRM_RETURN_IF_ERROR(clock.Begin("lights"));
-    PeakSplit split = SplitLightPeaks(env, max_share);
+    PeakSplit split = SplitLightPeaks(env, kPeakSpreadShare);
     clock.End();
     if (split.rest) {
       // The rest through every stage but the check, which measures the whole.
@@ -408,7 +406,7 @@ absl::StatusOr<PrefilterResult> Prefilter(const EnvMap& env, const Brdf& brdf,
       peak_note = absl::StrFormat(
           "no sun: the brightest pixels would leave %.3g%% of the map's luminance energy in the "
           "rest (split at most %g%%)",
-          100 * split.rest_share, 100 * max_share);
+          100 * split.rest_share, 100 * kPeakSpreadShare);
     }
   }
   if (!peak_note.empty()) {

@@ -30,19 +30,16 @@
 namespace shrm {
 
 // Peak lights (PrefilterOptions::peak_lights): off, on (split where it pays: the rest keeps at
-// most kPeakSpreadShare of the energy), or auto (only a sun, and only where it helps: below).
+// most kPeakSpreadShare of the map's non-constant luminance energy), or auto (the same split, for
+// the jobs whose every consumer can sum the lights: PeakLightsSkipReason).
 enum class PeakLights { kOff, kAuto, kOn };
 const char* PeakLightsName(PeakLights mode);  // "off", "auto", "on"
 std::optional<PeakLights> ParsePeakLights(std::string_view name);
-// kAuto splits a map when its peaks take all but this share of the non-constant luminance
-// energy: a sun (city.exr keeps 0.02% in the rest, interior.exr 0.05%), not a bright sky
-// (forest.exr's 128 brightest pixels leave 11%; with lights its SHRMs got 1.3-4x slower and no
-// more accurate, docs/results.md "Peak lights, session 36").
-inline constexpr double kAutoPeakRestShare = 0.01;
 
 struct PrefilterOptions;
 // Why `options.peak_lights` (kAuto) splits nothing whatever the map: the rule, the BRDF (the
-// report's note); "" when the map decides (kOn, kOff, and kAuto where a sun would be split).
+// report's note); "" when the map decides (kOn, kOff, and kAuto where the map's peaks would be
+// split).
 std::string PeakLightsSkipReason(const PrefilterOptions& options, const Brdf& brdf);
 
 struct PrefilterOptions {
@@ -91,10 +88,12 @@ struct PrefilterOptions {
   // (ShrmCube::lights: summed exactly at evaluation, ShrmEvalWithLights); every other stage,
   // the order choice included, sees the rest of the map, whose dynamic range the split caps
   // (docs/shrm.md "Peak lights"). The check measures the whole (expansion + lights) against
-  // the whole map. kAuto (the job layer's default) splits only a sun, and only under the
-  // tolerance rule (the epsilon rule's analysis and explicit orders see the whole map): for a
-  // view-dependent BRDF the shipped shaders evaluate (BrdfShaderParamsFor), when the split
-  // leaves at most kAutoPeakRestShare of the map's non-constant energy in the rest.
+  // the whole map. kAuto (the job layer's default) splits as kOn does, but only under the
+  // tolerance rule (the epsilon rule's analysis and explicit orders see the whole map) and for a
+  // view-dependent BRDF the shipped shaders evaluate (BrdfShaderParamsFor). Until session 45 it
+  // split only a sun (the rest at most 1% of the energy: city.exr 0.02%, interior.exr 0.05%);
+  // forest.exr's bright sky (11%) then went unsplit, and with its lights its seven default rows
+  // measure better on every target (docs/results.md "Session 45").
   PeakLights peak_lights = PeakLights::kOff;
   // With verify > 0: the check's FastReference is kept in PrefilterResult::reference for a
   // caller that measures against the same map again (the visual report), instead of being
