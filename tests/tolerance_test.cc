@@ -20,6 +20,7 @@
 #include <tuple>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
 #include "core/base/cubemap.h"
 #include "core/brdf/brdf.h"
 #include "core/envmap/envmap.h"
@@ -502,6 +503,74 @@ TEST(ToleranceTest, RadialInterpolationEstimateIsTheCubesErrorAtThePairs) {
     EXPECT_NEAR(job.front.rms, ref.front.rms, kSynthesisGridShare * kTolerance) << size;
     EXPECT_NEAR(one_by_one.front.rms, ref.front.rms, kTapsAgreement) << size;
     EXPECT_NEAR(one_by_one.front.max, ref.front.max, kTapsAgreement) << size;
+  }
+}
+
+// The budget step's estimates of several view orders at once (EstimateInterpolationAtViewOrders,
+// one evaluation at the largest P) against the taps summed from RadianceAtArgument of a
+// synthesizer made at each P (the argument held at the pair's, as ShrmEvalAt holds it), and bit
+// for bit against EstimateInterpolation of that synthesizer: both view variables, GGX's Fresnel
+// table, face sizes whose taps cross face seams.
+TEST(ToleranceTest, InterpolationAtSeveralViewOrdersIsEachOnesEstimate) {
+  // The taps one by one against RadianceAtArgument: the same sums by another code path.
+  constexpr double kTapsAgreement = 1e-9;
+  constexpr int kF = 16, kP = 7, kPairs = 40;
+  const EnvMap env = EnvMap::FromLatLong(LoadBundledMap("city.exr", 64));
+  for (const auto& [spec, view] : {std::pair{"microfacet:sigma=0.3", ViewVariable::kNormal},
+                                   std::pair{"ggx:alpha=0.3,f0=0.04", ViewVariable::kView}}) {
+    auto brdf = ParseOrDie(spec);
+    ASSERT_NE(brdf, nullptr);
+    auto top = ExpansionAt(env, *brdf, kF, kP, view);
+    ASSERT_TRUE(top.ok()) << top.status();
+    const PrefilterResult& r = top->stages;
+    const std::vector<DirectionPair> pairs = SeededDirectionPairs(5, kPairs, brdf->reparam());
+    const std::vector<int> orders = {1, 4, kP};
+    for (int size : {12, 20}) {
+      std::vector<std::vector<Rgb>> exact;
+      std::vector<ShrmSynthesizer> synths;
+      for (int p : orders) {
+        auto synth = ShrmSynthesizer::Create(r.light_lmax, 3, r.light, r.brdf, kF, p);
+        ASSERT_TRUE(synth.ok()) << synth.status();
+        std::vector<Rgb> e;
+        for (const DirectionPair& pair : pairs) {
+          const Vec3 index = IndexDirection(pair, brdf->reparam());
+          e.push_back(synth->RadianceAtArgument(ShrmKind::kGlobal, index,
+                                                ShrmViewArgument(view, index, pair.view)));
+        }
+        exact.push_back(e);
+        synths.push_back(*std::move(synth));
+      }
+      const std::vector<DirectionalError> together =
+          EstimateInterpolationAtViewOrders(*top->synth, pairs, size, 2, orders, exact);
+      ASSERT_EQ(together.size(), orders.size());
+      for (size_t j = 0; j < orders.size(); ++j) {
+        std::vector<Rgb> taps(pairs.size(), Rgb{0, 0, 0});
+        for (size_t k = 0; k < pairs.size(); ++k) {
+          const Vec3 index = IndexDirection(pairs[k], brdf->reparam());
+          const Vec3 arg = ShrmViewArgument(view, index, pairs[k].view);
+          for (const CubeTap& tap : ShrmBilinearTaps(size, index)) {
+            if (tap.weight == 0) continue;
+            const Rgb v = synths[j].RadianceAtArgument(
+                ShrmKind::kGlobal, CubeTexelDirection(tap.face, tap.x, tap.y, size), arg);
+            for (int c = 0; c < 3; ++c) taps[k][c] += tap.weight * v[c];
+          }
+        }
+        const DirectionalError ref = MeasureDirectionalError(pairs, taps, exact[j]);
+        const DirectionalError alone = EstimateInterpolation(synths[j], pairs, size, 2, exact[j]);
+        const DirectionalError& t = together[j];
+        const std::string where =
+            absl::StrCat(spec, " S ", size, " P ", orders[j], ": front rms ", t.front.rms);
+        ASSERT_GT(ref.front.rms, 0) << where;
+        EXPECT_NEAR(t.front.rms, ref.front.rms, kTapsAgreement) << where;
+        EXPECT_NEAR(t.front.max, ref.front.max, kTapsAgreement) << where;
+        EXPECT_NEAR(t.grazing.rms, ref.grazing.rms, kTapsAgreement) << where;
+        EXPECT_EQ(t.front.rms, alone.front.rms) << where;
+        EXPECT_EQ(t.front.max, alone.front.max) << where;
+        EXPECT_EQ(t.grazing.rms, alone.grazing.rms) << where;
+        EXPECT_EQ(t.grazing.max, alone.grazing.max) << where;
+        EXPECT_EQ(t.negative, alone.negative) << where;
+      }
+    }
   }
 }
 

@@ -171,6 +171,15 @@ DirectionalError EstimateInterpolation(const ShrmSynthesizer& synth,
                                        std::span<const DirectionPair> pairs, int face_size,
                                        int threads, std::span<const Rgb> exact = {},
                                        int grid_rows = 0);
+// EstimateInterpolation at each view order view_orders[j] (1 <= view_orders[j] <= synth.pmax())
+// of the same F and window, against exact[j] (one value per pair): equal, bit for bit, to
+// EstimateInterpolation of the synthesizer made with that view order (its texel values summed
+// from the same bands in the same order), for the cost of one. The l-sums at the texel centres,
+// most of an estimate's cost, do not depend on P: ChooseWithinBudget's candidates of one F,
+// window and face size take them once.
+std::vector<DirectionalError> EstimateInterpolationAtViewOrders(
+    const ShrmSynthesizer& synth, std::span<const DirectionPair> pairs, int face_size, int threads,
+    std::span<const int> view_orders, std::span<const std::vector<Rgb>> exact);
 
 struct ToleranceChoice {
   int f = 0, p = 0;
