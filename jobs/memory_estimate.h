@@ -8,6 +8,7 @@
 
 #include <cstdint>
 
+#include "core/shrm/shrm_synthesis.h"
 #include "jobs/ibl_job.h"
 
 namespace shrm::jobs {
@@ -37,9 +38,10 @@ uint64_t MapBytes(int64_t pixels);
 // The job's check of a map of `pixels` input pixels.
 uint64_t ReferenceBytes(int64_t pixels);
 // The synthesis grid's slab (ShrmGridOptions::max_grid_bytes: the (alpha, beta) grid of F_B +
-// P_B is made and resampled in slabs within it; before, the whole grid was held: 0.8 GB at
-// (42, 21) even for a 16 x 16 cube).
-inline constexpr uint64_t kGridSlabBytes = uint64_t{64} << 20;
+// P_B is made and resampled in slabs within it, up to kSlabGrowthForThreads times it so that each
+// thread has rows of its own; before, the whole grid was held: 0.8 GB at (42, 21) even for a
+// 16 x 16 cube).
+inline constexpr uint64_t kGridSlabBytes = kSlabGrowthForThreads * ShrmGridOptions{}.max_grid_bytes;
 // Synthesizing and encoding an SHRM cube of face size S_B and order P_B (P_B > 0: with the grid's
 // slab).
 uint64_t ShrmCubeBytes(int face_size, int p_b);

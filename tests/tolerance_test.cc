@@ -514,7 +514,7 @@ TEST(ToleranceTest, RadialInterpolationEstimateIsTheCubesErrorAtThePairs) {
 TEST(ToleranceTest, InterpolationAtSeveralViewOrdersIsEachOnesEstimate) {
   // The taps one by one against RadianceAtArgument: the same sums by another code path.
   constexpr double kTapsAgreement = 1e-9;
-  constexpr int kF = 16, kP = 7, kPairs = 40;
+  constexpr int kF = 16, kP = 7, kFewPairs = 40;
   const EnvMap env = EnvMap::FromLatLong(LoadBundledMap("city.exr", 64));
   for (const auto& [spec, view] : {std::pair{"microfacet:sigma=0.3", ViewVariable::kNormal},
                                    std::pair{"ggx:alpha=0.3,f0=0.04", ViewVariable::kView}}) {
@@ -523,7 +523,7 @@ TEST(ToleranceTest, InterpolationAtSeveralViewOrdersIsEachOnesEstimate) {
     auto top = ExpansionAt(env, *brdf, kF, kP, view);
     ASSERT_TRUE(top.ok()) << top.status();
     const PrefilterResult& r = top->stages;
-    const std::vector<DirectionPair> pairs = SeededDirectionPairs(5, kPairs, brdf->reparam());
+    const std::vector<DirectionPair> pairs = SeededDirectionPairs(5, kFewPairs, brdf->reparam());
     const std::vector<int> orders = {1, 4, kP};
     for (int size : {12, 20}) {
       std::vector<std::vector<Rgb>> exact;

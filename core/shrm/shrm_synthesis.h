@@ -76,6 +76,10 @@ struct SynthesisScratch {
   std::vector<float> cube;
 };
 
+// How far a slab of the synthesis grid may exceed ShrmGridOptions::max_grid_bytes so that every
+// thread has a Wigner block of it (jobs/memory_estimate.h counts the slab at this bound).
+inline constexpr size_t kSlabGrowthForThreads = 2;
+
 struct ShrmGridOptions {
   // Equiangular grid rows in alpha over [0, pi] (pixel centres alpha_j = pi (j + 1/2) / N);
   // 0 = automatic: max(32, 4 (F + P + 1)) rounded up to a multiple of 8, then to the next
@@ -100,6 +104,8 @@ struct ShrmGridOptions {
   // exceed this many bytes, BuildCube synthesizes it in slabs of rows within this size, each
   // resampled before the next is made (identical values; the grid depends on F + P, not on
   // S_B, e.g. 0.8 GB at (42, 21) even for a 16 x 16 cube). 0 = always whole.
+  // A slab may grow to kSlabGrowthForThreads times this so that each of `threads` threads gets a
+  // Wigner block of it (the grid's rows are made kWignerBlock at a time).
   size_t max_grid_bytes = size_t{64} << 20;
   // The caller's storage (SynthesisScratch) for the grid (either path); nullptr = allocated per
   // call.
