@@ -545,6 +545,10 @@ absl::Status RunBatch(const BatchArgs& args) {
   if (!args.server.empty()) return RunWithClient();  // before anything is read or written
 #endif
   if (args.jobs < 1) return absl::InvalidArgumentError("--jobs must be >= 1");
+  if (std::error_code folder_ec; fs::is_directory(args.manifest, folder_ec)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(args.manifest, ": is a folder, not a manifest (a JSON file)"));
+  }
   std::ifstream in(args.manifest, std::ios::binary);
   if (!in) return absl::NotFoundError(absl::StrCat(args.manifest, ": cannot open the manifest"));
   std::stringstream text;

@@ -307,7 +307,12 @@ absl::StatusOr<RemoteBrdf> ResolveRemoteBrdf(const std::string& spec, ShrmClient
 
 absl::StatusOr<std::string> ShrmClient::UploadIfMissing(const std::string& path) {
   absl::StatusOr<std::string> sha = FileSha256(path);
-  if (!sha.ok()) return sha.status();
+  if (!sha.ok()) {
+    // The callers name the file ("<path>: ..."); Sha256OfFile's message names it too.
+    const std::string named = absl::StrCat(path, ": ");
+    if (!absl::StartsWith(sha.status().message(), named)) return sha.status();
+    return WithMessage(sha.status(), std::string(sha.status().message().substr(named.size())));
+  }
   if (upload_copies_ <= 0) {
     absl::StatusOr<v1::HasBlobResponse> has = HasBlob(*sha);
     if (!has.ok()) return has.status();

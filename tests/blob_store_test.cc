@@ -256,5 +256,35 @@ TEST_F(BlobStoreTest, RemoteErrorsNameTheLocalFile) {
   server_->Shutdown(absl::ZeroDuration());
 }
 
+// A local file the client cannot upload (a folder, a missing BRDF table) is named once, not
+// once by the hash of the file and again by the upload ("/x: /x: cannot open file").
+TEST_F(BlobStoreTest, FilesTheClientCannotUploadAreNamedOnce) {
+  ASSERT_NO_FATAL_FAILURE(StartService());
+  const auto count = [](const std::string& text, const std::string& part) {
+    size_t n = 0;
+    for (size_t at = text.find(part); at != std::string::npos; at = text.find(part, at + 1)) ++n;
+    return n;
+  };
+  const std::string folder = dir_ + "/maps.exr";
+  std::filesystem::create_directories(folder);
+  absl::StatusOr<client::RemotePrefilterResult> r =
+      client::RunRemotePrefilter(client_.get(), "target", SmallJob(folder), {}, nullptr);
+  ASSERT_FALSE(r.ok());
+  const std::string message(r.status().message());
+  EXPECT_NE(message.find(absl::StrCat(folder, ": is a folder, not a file")), std::string::npos)
+      << message;
+  EXPECT_EQ(count(message, folder), 1u) << message;
+  jobs::PrefilterJob job = SmallJob(absl::StrCat(SHRM_SOURCE_DIR, "/data/envmaps/interior.exr"));
+  const std::string table = dir_ + "/missing.shrmbrdf";
+  job.brdf = "table:" + table;
+  r = client::RunRemotePrefilter(client_.get(), "target", job, {}, nullptr);
+  ASSERT_FALSE(r.ok());
+  const std::string table_message(r.status().message());
+  EXPECT_NE(table_message.find(absl::StrCat(table, ": cannot open file")), std::string::npos)
+      << table_message;
+  EXPECT_EQ(count(table_message, table), 1u) << table_message;
+  server_->Shutdown(absl::ZeroDuration());
+}
+
 }  // namespace
 }  // namespace shrm

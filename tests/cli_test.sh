@@ -147,6 +147,18 @@ expect_error ggx_alpha_out_of_range 1 "ggx.*'alpha'.*2.*out of range" \
 expect_error missing_brdf_table 1 'nothere\.shrmbrdf' \
   "$SHRM" prefilter --env "$IN/ok.pfm" --brdf "table:$TMP/nothere.shrmbrdf" --size 16 \
   -o out.shrm.exr
+# A folder where a file is read: said so, not "unrecognized file signature" or "bad magic".
+mkdir -p "$IN/folder.exr"
+expect_error folder_env 1 'folder\.exr: is a folder, not an image file' \
+  "$SHRM" "${PF[@]}" --env "$IN/folder.exr"
+expect_error folder_info 1 'folder\.exr: is a folder, not an image file' \
+  "$SHRM" info "$IN/folder.exr"
+expect_error folder_brdf_table 1 "brdf table '.*folder\.exr': is a folder, not an SHRMBRDF file" \
+  "$SHRM" prefilter --env "$IN/ok.pfm" --brdf "table:$IN/folder.exr" --size 16 -o out.shrm.exr
+expect_error folder_merl 1 "brdf 'merl': '.*folder\.exr' is a folder, not a MERL file" \
+  "$SHRM" prefilter --env "$IN/ok.pfm" --brdf "merl:$IN/folder.exr" --size 16 -o out.shrm.exr
+expect_error folder_manifest 1 'folder\.exr: is a folder, not a manifest' \
+  "$SHRM" batch "$IN/folder.exr"
 
 # Missing files.
 expect_error missing_env 1 'missing\.exr.*not found' \

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 
 #include "absl/strings/str_cat.h"
@@ -103,6 +104,11 @@ absl::Status WriteBrdfTable(const std::string& path, const BrdfTableData& t) {
 }
 
 absl::StatusOr<BrdfTableData> ReadBrdfTable(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("brdf table '", path, "': is a folder, not an SHRMBRDF file"));
+  }
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) {
     return absl::InvalidArgumentError(

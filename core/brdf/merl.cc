@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
 #include <fstream>
 
 #include "absl/strings/str_cat.h"
@@ -118,6 +119,11 @@ absl::Status WriteMerlFile(const std::string& path, const std::array<int32_t, 3>
 }
 
 absl::StatusOr<std::unique_ptr<MerlBrdf>> LoadMerlBrdf(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("brdf 'merl': '", path, "' is a folder, not a MERL file"));
+  }
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) {
     return absl::InvalidArgumentError(

@@ -23,6 +23,10 @@
 namespace shrm {
 
 absl::StatusOr<std::string> DetectImageFormat(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": is a folder, not an image file"));
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) return absl::NotFoundError(absl::StrCat(path, ": cannot open file"));
   std::array<unsigned char, 8> b{};

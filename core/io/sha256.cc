@@ -4,6 +4,7 @@
 #include <array>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 
 #include "absl/status/status.h"
@@ -222,6 +223,10 @@ void Sha256Stream::Update(std::string_view bytes) { hash_.Update(bytes); }
 std::string Sha256Stream::Hex() { return internal::HexDigest(hash_.Digest()); }
 
 absl::StatusOr<std::string> Sha256OfFile(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": is a folder, not a file"));
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) return absl::NotFoundError(absl::StrCat(path, ": cannot open file"));
   internal::Sha256 h;
