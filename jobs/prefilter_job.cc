@@ -204,6 +204,7 @@ std::map<std::string, std::string> PrefilterFileAttributes(const PrefilterJob& j
   if (result.tolerance_rule) {
     attrs["shrm:tolerance"] = absl::StrCat(job.tolerance);
     attrs["shrm:max_size_mb"] = absl::StrCat(job.max_size_mb);
+    attrs["shrm:rules"] = absl::StrCat(kToleranceRulesRevision);
     attrs["shrm:estimated_error"] = EstimateText(TotalEstimate(result.choice));
   }
   if (result.verified_pairs > 0) {
@@ -346,6 +347,14 @@ std::string WhyFileDiffers(const PrefilterJob& job, const std::string& canonical
   if (job.tolerance > 0 &&
       !(why = differs("shrm:max_size_mb", absl::StrCat(job.max_size_mb))).empty())
     return why;
+  if (job.tolerance > 0) {
+    // A file without the attribute was chosen by revision 1 of the rule.
+    auto it = a.find("shrm:rules");
+    const std::string have = it == a.end() ? "1" : it->second;
+    if (have != absl::StrCat(kToleranceRulesRevision))
+      return absl::StrCat("chosen by an older tolerance rule (shrm:rules ", have,
+                          " != ", kToleranceRulesRevision, ")");
+  }
   if (job.window != RingingWindow::kAuto &&
       !(why = differs("shrm:window", RingingWindowName(job.window))).empty())
     return why;

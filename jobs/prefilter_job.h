@@ -138,12 +138,21 @@ struct PrefilterProvenance {
   EnvLayout layout = EnvLayout::kAuto;  // the resolved layout of the decoded map
 };
 
+// The revision of the tolerance rule's choices for given inputs (orders, face size, window, peak
+// lights), recorded in the files it writes (shrm:rules) and raised whenever the rule comes to
+// choose differently, so that a resumed batch recomputes what an older rule chose instead of
+// taking it for up to date. A file without shrm:rules is revision 1 (sessions 23-45).
+// 2: `--peak-lights auto` splits wherever the rest keeps at most half of the map's non-constant
+//    luminance energy (session 45; before, at most 1%).
+inline constexpr int kToleranceRulesRevision = 2;
+
 // shrm:epsilon: the tolerance, "explicit orders" or "per-direction tolerance".
 std::string EpsilonAttribute(const PrefilterJob& job);
 // The SHRM file's attributes (docs/formats.md): shrm:brdf, shrm:epsilon, shrm:orders,
 // shrm:brdf_orders, shrm:eps_light, shrm:eps_brdf, shrm:eps_bound, shrm:window, shrm:source,
 // shrm:source_sha256, shrm:working_space, shrm:layout, shrm:version (shrm::kVersion), when
-// rotated shrm:rotate_ypr_deg, with the tolerance rule shrm:tolerance and shrm:estimated_error
+// rotated shrm:rotate_ypr_deg, with the tolerance rule shrm:tolerance, shrm:rules
+// (kToleranceRulesRevision) and shrm:estimated_error
 // ("front_rms,front_max,grazing_rms,grazing_max", core/shrm/tolerance.h) and, when checked,
 // shrm:measured_error (the same four and the number of pairs), and with the tolerance rule
 // shrm:tolerance_met ("true" or "false": ToleranceOutcome's verdict on the job's report).

@@ -172,6 +172,35 @@ TEST(PrefilterJob, ToleranceRuleRecordsItsEstimateAndSaysWhenItIsMissed) {
             "shrm:tolerance 0.01 != 0.02");
 }
 
+// A file the tolerance rule chose records the rule's revision; one an older rule chose (no
+// shrm:rules: revision 1, before session 45's peak-light split) is recomputed by a resumed batch,
+// and the epsilon rule's files do not depend on it.
+TEST(PrefilterJob, FilesAnOlderToleranceRuleChoseAreNotUpToDate) {
+  static_assert(jobs::kToleranceRulesRevision >= 2, "session 45 changed the rule's choices");
+  const PrefilterJob job = ToleranceJob();
+  ShrmFile file;
+  file.attributes = jobs::PrefilterFileAttributes(job, Provenance(), ToleranceResult());
+  file.cube.kind = ShrmKind::kGlobal;
+  const std::string sha(64, 'a');
+  EXPECT_EQ(file.attributes.at("shrm:rules"), std::to_string(jobs::kToleranceRulesRevision));
+  EXPECT_EQ(jobs::WhyFileDiffers(job, "phong:s=32", sha, file), "");
+  const std::string now = std::to_string(jobs::kToleranceRulesRevision);
+  file.attributes.erase("shrm:rules");
+  EXPECT_EQ(jobs::WhyFileDiffers(job, "phong:s=32", sha, file),
+            "chosen by an older tolerance rule (shrm:rules 1 != " + now + ")");
+  file.attributes["shrm:rules"] = "1";
+  EXPECT_EQ(jobs::WhyFileDiffers(job, "phong:s=32", sha, file),
+            "chosen by an older tolerance rule (shrm:rules 1 != " + now + ")");
+  // The epsilon rule writes no revision and asks for none.
+  PrefilterJob eps = job;
+  jobs::UseEpsilonRule(&eps, 0.03);
+  ShrmFile eps_file;
+  eps_file.attributes = jobs::PrefilterFileAttributes(eps, Provenance(), Result());
+  eps_file.cube.kind = ShrmKind::kGlobal;
+  EXPECT_EQ(eps_file.attributes.count("shrm:rules"), 0u);
+  EXPECT_EQ(jobs::WhyFileDiffers(eps, "phong:s=32", sha, eps_file), "");
+}
+
 // A file records the job's verdict (shrm:tolerance_met), so that a resumed batch that skips it
 // still reports a miss; files written before the verdict was recorded are judged by their
 // measured error against the targets of their tolerance.
