@@ -693,6 +693,9 @@ expect_error ibl_bad_roughness 1 'roughness must not decrease' \
   "$SHRM" "${IBL[@]}" --roughness 0,0.6,0.3 --env "$IN/ok.pfm"
 expect_error ibl_roughness_not_a_number 1 "roughness: 'x' is not a number" \
   "$SHRM" "${IBL[@]}" --roughness 0,x --env "$IN/ok.pfm"
+# An empty list (an unset variable in a script) is refused, not read as the preset's levels.
+expect_error ibl_roughness_empty 1 '^shrm: error: --roughness: empty; give' \
+  "$SHRM" "${IBL[@]}" --roughness "" --env "$IN/ok.pfm"
 expect_error ibl_tolerance 1 'tolerance must be in' "$SHRM" "${IBL[@]}" --tolerance 0 --env "$IN/ok.pfm"
 expect_error ibl_corrupt_map 1 'corrupt\.exr' "$SHRM" "${IBL[@]}" --env "$IN/corrupt.exr"
 expect_error ibl_unknown_container 1 'unknown container "ktx3"' \
