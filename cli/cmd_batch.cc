@@ -128,6 +128,14 @@ std::string IblMismatch(const BatchJob& job, const std::string& source_sha256,
   const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
   if (j.is_discarded() || !j.is_object()) return "existing ibl.json unreadable";
   if (j.value("source_sha256", "") != source_sha256) return "the map changed";
+  {
+    // A set without "rules" was chosen by revision 1 of them.
+    const auto rules = j.find("rules");
+    const std::string have = rules == j.end() ? "1" : rules->dump();
+    if (have != absl::StrCat(jobs::kIblRulesRevision))
+      return absl::StrCat("chosen by older rules (rules ", have, " != ", jobs::kIblRulesRevision,
+                          ")");
+  }
   if (!j.contains("options") || j["options"] != jobs::IblOptionsJson(job.ibl_job)) {
     return "other options";
   }

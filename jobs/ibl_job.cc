@@ -461,6 +461,7 @@ nlohmann::json IblOptionsJson(const IblJob& job) {
 nlohmann::json IblReportJson(const IblJob& job, const IblRun& run) {
   nlohmann::json r;
   r["shrm_version"] = kVersion;
+  r["rules"] = kIblRulesRevision;
   r["options"] = IblOptionsJson(job);
   r["source"] = run.source.names;
   r["source_sha256"] = run.source.sha256;

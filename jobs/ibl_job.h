@@ -175,14 +175,21 @@ absl::StatusOr<IblRun> IblRunFromSet(const IblJob& job, ibl::SplitSumSet set,
                                      const SourceIdentity& source, EnvLayout layout,
                                      int64_t replaced_non_finite, int threads);
 
+// The revision of the rules that choose a set's degrees and levels for given inputs, recorded in
+// ibl.json ("rules") and raised whenever they come to choose differently, so that a resumed batch
+// recomputes what an older rule chose (as kToleranceRulesRevision for SHRM files). An ibl.json
+// without "rules" is revision 1.
+inline constexpr int kIblRulesRevision = 1;
+
 // The job's options as the report records them ("options": every option of IblJobOptions()
 // besides the environment's files, layout and colour spaces, by its name there): what
 // `shrm batch` compares to skip an up-to-date set.
 nlohmann::json IblOptionsJson(const IblJob& job);
 
-// The report: source, layout, shrm_version, options, preset, format, tolerance and, per cube and
-// level, face_size, roughness, alpha, degree, truncation_estimate and measured {count, rms, max};
-// "met" is false when a measured level misses its target. Front ends add the files they wrote.
+// The report: source, layout, shrm_version, rules (kIblRulesRevision), options, preset, format,
+// tolerance and, per cube and level, face_size, roughness, alpha, degree, truncation_estimate and
+// measured {count, rms, max}; "met" is false when a measured level misses its target. Front ends
+// add the files they wrote.
 nlohmann::json IblReportJson(const IblJob& job, const IblRun& run);
 
 // FailedPrecondition naming the first level whose measured error misses the targets (the files

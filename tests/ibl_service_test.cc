@@ -307,23 +307,42 @@ TEST_F(IblServiceTest, BatchManifestRunsIblJobsRemotelyWithTheEmbeddedBytesAndRe
   EXPECT_TRUE(fs::exists(dir_ + "/out/second_ibl/specular.ktx2"));
   // Resume: both sets are up to date; another option recomputes them.
   const std::string summary = dir_ + "/summary.json";
-  ASSERT_EQ(std::system(absl::StrCat("cd ", dir_, " && ", SHRM_CLI_PATH,
-                                     " batch ibl.json --json > ", summary, " 2>/dev/null")
-                            .c_str()),
-            0);
-  nlohmann::json s = nlohmann::json::parse(ReadFile(summary));
+  // The embedded batch's --json summary (exit 0 asserted).
+  auto rerun = [&] {
+    EXPECT_EQ(std::system(absl::StrCat("cd ", dir_, " && ", SHRM_CLI_PATH,
+                                       " batch ibl.json --json > ", summary, " 2>/dev/null")
+                              .c_str()),
+              0);
+    return nlohmann::json::parse(ReadFile(summary));
+  };
+  nlohmann::json s = rerun();
   EXPECT_EQ(s["skipped"], 2) << s.dump(1);
   EXPECT_EQ(s["jobs"][0]["kind"], "ibl");
   std::string manifest = ReadFile(dir_ + "/ibl.json");
   manifest.replace(manifest.find("\"verify\": 4"), 11, "\"verify\": 2");
   std::ofstream(dir_ + "/ibl.json") << manifest;
-  ASSERT_EQ(std::system(absl::StrCat("cd ", dir_, " && ", SHRM_CLI_PATH,
-                                     " batch ibl.json --json > ", summary, " 2>/dev/null")
-                            .c_str()),
-            0);
-  s = nlohmann::json::parse(ReadFile(summary));
+  s = rerun();
   EXPECT_EQ(s["ok"], 2) << s.dump(1);
   EXPECT_EQ(s["jobs"][1]["message"], "recomputed: other options");
+  // A set an older revision of the rules chose is recomputed; one written before the revision
+  // was recorded is revision 1.
+  ASSERT_EQ(jobs::kIblRulesRevision, 1);
+  auto edit_rules = [&](const std::string& set, std::optional<int> rules) {
+    const std::string path = dir_ + "/out/" + set + "/ibl.json";
+    nlohmann::json j = nlohmann::json::parse(ReadFile(path));
+    ASSERT_EQ(j["rules"], jobs::kIblRulesRevision);
+    if (rules)
+      j["rules"] = *rules;
+    else
+      j.erase("rules");
+    std::ofstream(path) << j.dump(1);
+  };
+  edit_rules("courtyard_small_ibl", 0);
+  edit_rules("second_ibl", std::nullopt);
+  s = rerun();
+  EXPECT_EQ(s["ok"], 1) << s.dump(1);
+  EXPECT_EQ(s["skipped"], 1) << s.dump(1);
+  EXPECT_EQ(s["jobs"][0]["message"], "recomputed: chosen by older rules (rules 0 != 1)");
 }
 
 // The Live call with LiveOpen.ibl (docs/live.md): each frame carries the Ibl call's files for the
