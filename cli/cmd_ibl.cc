@@ -138,9 +138,13 @@ void PrintSummary(const IblCommandRun& run, const IblResult& r) {
               r.report["source"].get<std::string>().c_str(),
               r.report["preset"].get<std::string>().c_str(), levels.size(), face, face);
   for (const nlohmann::json& l : levels) {
-    std::printf("  level %d: %4d x %-4d roughness %.3f degree %4d", l["level"].get<int>(),
-                l["face_size"].get<int>(), l["face_size"].get<int>(), l["roughness"].get<double>(),
-                l["degree"].get<int>());
+    std::printf("  level %d: %4d x %-4d roughness %.3f", l["level"].get<int>(),
+                l["face_size"].get<int>(), l["face_size"].get<int>(), l["roughness"].get<double>());
+    // The base level is the map sampled at the texel centres: no degree (-1 in ibl.json).
+    if (const int degree = l["degree"].get<int>(); degree >= 0)
+      std::printf(" degree %4d", degree);
+    else
+      std::printf(" degree  map");
     if (l.contains("measured")) {
       std::printf("  measured rms %.2e max %.2e", l["measured"]["rms"].get<double>(),
                   l["measured"]["max"].get<double>());

@@ -725,6 +725,9 @@ if "$SHRM" ibl --env "$IN/ok.pfm" --size 16 --preset gltf --sheen -o "$TMP/ibl_o
     fail "ibl: ibl.json is not valid JSON"
   elif ! grep -q '"met": true' "$TMP/ibl_ok/ibl.json"; then
     fail "ibl: a constant map's set is not within its tolerance"
+  elif ! grep -Eq '^  level 0: +16 x 16 +roughness 0.000 degree  map ' "$TMP/ibl_ok.stdout"; then
+    # The base level is the map itself: no degree (was printed as "degree -1").
+    fail "ibl: the base level's line does not say 'degree  map': $(grep 'level 0' "$TMP/ibl_ok.stdout")"
   else
     echo "ok: ibl writes the set (constant map within tolerance)"
   fi

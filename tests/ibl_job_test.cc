@@ -226,6 +226,35 @@ TEST(IblJobTest, RunsOnARealMapWithinItsTolerance) {
   std::remove(path.c_str());
 }
 
+// A black map (a night sky's render, a placeholder): every reference is 0, so there is no scale
+// for a relative error; the set is all zeros and each measured error 0, as the prefilter's check
+// counts it (0 / 0 made the RMS NaN, written as null in ibl.json).
+TEST(IblJobTest, ABlackMapMeasuresNoErrorRatherThanNaN) {
+  const std::string path = testing::UniqueTempPath("ibl_job_black.exr");
+  Image black;
+  black.width = 64;
+  black.height = 32;
+  black.channels = 3;
+  black.pixels.assign(64 * 32 * 3, 0.0f);
+  ASSERT_TRUE(WriteExr(path, black).ok());
+  IblJob job = SmallJob(path);
+  auto run = RunIblJob(job, 2);
+  ASSERT_TRUE(run.ok()) << run.status();
+  EXPECT_TRUE(run->report["met"].get<bool>()) << run->report.dump(1);
+  for (const IblCube* cube : {&run->specular, &run->irradiance}) {
+    for (float v : cube->chain.levels.front().cube.data) ASSERT_EQ(v, 0.0f);
+    ASSERT_FALSE(cube->measured.empty());
+    for (const ibl::LevelError& e : cube->measured) {
+      EXPECT_GT(e.count, 0);
+      EXPECT_EQ(e.rms, 0.0);
+      EXPECT_EQ(e.max, 0.0);
+    }
+  }
+  EXPECT_EQ(run->report["sh9_measured"]["rms"], 0.0) << run->report.dump(1);
+  EXPECT_EQ(run->report["specular"]["levels"][1]["measured"]["rms"], 0.0);
+  std::remove(path.c_str());
+}
+
 // --containers ktx1: Filament's files (cmgen's names), no KTX2 file; ibl.ktx's texel at Filament
 // direction n is the stored chain's texel at world direction (-n.x, n.y, -n.z) (the frame of
 // docs/ibl.md, read here from the file with the KTX 1.1 layout and the specification's

@@ -1285,7 +1285,10 @@ std::vector<LevelError> MeasureLevelErrors(const EnvMap& map, std::span<const Le
     for (double v : ref) mean += std::abs(v) / count;
     LevelError& e = errors[c];
     for (int i = 0; i < count; ++i) {
-      const double d = std::abs(got[i] - ref[i]) / std::max(std::abs(ref[i]), 0.01 * mean);
+      // A black map has no scale (every reference 0): no error, as MeasureDirectionalError
+      // counts it (0 / 0 made the RMS NaN, null in ibl.json).
+      const double scale = std::max(std::abs(ref[i]), 0.01 * mean);
+      const double d = scale > 0 ? std::abs(got[i] - ref[i]) / scale : 0.0;
       e.rms += d * d / count;
       e.max = std::max(e.max, d);
     }
