@@ -12,6 +12,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "core/base/status_macros.h"
+#include "core/sh/rotation.h"
 #include "jobs/report.h"
 #include "jobs/report_visuals.h"
 #include "shrm/version.h"
@@ -114,6 +115,13 @@ absl::Status ValidatePrefilterJob(const PrefilterJob& job) {
       return absl::InvalidArgumentError(absl::StrCat("orders: F must be in [0, ", kMaxOrderF,
                                                      "] and P in [0, ", kMaxOrderP, "], got ", o.f,
                                                      ",", o.p));
+    }
+    // Refused here, not when a rotated frame's lighting is made: a turntable's first frame (yaw
+    // 0) would be written before the second failed.
+    if (job.env.rotate_ypr_deg && o.f > kMaxRotationLmax) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("orders: F ", o.f, " is above ", kMaxRotationLmax,
+                       ", the largest degree a rotated map's lighting supports (--rotate)"));
     }
   }
   if (job.face_size < 0 || job.face_size > kMaxFaceSize) {

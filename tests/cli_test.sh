@@ -635,6 +635,10 @@ expect_error live_missing_map 1 'missing\.exr' \
 [ -e "$TMP/live/none/frame_0000.shrm.exr" ] && fail "live_missing_map: a frame was written"
 expect_error live_env_without_turntable 1 'turntable' \
   "$SHRM" live --env "$MAP" --brdf phong:s=32 -o "$TMP/live"
+# Orders a rotated frame cannot have are refused before frame 0 (yaw 0) is written.
+expect_error live_turntable_orders 1 'F 300 is above 256' \
+  "$SHRM" live --env "$MAP" --turntable 2 --brdf phong:s=32 --orders 300,0 -o "$TMP/live/high"
+[ -e "$TMP/live/high/frame_0000.shrm.exr" ] && fail "live_turntable_orders: frame 0 was written"
 
 # --- shrm live --ibl: each frame's split-sum set is shrm ibl's folder ------------------------
 # A 2-frame turntable of the bundled map with --ibl beside --brdf: every file of frame_NNNN.ibl/

@@ -13,6 +13,7 @@
 
 #include "core/envmap/envmap.h"
 #include "core/io/sha256.h"
+#include "core/sh/rotation.h"
 #include "core/sh/sh.h"
 #include "jobs/analyze_job.h"
 #include "jobs/environment.h"
@@ -349,6 +350,9 @@ TEST(PrefilterJob, ValidationNamesTheOption) {
   ok.env.files = {"a.exr"};
   ok.brdf = "lambert";
   EXPECT_TRUE(jobs::ValidatePrefilterJob(ok).ok());
+  PrefilterJob unrotated = ok;  // the same orders without a rotation are the map's to resolve
+  jobs::UseExplicitOrders(&unrotated, jobs::Orders{kMaxRotationLmax + 1, 0});
+  EXPECT_TRUE(jobs::ValidatePrefilterJob(unrotated).ok());
   struct Case {
     void (*change)(PrefilterJob*);
     const char* names;
@@ -382,6 +386,13 @@ TEST(PrefilterJob, ValidationNamesTheOption) {
          j->env.rotate_ypr_deg = std::array<double, 3>{0, INFINITY, 0};
        },
        "rotate"},
+      // A rotated map's lighting stops at degree 256 (core/sh/rotation.h), even a turntable's
+      // yaw-0 frame.
+      {[](PrefilterJob* j) {
+         jobs::UseExplicitOrders(j, jobs::Orders{kMaxRotationLmax + 1, 0});
+         j->env.rotate_ypr_deg = std::array<double, 3>{0, 0, 0};
+       },
+       "orders: F 257 is above 256, the largest degree a rotated map's lighting supports"},
       {[](PrefilterJob* j) {
          jobs::UseEpsilonRule(j, 0.03);
          j->view = ViewVariable::kNormal;
