@@ -25,6 +25,7 @@
 #include "core/io/image.h"
 #include "core/io/image_module.h"
 #include "core/io/sha256.h"
+#include "jobs/cli_validators.h"
 #include "jobs/job_options.h"
 #include "jobs/option_text.h"
 #include "jobs/point_jobs.h"
@@ -194,6 +195,7 @@ absl::Status ParseJobCommandLine(std::vector<std::string> args, const std::strin
   CLI::App* sub = app.add_subcommand(name);
   add_options(sub);
   sub->add_option("-o,--output", output)->required();
+  jobs::RefuseEmptyValues(sub);
   std::reverse(args.begin(), args.end());  // CLI11 parses a reversed vector
   try {
     app.parse(args);

@@ -165,13 +165,7 @@ void AddIblJobOptions(CLI::App* sub, IblArgs* args) {
   sub->add_option("--preset", args->preset, Help("preset"))
       ->capture_default_str()
       ->check(CLI::IsMember({"filament", "gltf", "babylon", "explicit"}));
-  sub->add_option_function<std::string>(
-      "--roughness",
-      [args](const std::string& v) {
-        args->roughness = v;
-        args->roughness_given = true;
-      },
-      Help("roughness"));
+  sub->add_option("--roughness", args->roughness, Help("roughness"));
   sub->add_option("--size", args->size, Help("size"))
       ->capture_default_str()
       ->check(jobs::kPositive);
@@ -204,12 +198,6 @@ absl::StatusOr<jobs::IblJob> IblJobFromArgs(const IblArgs& a) {
   jobs::IblJob job;
   SHRM_ASSIGN_OR_RETURN(job.env, EnvSpecFromArgs(a.env));
   SHRM_ASSIGN_OR_RETURN(job.preset, ibl::ParseRoughnessPreset(a.preset));
-  if (a.roughness_given && a.roughness.empty()) {
-    // Not the preset's levels in silence: an empty list is a mistake (an unset variable).
-    return absl::InvalidArgumentError(
-        "--roughness: empty; give the levels' roughness as r0,r1,... (e.g. 0,0.5,1), or leave "
-        "the option out for --preset's levels");
-  }
   if (!a.roughness.empty()) {
     for (absl::string_view part : absl::StrSplit(a.roughness, ',')) {
       double r = 0;

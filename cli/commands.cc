@@ -81,6 +81,7 @@ int RunShrm(int argc, char** argv) {
     CLI::App* sub = app.add_subcommand(std::string(c.name), std::string(c.description));
     if (&c == chosen) {
       c.define(sub, &status);
+      jobs::RefuseEmptyValues(sub);
       chosen_sub = sub;
     }
   }

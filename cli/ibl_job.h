@@ -20,8 +20,7 @@ namespace shrm::cli {
 struct IblArgs {
   EnvArgs env;
   std::string preset = "filament";
-  std::string roughness;         // "r0,r1,..." for the explicit preset
-  bool roughness_given = false;  // --roughness was on the command line (even as "")
+  std::string roughness;  // "r0,r1,..." for the explicit preset
   int size = jobs::kDefaultIblFaceSize;
   int levels = 0;
   bool sheen = false;

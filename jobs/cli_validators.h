@@ -107,6 +107,21 @@ inline size_t EditDistance(const std::string& a, const std::string& b) {
 
 }  // namespace internal
 
+// Every option of `app` that takes values (flags aside, positionals included) refuses an empty
+// one: "--report: an empty value (give one, or leave the option out)". Without it `--report
+// "$UNSET"` meant no report, `-o ""` failed after the whole job, and `--env ""` said ": file not
+// found". Call after the options are defined.
+inline void RefuseEmptyValues(CLI::App* app) {
+  static const CLI::Validator kNotEmpty(
+      [](std::string& s) -> std::string {
+        return s.empty() ? "an empty value (give one, or leave the option out)" : "";
+      },
+      "");
+  for (CLI::Option* o : app->get_options()) {
+    if (o->get_type_size_max() > 0) o->check(kNotEmpty);
+  }
+}
+
 // What a user meant by the unknown long options among `args` (CLI11's ExtrasError says only "The
 // following arguments were not expected: 45 --latitude", in reverse order): "unknown option
 // --latitude (did you mean --lat?)", one per unknown option, the suggestion the option of `app`

@@ -697,9 +697,17 @@ expect_error ibl_bad_roughness 1 'roughness must not decrease' \
   "$SHRM" "${IBL[@]}" --roughness 0,0.6,0.3 --env "$IN/ok.pfm"
 expect_error ibl_roughness_not_a_number 1 "roughness: 'x' is not a number" \
   "$SHRM" "${IBL[@]}" --roughness 0,x --env "$IN/ok.pfm"
-# An empty list (an unset variable in a script) is refused, not read as the preset's levels.
-expect_error ibl_roughness_empty 1 '^shrm: error: --roughness: empty; give' \
+# An empty value (an unset variable in a script) is refused by every option that takes one, not
+# read as the option left out (--roughness: the preset's levels; --report: no report), nor failed
+# after the whole job (-o), nor named as ": file not found" (--env), nor left to a missing manifest.
+expect_error ibl_roughness_empty 2 '^--roughness: an empty value \(give one, or leave the option out\)$' \
   "$SHRM" "${IBL[@]}" --roughness "" --env "$IN/ok.pfm"
+expect_error prefilter_report_empty 2 '^--report: an empty value' \
+  "$SHRM" "${PF[@]}" --report "" --env "$IN/ok.pfm"
+expect_error prefilter_output_empty 2 '^--output: an empty value' \
+  "$SHRM" prefilter --brdf phong:s=32 --env "$IN/ok.pfm" -o ""
+expect_error prefilter_env_empty 2 '^--env: an empty value' "$SHRM" "${PF[@]}" --env ""
+expect_error batch_manifest_empty 2 '^manifest: an empty value' "$SHRM" batch ""
 expect_error ibl_tolerance 1 'tolerance must be in' "$SHRM" "${IBL[@]}" --tolerance 0 --env "$IN/ok.pfm"
 expect_error ibl_corrupt_map 1 'corrupt\.exr' "$SHRM" "${IBL[@]}" --env "$IN/corrupt.exr"
 expect_error ibl_unknown_container 1 'unknown container "ktx3"' \

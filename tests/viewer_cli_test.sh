@@ -95,6 +95,8 @@ BRDF=(--brdf microfacet:sigma=0.3 --epsilon 0.05 --face-size 24)
 
 # --- usage errors (exit 2), before any work --------------------------------------------------
 expect_error no_source 2 'nothing to show' --screenshot a.png
+# An empty value (an unset variable in a script) is refused, not taken as the option left out.
+expect_error empty_screenshot 2 '--screenshot: an empty value' "${ENV[@]}" "${BRDF[@]}" --screenshot ""
 expect_error env_without_brdf 2 'nothing to show' "${ENV[@]}" --screenshot a.png
 expect_error bad_view 2 'view.*azimuth,elevation' "${ENV[@]}" "${BRDF[@]}" --view 10 --screenshot a.png
 expect_error view_elevation 2 'elevation 95 is out of range' "${ENV[@]}" "${BRDF[@]}" --view 10,95 \

@@ -216,6 +216,7 @@ int ParseViewerOptions(int argc, char** argv, ViewerOptions* o) {
   app.add_option("--sky-width", o->live.sky.width, "sky: lat-long width of the rendered sky")
       ->capture_default_str()
       ->check(jobs::InRange(16, 4096));
+  jobs::RefuseEmptyValues(&app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
