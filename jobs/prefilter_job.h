@@ -144,7 +144,9 @@ struct PrefilterProvenance {
 // taking it for up to date. A file without shrm:rules is revision 1 (sessions 23-45).
 // 2: `--peak-lights auto` splits wherever the rest keeps at most half of the map's non-constant
 //    luminance energy (session 45; before, at most 1%).
-inline constexpr int kToleranceRulesRevision = 2;
+// 3: a view-dependent BRDF's truncation is chosen for half the largest-error target
+//    (kViewLargestShare, session 46).
+inline constexpr int kToleranceRulesRevision = 3;
 
 // shrm:epsilon: the tolerance, "explicit orders" or "per-direction tolerance".
 std::string EpsilonAttribute(const PrefilterJob& job);

@@ -143,11 +143,10 @@ TEST(PeakLightsTest, LightsSurviveTheFileAndDamagedListsAreRefused) {
 // The default job (jobs/prefilter_job.cc CorePrefilterOptions, peak lights auto) of `brdf` on a
 // bundled map, measured at kPairs pairs the job neither chose nor checked with, against the pixel
 // sum of the whole map (FastReference, within 2e-3 of it per direction: fast_reference_test).
-constexpr double kDefaultTolerance = 0.01;  // the default job's
+constexpr double kDefaultTolerance = 0.01;          // the default job's
+constexpr uint64_t kTestSeed = 0x5045414b4c495431;  // "PEAKLIT1": neither job seed
 void MeasureDefaultJob(const char* map_name, const char* brdf_spec, PrefilterResult* result,
-                       DirectionalError* error) {
-  constexpr int kPairs = 512;
-  constexpr uint64_t kTestSeed = 0x5045414b4c495431;  // "PEAKLIT1": neither job seed
+                       DirectionalError* error, int pairs_count = 512, uint64_t seed = kTestSeed) {
   auto map = LoadBundled(map_name);
   ASSERT_TRUE(map.ok()) << map.status();
   auto brdf = ParseBrdfSpec(brdf_spec);
@@ -164,7 +163,7 @@ void MeasureDefaultJob(const char* map_name, const char* brdf_spec, PrefilterRes
   ASSERT_TRUE(r.ok()) << r.status();
   ASSERT_FALSE(r->cube.lights.empty()) << map_name << ": " << r->peak_lights_note;
   const std::vector<DirectionPair> pairs =
-      StratifiedDirectionPairs(kTestSeed, kPairs, ReparamKind::kReflection);
+      StratifiedDirectionPairs(seed, pairs_count, ReparamKind::kReflection);
   absl::StatusOr<FastReference> reference = FastReference::Create(*map);
   ASSERT_TRUE(reference.ok()) << reference.status();
   std::vector<Rgb> got, ref;
@@ -218,6 +217,32 @@ TEST(PeakLightsTest, ForestsBrightSkyIsSplitByDefault) {
   MeasureDefaultJob("forest.exr", "microfacet:sigma=0.3", &r, &e);
   if (HasFatalFailure()) return;
   ExpectRmsTargetsMet(r, e);
+}
+
+// The largest error rests on single pairs: where the surface's horizon cuts a lobe through bright
+// light (N.V just above 0.3) the series in p converges like 1/P, at pairs the selection's own
+// seldom hold. Before the selection asked half the largest-error target of a view-dependent
+// BRDF's truncation (kViewLargestShare, session 46), forest's microfacet sigma 0.3 default,
+// (27, 25) at S 40, measured 5.4% largest at the job's own 1024 check pairs (one pair at N.V
+// 0.36), and city's GGX alpha 0.3 f0 0.04 default, (20, 12) at S 32, 9.9% at 1024 pairs of seed
+// 777; now (29, 29) at S 40 and (23, 17) at S 32: 3.2% and 2.5% (docs/results.md "Session 46").
+// Both the largest and the RMS targets are asserted here, at 1024 pairs neither job drew.
+TEST(PeakLightsTest, LargestErrorHoldsAtPairsTheSelectionNeverSaw) {
+  struct Case {
+    const char* map;
+    const char* brdf;
+    uint64_t seed;
+  };
+  for (const Case& c : {Case{"forest.exr", "microfacet:sigma=0.3", kVerifySeed},
+                        Case{"city.exr", "ggx:alpha=0.3,f0=0.04", 777}}) {
+    SCOPED_TRACE(std::string(c.map) + " " + c.brdf);
+    PrefilterResult r;
+    DirectionalError e;
+    MeasureDefaultJob(c.map, c.brdf, &r, &e, 1024, c.seed);
+    if (HasFatalFailure()) return;
+    ExpectRmsTargetsMet(r, e);
+    EXPECT_LE(e.front.max, kMaxErrorFactor * kDefaultTolerance);
+  }
 }
 
 // The default, auto, splits where the split pays (the rest keeps at most kPeakSpreadShare of the

@@ -167,6 +167,12 @@ ToleranceTargets TargetsForTolerance(double tolerance, ViewVariable view) {
           view == ViewVariable::kNormal};
 }
 
+ToleranceTargets TruncationTargets(double tolerance, ViewVariable view, bool view_dependent) {
+  ToleranceTargets t = TargetsForTolerance(tolerance, view);
+  if (view_dependent) t.max *= kViewLargestShare;
+  return t;
+}
+
 bool MeetsTargets(const DirectionalError& e, const ToleranceTargets& t, double share) {
   return e.front.rms <= share * t.rms && e.front.max <= share * t.max &&
          (!t.grazing || e.grazing.count == 0 || e.grazing.rms <= share * t.grazing_rms);
@@ -453,7 +459,8 @@ double RmsScore(const ToleranceChoice& c, double tolerance) {
 }
 
 ToleranceChoice ChooseOrders(const BandTable& table, const ToleranceOptions& options) {
-  const ToleranceTargets targets = TargetsForTolerance(options.tolerance, table.view());
+  const ToleranceTargets targets =
+      TruncationTargets(options.tolerance, table.view(), table.p_ref() > 0);
   ToleranceChoice best;
   best.f_ref = table.f_ref();
   best.p_ref = table.p_ref();
@@ -481,7 +488,8 @@ ToleranceChoice ChooseOrders(const BandTable& table, const ToleranceOptions& opt
 absl::StatusOr<ToleranceChoice> ChooseOrdersWithinBudget(const BandTable& table,
                                                          const ToleranceOptions& options,
                                                          int* max_face_size) {
-  const ToleranceTargets targets = TargetsForTolerance(options.tolerance, table.view());
+  const ToleranceTargets targets =
+      TruncationTargets(options.tolerance, table.view(), table.p_ref() > 0);
   ToleranceChoice best;
   best.f_ref = table.f_ref();
   best.p_ref = table.p_ref();
@@ -606,6 +614,8 @@ absl::Status ChooseWithinBudget(const BandTable& table, std::span<const Directio
     return absl::OkStatus();
   }
   const ToleranceTargets targets = TargetsForTolerance(options.tolerance, brdf.view);
+  const ToleranceTargets truncation_targets =
+      TruncationTargets(options.tolerance, table.view(), table.p_ref() > 0);
   // Per view order P: S_max(P), the largest face size the budget allows, and F the smallest that
   // meets the targets at P (else the reference's). Texel interpolation at S_max is estimated for
   // the candidates in the order of their truncation scores until the next one's truncation
@@ -624,7 +634,7 @@ absl::Status ChooseWithinBudget(const BandTable& table, std::span<const Directio
     Candidate k;
     k.c = within;
     k.c.p = p;
-    k.c.f = table.SmallestF(p, targets, kTruncationShare, options.window);
+    k.c.f = table.SmallestF(p, truncation_targets, kTruncationShare, options.window);
     if (k.c.f < 0) k.c.f = table.f_ref();
     ChooseWindow(table, options, &k.c);
     k.s_max = s;
