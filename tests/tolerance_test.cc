@@ -637,8 +637,9 @@ enum class Expect {
   kFront,
   // Both RMS targets and no negatives; the largest front error printed only. For a row whose
   // largest error rests on single pairs the choice cannot see: courtyard's GGX alpha 0.3 f0 =
-  // 0.04 measured 4.6% here at (37, 25), 5.5% at session 46's (35, 28), and misses the 5% at the
-  // full map's 1024 check pairs either way (10.1%, 7.3%: docs/results.md "Session 46").
+  // 0.04 measured 4.6% here at (37, 25) and 5.8% at session 46's (37, 28) (a partial sum at one
+  // pair need not fall as the orders rise), and misses the 5% at the full map's 1024 check pairs
+  // either way (10.1%, 7.6%: docs/results.md "Session 46").
   kRms,
 };
 
@@ -711,7 +712,9 @@ TEST_P(ToleranceRealMapTest, ToleranceIsMetOrReportedAndTheEstimateHolds) {
   EXPECT_TRUE(ch.met || (rc.budget_mb > 0 && ch.budget_limited));
   EXPECT_LE(e.front.rms, kTolerance);
   if (rc.expect != Expect::kFrontRms) {
-    if (rc.expect != Expect::kRms) EXPECT_LE(e.front.max, kMaxErrorFactor * kTolerance);
+    if (rc.expect != Expect::kRms) {
+      EXPECT_LE(e.front.max, kMaxErrorFactor * kTolerance);
+    }
     EXPECT_EQ(e.negative, 0);
   }
   if (rc.expect == Expect::kAll && r->brdf.view == ViewVariable::kNormal) {

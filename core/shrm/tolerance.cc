@@ -458,28 +458,59 @@ double RmsScore(const ToleranceChoice& c, double tolerance) {
   return std::max(e.front.rms / tolerance, e.grazing.rms / (kGrazingFactor * tolerance));
 }
 
+namespace {
+
+// The smallest (P + 1)^2 (F + P + 1)^2 over p in [p_min, P_ref] of (F, p), F the smallest whose
+// truncation meets `targets` at p and at least f_min: false when no p has one.
+bool CheapestOrders(const BandTable& table, const ToleranceTargets& targets, RingingWindow window,
+                    int f_min, int p_min, int* f_out, int* p_out) {
+  double best_cost = -1;
+  for (int p = p_min; p <= table.p_ref(); ++p) {
+    int f = table.SmallestF(p, targets, kTruncationShare, window);
+    if (f < 0) continue;
+    f = std::max(f, f_min);
+    const double cost = (p + 1.0) * (p + 1.0) * (f + p + 1.0) * (f + p + 1.0);
+    if (best_cost < 0 || cost < best_cost) {
+      best_cost = cost;
+      *f_out = f;
+      *p_out = p;
+    }
+  }
+  return best_cost >= 0;
+}
+
+// F at view order p in the budget steps: the smallest whose truncation meets the targets with
+// the margin on the largest error (TruncationTargets), else the smallest meeting the targets
+// (a margin, not a target), else -1.
+int BudgetStepF(const BandTable& table, int p, const ToleranceOptions& options) {
+  const bool view_dependent = table.p_ref() > 0;
+  int f = table.SmallestF(p, TruncationTargets(options.tolerance, table.view(), view_dependent),
+                          kTruncationShare, options.window);
+  if (f < 0 && view_dependent) {
+    f = table.SmallestF(p, TargetsForTolerance(options.tolerance, table.view()), kTruncationShare,
+                        options.window);
+  }
+  return f;
+}
+
+}  // namespace
+
 ToleranceChoice ChooseOrders(const BandTable& table, const ToleranceOptions& options) {
-  const ToleranceTargets targets =
-      TruncationTargets(options.tolerance, table.view(), table.p_ref() > 0);
   ToleranceChoice best;
   best.f_ref = table.f_ref();
   best.p_ref = table.p_ref();
   // (F, P): the smallest (P + 1)^2 (F + P + 1)^2 among the feasible view orders.
-  double best_cost = -1;
-  for (int p = 0; p <= table.p_ref(); ++p) {
-    const int f = table.SmallestF(p, targets, kTruncationShare, options.window);
-    if (f < 0) continue;
-    const double cost = (p + 1.0) * (p + 1.0) * (f + p + 1.0) * (f + p + 1.0);
-    if (best_cost < 0 || cost < best_cost) {
-      best_cost = cost;
-      best.f = f;
-      best.p = p;
-    }
-  }
-  best.met = best_cost >= 0;
+  best.met = CheapestOrders(table, TargetsForTolerance(options.tolerance, table.view()),
+                            options.window, 0, 0, &best.f, &best.p);
   if (!best.met) {  // not reachable below the reference orders: the most accurate there is
     best.f = table.f_ref();
     best.p = table.p_ref();
+  } else if (table.p_ref() > 0) {
+    // The margin on the largest error (kViewLargestShare), by orders at least those: a cheaper
+    // F at a larger P would trade the view order's needles for the lighting's ringing. Where no
+    // orders below the reference's meet it, the choice above stands (a margin, not a target).
+    (void)CheapestOrders(table, TruncationTargets(options.tolerance, table.view(), true),
+                         options.window, best.f, best.p, &best.f, &best.p);
   }
   ChooseWindow(table, options, &best);
   return best;
@@ -488,8 +519,6 @@ ToleranceChoice ChooseOrders(const BandTable& table, const ToleranceOptions& opt
 absl::StatusOr<ToleranceChoice> ChooseOrdersWithinBudget(const BandTable& table,
                                                          const ToleranceOptions& options,
                                                          int* max_face_size) {
-  const ToleranceTargets targets =
-      TruncationTargets(options.tolerance, table.view(), table.p_ref() > 0);
   ToleranceChoice best;
   best.f_ref = table.f_ref();
   best.p_ref = table.p_ref();
@@ -507,7 +536,7 @@ absl::StatusOr<ToleranceChoice> ChooseOrdersWithinBudget(const BandTable& table,
     if (s < kMinFaceSize) break;
     const int f_cap =
         std::clamp(static_cast<int>(s / kFirstFaceSizePerOrder) - 1, 0, table.f_ref());
-    int f = table.SmallestF(p, targets, kTruncationShare, options.window);
+    int f = BudgetStepF(table, p, options);
     if (f < 0 || f > f_cap) f = f_cap;
     const DirectionalError e = table.Estimate(f, p, RingingWindow::kNone);
     if (!found || e.front.rms < best.truncation.front.rms ||
@@ -614,8 +643,6 @@ absl::Status ChooseWithinBudget(const BandTable& table, std::span<const Directio
     return absl::OkStatus();
   }
   const ToleranceTargets targets = TargetsForTolerance(options.tolerance, brdf.view);
-  const ToleranceTargets truncation_targets =
-      TruncationTargets(options.tolerance, table.view(), table.p_ref() > 0);
   // Per view order P: S_max(P), the largest face size the budget allows, and F the smallest that
   // meets the targets at P (else the reference's). Texel interpolation at S_max is estimated for
   // the candidates in the order of their truncation scores until the next one's truncation
@@ -634,7 +661,7 @@ absl::Status ChooseWithinBudget(const BandTable& table, std::span<const Directio
     Candidate k;
     k.c = within;
     k.c.p = p;
-    k.c.f = table.SmallestF(p, truncation_targets, kTruncationShare, options.window);
+    k.c.f = BudgetStepF(table, p, options);
     if (k.c.f < 0) k.c.f = table.f_ref();
     ChooseWindow(table, options, &k.c);
     k.s_max = s;
